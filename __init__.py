@@ -1,0 +1,40 @@
+"""Translucent: real-time translucency for Blender (extension root).
+
+Registration only: every class comes from an explicit tuple of its module.
+"""
+from .operators import bake as _op_bake
+from .operators import demo as _op_demo
+from .translucent_addon import props as _props
+from .translucent_addon import ui as _ui
+from .translucent_addon.render import draw_handler as _draw_handler
+from .translucent_addon.render import engine as _engine
+from .translucent_addon.render import shaders as _shaders
+
+_classes = (
+    *_props.classes,
+    *_op_bake.classes,
+    *_op_demo.classes,
+    *_engine.classes,
+    *_ui.classes,
+)
+
+
+def register():
+    import bpy
+
+    for cls in _classes:
+        bpy.utils.register_class(cls)
+    _props.register_pointers()
+    _ui.register_compat_panels()
+    _draw_handler.register()
+
+
+def unregister():
+    import bpy
+
+    _draw_handler.unregister()
+    _shaders.free_all()
+    _ui.unregister_compat_panels()
+    _props.unregister_pointers()
+    for cls in reversed(_classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,1 @@
+"""Operators of the extension (bpy-facing, thin: the work is in translucent_addon)."""

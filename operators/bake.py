@@ -1,0 +1,143 @@
+"""translucent.bake and translucent.clear_bake.
+
+The bake is a generator of stages (``translucent_addon.bake.registry.run``). In
+the UI the operator is modal: a timer steps the generator, the status bar shows
+progress, Esc cancels. In background mode (batch, scripts) it runs blocking and
+prints one progress line per step. Nothing is written until the last step, so
+a cancelled or failed bake leaves the object as it was.
+"""
+
+import time
+
+import bpy
+
+from ..translucent_addon.bake import registry, store
+from ..translucent_addon.bake.inputs import gather
+
+
+def _active_mesh(context):
+    ob = context.active_object
+    if ob is None:
+        return None, "no active object: select the object to bake"
+    if ob.type != "MESH":
+        return None, f"'{ob.name}' is a {ob.type.lower()}, not a mesh"
+    return ob, None
+
+
+class TRANSLUCENT_OT_bake(bpy.types.Operator):
+    """Precompute what the active object's translucency method needs and store it on the object"""
+
+    bl_idname = "translucent.bake"
+    bl_label = "Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    _timer = None
+    _job = None
+    _inputs = None
+
+    def _prepare(self, context):
+        ob, error = _active_mesh(context)
+        if error:
+            self.report({"ERROR"}, error)
+            return None
+        depsgraph = context.evaluated_depsgraph_get()
+        try:
+            inputs = gather(ob.evaluated_get(depsgraph))
+            for warning in registry.validate(inputs):
+                self.report({"WARNING"}, warning)
+        except registry.BakeInputError as err:
+            self.report({"ERROR"}, str(err))
+            return None
+        if ob.modifiers:
+            self.report({"INFO"}, f"'{ob.name}': baked with its modifiers applied; editing them marks the bake stale")
+        return ob, inputs
+
+    def _finish(self, ob, inputs, result):
+        arrays, meta = result
+        meta["seconds"] = round(time.perf_counter() - self._t0, 3)
+        store.write(ob, inputs.method, inputs.hash(), arrays, meta)
+        self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
+
+    def execute(self, context):
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        ob, inputs = prepared
+        self._t0 = time.perf_counter()
+        job = registry.run(inputs)
+        try:
+            while True:
+                fraction, text = next(job)
+                print(f"Translucent bake '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
+        except StopIteration as done:
+            self._finish(ob, inputs, done.value)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        self._object, self._inputs = prepared
+        self._t0 = time.perf_counter()
+        self._job = registry.run(self._inputs)
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._end(context, f"'{self._object.name}': bake cancelled, nothing changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, text = next(self._job)
+        except StopIteration as done:
+            self._finish(self._object, self._inputs, done.value)
+            self._end(context, None)
+            return {"FINISHED"}
+        except Exception as err:  # a failing stage must not leave the modal running
+            self._end(context, f"'{self._object.name}': bake failed: {err}", level="ERROR")
+            return {"CANCELLED"}
+        context.window_manager.progress_update(int(100 * fraction))
+        context.workspace.status_text_set(f"Translucent bake: {100 * fraction:.0f} % {text} (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context, message, level="WARNING"):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        if message:
+            self.report({level}, message)
+
+
+class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):
+    """Remove the stored bake of the active object's method"""
+
+    bl_idname = "translucent.clear_bake"
+    bl_label = "Clear Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    all_methods: bpy.props.BoolProperty(name="All methods", default=False)
+
+    def execute(self, context):
+        ob, error = _active_mesh(context)
+        if error:
+            self.report({"ERROR"}, error)
+            return {"CANCELLED"}
+        method = None if self.all_methods else ob.translucent.method
+        if store.clear(ob, method):
+            self.report({"INFO"}, f"'{ob.name}': bake cleared")
+        else:
+            self.report({"INFO"}, f"'{ob.name}': no bake to clear")
+        return {"FINISHED"}
+
+
+classes = (TRANSLUCENT_OT_bake, TRANSLUCENT_OT_clear_bake)

@@ -1,0 +1,21 @@
+"""Pack the shared test meshes into the compact NPZ files the extension ships.
+
+Usage: python scripts/pack_meshes.py ../shared/data/meshes
+Writes translucent_addon/data/meshes/<name>.npz (vertices float32, triangles int32).
+"""
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from translucent_addon.geometry.mesh_io import load_obj, save_npz  # noqa: E402
+
+src = Path(sys.argv[1] if len(sys.argv) > 1 else ROOT.parent / "shared" / "data" / "meshes")
+dst = ROOT / "translucent_addon" / "data" / "meshes"
+dst.mkdir(parents=True, exist_ok=True)
+for obj in sorted(src.glob("*.obj")):
+    v, t = load_obj(obj)
+    name = obj.stem.replace("stanford-", "")
+    save_npz(dst / f"{name}.npz", v, t)
+    print(f"{obj.name}: {len(v)} vertices, {len(t)} triangles -> {name}.npz")

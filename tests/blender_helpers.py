@@ -1,0 +1,113 @@
+"""Scene building and rendering helpers for the Blender tests."""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+
+def set_world(scene, color) -> None:
+    world = bpy.data.worlds.new("World")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    bg = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value = (*color, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    scene.world = world
+
+
+def diffuse_material(name, color):
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+    return mat
+
+
+def add_mesh(scene, name, verts, faces, color=None, location=(0, 0, 0)):
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    ob = bpy.data.objects.new(name, me)
+    ob.location = location
+    if color is not None:
+        me.materials.append(diffuse_material(name, color))
+    scene.collection.objects.link(ob)
+    return ob
+
+
+def add_cube(scene, name="Cube", size=1.0, location=(0, 0, 0.5), color=(0.8, 0.3, 0.2)):
+    h = size / 2
+    verts = [(x, y, z) for x in (-h, h) for y in (-h, h) for z in (-h, h)]
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return add_mesh(scene, name, verts, faces, color, location)
+
+
+def add_plane(scene, name="Ground", size=6.0, color=(0.6, 0.6, 0.6)):
+    h = size / 2
+    return add_mesh(scene, name, [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], [(0, 1, 2, 3)], color)
+
+
+def aim(ob, target) -> None:
+    ob.rotation_euler = (Vector(target) - ob.location).to_track_quat("-Z", "Y").to_euler()
+
+
+def add_light(scene, kind, location, target=(0, 0, 0), energy=100.0, **settings):
+    light = bpy.data.lights.new(f"{kind} light", kind)
+    light.energy = energy
+    for key, value in settings.items():
+        setattr(light, key, value)
+    ob = bpy.data.objects.new(light.name, light)
+    ob.location = location
+    aim(ob, target)
+    scene.collection.objects.link(ob)
+    return ob
+
+
+def add_camera(scene, location, target, lens=35.0):
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = lens
+    cam.location = location
+    aim(cam, target)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    return cam
+
+
+def render(scene, width=96, height=96) -> np.ndarray:
+    """F12 through the scene's engine; linear RGBA (height, width, 4), row 0 at the bottom."""
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.view_settings.view_transform = "Standard"
+    fd, path = tempfile.mkstemp(suffix=".exr")
+    os.close(fd)
+    try:
+        scene.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+        image = bpy.data.images.load(path)
+        try:
+            pixels = np.empty(len(image.pixels), np.float32)
+            image.pixels.foreach_get(pixels)
+            return pixels.reshape(height, width, 4)
+        finally:
+            bpy.data.images.remove(image)
+    finally:
+        os.remove(path)
+
+
+def lit_cube_scene(scene):
+    """A cube on a plane under a sun, a point light and a spot, seen from above at an angle."""
+    set_world(scene, (0.05, 0.06, 0.08))
+    add_plane(scene)
+    add_cube(scene)
+    add_light(scene, "SUN", (3, -2, 5), energy=2.0)
+    add_light(scene, "POINT", (-2.0, -1.5, 2.5), energy=300.0)
+    add_light(scene, "SPOT", (1.5, 2.5, 3.0), energy=400.0, spot_size=math.radians(60), spot_blend=0.2)
+    add_camera(scene, (4.0, -5.0, 4.0), (0, 0, 0.3))
+    return scene

@@ -1,0 +1,1 @@
+"""Bakes: per-method precomputation stored on the object, with an inputs hash."""

@@ -1,0 +1,116 @@
+"""What each method bakes, as a sequence of stages, and what its bake depends on.
+
+Pure. A bake is a generator: it yields (fraction done, status text) so that the
+operator can show progress and cancel between steps, and returns the arrays to
+store. Nothing is written to the object until the generator has finished, so a
+cancelled bake leaves the object as it was.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..geometry.mesh_checks import check_mesh
+from ..physics.presets import validate_coefficients
+from . import store
+from .surface import surface_samples
+
+# method -> stage names, in order. The method issues append their stages.
+METHOD_STAGES = {
+    "OFF": (),
+    "IMAGE_SPACE": (),
+    "TEXTURE_SPACE": ("surface",),
+    "QUADGRAPH": ("surface",),
+    "GEOCUBE": ("surface",),
+}
+
+NO_BAKE_REASON = {
+    "OFF": "method is Off: choose a translucency method first",
+    "IMAGE_SPACE": "IMAGE_SPACE needs no bake: it splats the dipole every frame",
+}
+
+# Triangle count above which a bake refuses the mesh and asks for a proxy.
+MAX_BAKE_TRIANGLES = 2_000_000
+
+
+class BakeInputError(ValueError):
+    """The object cannot be baked; the message says what and why, in one line."""
+
+
+@dataclasses.dataclass
+class BakeInputs:
+    name: str
+    method: str
+    vertices: np.ndarray  # (V, 3) float32, object space of the evaluated mesh
+    triangles: np.ndarray  # (T, 3) int32
+    mm_per_unit: float
+    sigma_a: tuple
+    sigma_s_prime: tuple
+    eta: float
+    g: float
+
+    def hash(self) -> str:
+        return store.inputs_hash(
+            {"vertices": self.vertices, "triangles": self.triangles},
+            {
+                "method": self.method,
+                "stages": list(METHOD_STAGES.get(self.method, ())),
+                "mm_per_unit": self.mm_per_unit,
+                "sigma_a": list(self.sigma_a),
+                "sigma_s_prime": list(self.sigma_s_prime),
+                "eta": self.eta,
+                "g": self.g,
+            },
+        )
+
+
+def needs_bake(method: str) -> bool:
+    return bool(METHOD_STAGES.get(method))
+
+
+def validate(inputs: BakeInputs) -> list[str]:
+    """Raise BakeInputError for input no bake can use; return warnings for the rest."""
+    if not needs_bake(inputs.method):
+        raise BakeInputError(f"'{inputs.name}': nothing to bake, {NO_BAKE_REASON.get(inputs.method, 'unknown method')}")
+    if len(inputs.triangles) == 0:
+        raise BakeInputError(f"'{inputs.name}': the mesh is empty (no faces), nothing to bake")
+    if len(inputs.triangles) > MAX_BAKE_TRIANGLES:
+        raise BakeInputError(
+            f"'{inputs.name}': {len(inputs.triangles):,} triangles is more than a bake takes "
+            f"({MAX_BAKE_TRIANGLES:,}); decimate it or bake a proxy"
+        )
+    if not (inputs.mm_per_unit > 0):
+        raise BakeInputError(f"'{inputs.name}': mm per unit is {inputs.mm_per_unit}, must be > 0")
+    try:
+        validate_coefficients(inputs.sigma_a, inputs.sigma_s_prime, inputs.eta, inputs.g, name=f"'{inputs.name}'")
+    except ValueError as err:
+        raise BakeInputError(str(err)) from None
+    report = check_mesh(inputs.vertices, inputs.triangles)
+    if report.zero_area_triangles == report.triangles:
+        raise BakeInputError(f"'{inputs.name}': every face has zero area, nothing to bake")
+    warnings = []
+    if report.zero_area_triangles:
+        warnings.append(f"'{inputs.name}': {report.zero_area_triangles} zero-area faces carry no light and are ignored")
+    if report.boundary_edges:
+        warnings.append(f"'{inputs.name}': the mesh is open ({report.boundary_edges} boundary edges); "
+                        "light leaks where the surface has holes")
+    if report.non_manifold_edges:
+        warnings.append(f"'{inputs.name}': {report.non_manifold_edges} non-manifold edges")
+    return warnings
+
+
+def run(inputs: BakeInputs):
+    """Generator: yields (fraction, text); returns (arrays, meta)."""
+    stages = METHOD_STAGES[inputs.method]
+    arrays: dict[str, np.ndarray] = {}
+    for i, stage in enumerate(stages):
+        yield i / len(stages), f"{inputs.method}: {stage}"
+        if stage == "surface":
+            arrays.update({f"surface_{k}": v for k, v in
+                           surface_samples(inputs.vertices, inputs.triangles, inputs.mm_per_unit).items()})
+        else:  # pragma: no cover - a stage name without an implementation is a programming error
+            raise KeyError(stage)
+    yield 1.0, f"{inputs.method}: done"
+    meta = {"stages": list(stages), "vertices": int(len(inputs.vertices)), "triangles": int(len(inputs.triangles))}
+    return arrays, meta

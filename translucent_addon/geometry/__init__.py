@@ -1,0 +1,1 @@
+"""Pure geometry: camera rays, ray casting, mesh arrays, hashing, mesh files."""

@@ -1,0 +1,1 @@
+"""Physics of subsurface scattering: coefficients, presets and (later) the dipole."""

@@ -1,0 +1,104 @@
+"""Properties: ``Object.translucent`` (material and method) and ``Scene.translucent``."""
+
+import bpy
+
+from .physics.presets import load_presets
+from .render.methods import METHOD_DESCRIPTIONS, METHOD_IDS
+
+_METHOD_LABELS = {
+    "OFF": "Off",
+    "IMAGE_SPACE": "Image Space",
+    "TEXTURE_SPACE": "Texture Space",
+    "QUADGRAPH": "QuadGraph",
+    "GEOCUBE": "Geocube",
+}
+
+
+_PRESET_ITEMS: list = []
+
+
+def _preset_items(self, context):
+    # Blender keeps pointers into these strings: build the list once and keep it alive.
+    if not _PRESET_ITEMS:
+        _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand"))
+        for name in sorted(load_presets()):
+            _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)"))
+    return _PRESET_ITEMS
+
+
+def apply_preset(props, name: str) -> None:
+    mat = load_presets().get(name)
+    if mat is None:
+        return
+    props.sigma_a = mat.sigma_a
+    props.sigma_s_prime = mat.sigma_s_prime
+    props.eta = mat.eta
+    props.g = mat.g
+
+
+def _on_preset(self, context):
+    apply_preset(self, self.preset)
+
+
+class TranslucentObjectSettings(bpy.types.PropertyGroup):
+    method: bpy.props.EnumProperty(
+        name="Method",
+        description="How this object's translucency is rendered",
+        items=[(m, _METHOD_LABELS[m], METHOD_DESCRIPTIONS[m]) for m in METHOD_IDS],
+        default="OFF",
+    )
+    preset: bpy.props.EnumProperty(
+        name="Preset",
+        description="Measured material coefficients (Jensen et al. 2001)",
+        items=_preset_items,
+        update=_on_preset,
+    )
+    sigma_a: bpy.props.FloatVectorProperty(
+        name="Absorption (mm⁻¹)",
+        description="Absorption coefficient sigma_a per RGB channel, in 1/mm",
+        size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071),
+    )
+    sigma_s_prime: bpy.props.FloatVectorProperty(
+        name="Reduced scattering (mm⁻¹)",
+        description="Reduced scattering coefficient sigma_s' = (1 - g) sigma_s per RGB channel, in 1/mm",
+        size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00),
+    )
+    eta: bpy.props.FloatProperty(
+        name="IOR", description="Relative index of refraction eta", min=1.0, max=3.0, default=1.3
+    )
+    g: bpy.props.FloatProperty(
+        name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99, max=0.99, default=0.0
+    )
+    mm_per_unit: bpy.props.FloatProperty(
+        name="mm per unit",
+        description="Millimetres per Blender unit for this object (1 m = 1000 mm); sets the scale of scattering",
+        min=1e-6, soft_max=1e5, default=1000.0,
+    )
+
+
+class TranslucentSceneSettings(bpy.types.PropertyGroup):
+    shadow_resolution: bpy.props.IntProperty(
+        name="Shadow resolution", description="Texels per shadow-map face", min=64, max=8192, default=1024
+    )
+    area_light_samples: bpy.props.IntProperty(
+        name="Area light samples", description="Area lights are drawn as n x n point emitters", min=1, max=8,
+        default=2,
+    )
+    overlay_other_engines: bpy.props.BoolProperty(
+        name="Draw in other engines",
+        description="Draw objects with a translucency method over the viewport of other render engines",
+        default=False,
+    )
+
+
+classes = (TranslucentObjectSettings, TranslucentSceneSettings)
+
+
+def register_pointers() -> None:
+    bpy.types.Object.translucent = bpy.props.PointerProperty(type=TranslucentObjectSettings)
+    bpy.types.Scene.translucent = bpy.props.PointerProperty(type=TranslucentSceneSettings)
+
+
+def unregister_pointers() -> None:
+    del bpy.types.Scene.translucent
+    del bpy.types.Object.translucent

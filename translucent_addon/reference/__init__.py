@@ -1,0 +1,1 @@
+"""CPU reference renderers of the same models the GPU draws (NumPy, no bpy)."""

@@ -1,0 +1,74 @@
+"""CPU reference of the base pass: Lambert shading, hard shadows, uniform world.
+
+Per pixel centre: the nearest triangle along the camera ray, its interpolated
+corner normal (flipped to face the viewer, as Cycles does for back faces), then
+
+    L = rho * L_world + sum_lights rho / pi * E_light * V
+
+with E_light from ``render.lights.unshadowed_irradiance`` and V a shadow ray.
+The world term is the exact answer for an unoccluded convex surface under a
+uniform environment (the GPU pass makes the same approximation).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..geometry.camera import pixel_rays
+from ..geometry.raycast import closest_hit, occluded
+from ..render.lights import DIRECTIONAL, unshadowed_irradiance
+from ..render.scene_data import FrameInputs
+
+
+def scene_triangles(frame: FrameInputs):
+    """World-space triangles, corner normals and colours of every mesh, concatenated."""
+    if not frame.meshes:
+        z = np.zeros((0, 3, 3))
+        return z, z, z
+    tris = np.concatenate([m.world_positions().reshape(-1, 3, 3) for m in frame.meshes])
+    nors = np.concatenate([m.world_normals().reshape(-1, 3, 3) for m in frame.meshes])
+    cols = np.concatenate([m.colors.astype(np.float64).reshape(-1, 3, 3) for m in frame.meshes])
+    return tris, nors, cols
+
+
+def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4) -> np.ndarray:
+    """Linear RGBA image (height, width, 4) of the frame, row 0 at the bottom."""
+    cam = frame.camera
+    origins, dirs = pixel_rays(cam.view_proj, cam.width, cam.height)
+    origins = origins.reshape(-1, 3)
+    dirs = dirs.reshape(-1, 3)
+    tris, nors, cols = scene_triangles(frame)
+    t, tri, u, v = closest_hit(origins, dirs, tris)
+    hit = tri >= 0
+    img = np.zeros((len(origins), 4))
+    img[:, :3] = frame.world_color
+    img[:, 3] = 0.0 if frame.film_transparent else 1.0
+    if not hit.any():
+        return img.reshape(cam.height, cam.width, 4)
+    ti, ui, vi = tri[hit], u[hit, None], v[hit, None]
+    w = 1.0 - ui - vi
+    P = origins[hit] + t[hit, None] * dirs[hit]
+    N = w * nors[ti, 0] + ui * nors[ti, 1] + vi * nors[ti, 2]
+    N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-20)
+    Ng = np.cross(tris[ti, 1] - tris[ti, 0], tris[ti, 2] - tris[ti, 0])
+    facing_away = np.einsum("ij,ij->i", Ng, dirs[hit]) > 0
+    N[facing_away] *= -1.0
+    rho = w * cols[ti, 0] + ui * cols[ti, 1] + vi * cols[ti, 2]
+    radiance = rho * frame.world_color
+    scene_scale = max(float(np.ptp(tris.reshape(-1, 3), axis=0).max()), 1e-6)
+    P_off = P + N * shadow_offset * scene_scale
+    for e in frame.emitters:
+        E, to_light, dist = unshadowed_irradiance(e, P_off, N)
+        lit = E.max(axis=1) > 0
+        if lit.any():
+            t_max = np.where(np.isinf(dist), np.inf, dist)
+            if e.kind == DIRECTIONAL:
+                t_max = np.full(len(P), np.inf)
+            blocked = np.zeros(len(P), dtype=bool)
+            blocked[lit] = occluded(P_off[lit], to_light[lit], t_max[lit], tris)
+            E[blocked] = 0.0
+        radiance += rho * E / math.pi
+    img[hit, :3] = radiance
+    img[hit, 3] = 1.0
+    return img.reshape(cam.height, cam.width, 4)

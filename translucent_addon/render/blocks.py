@@ -1,0 +1,118 @@
+"""Uniform-block packing (std140) and shadow-map projections. Pure NumPy.
+
+Mirrors the structs of ``gpu_shaders/translucent_structs.glsl``. Matrices are
+NumPy row-major maths (``clip = M @ p``); GLSL ``mat4`` is column-major, so a
+matrix is written as ``M.T`` flattened.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .lights import DIRECTIONAL, Emitter
+
+FRAME_FLOATS = 16 + 4 + 4
+OBJECT_FLOATS = 16 + 16
+LIGHT_FLOATS = 6 * 16 + 5 * 4
+
+# Cube faces +X -X +Y -Y +Z -Z: (forward, up). The lookup picks the face by the
+# major axis of p - light, so only the forward direction must match that order.
+CUBE_FACES = (
+    ((1, 0, 0), (0, -1, 0)),
+    ((-1, 0, 0), (0, -1, 0)),
+    ((0, 1, 0), (0, 0, 1)),
+    ((0, -1, 0), (0, 0, -1)),
+    ((0, 0, 1), (0, -1, 0)),
+    ((0, 0, -1), (0, -1, 0)),
+)
+
+
+def _mat(m) -> np.ndarray:
+    return np.asarray(m, dtype=np.float32).T.ravel()
+
+
+def look_at(eye, forward, up) -> np.ndarray:
+    """World -> view matrix looking along ``forward`` (OpenGL: view looks down -Z)."""
+    f = np.asarray(forward, float)
+    f = f / np.linalg.norm(f)
+    u = np.asarray(up, float)
+    if abs(np.dot(f, u / np.linalg.norm(u))) > 0.999:
+        u = np.array([1.0, 0.0, 0.0]) if abs(f[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    s = np.cross(f, u)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ np.asarray(eye, float)
+    return m
+
+
+def perspective(fov_y: float, aspect: float, near: float, far: float) -> np.ndarray:
+    t = 1.0 / math.tan(fov_y / 2)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = t / aspect, t
+    m[2, 2] = (far + near) / (near - far)
+    m[2, 3] = 2 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def orthographic(half_w: float, half_h: float, near: float, far: float) -> np.ndarray:
+    m = np.eye(4)
+    m[0, 0], m[1, 1] = 1 / half_w, 1 / half_h
+    m[2, 2] = -2 / (far - near)
+    m[2, 3] = -(far + near) / (far - near)
+    return m
+
+
+def shadow_projection(e: Emitter, centre: np.ndarray, radius: float):
+    """Face view-projection matrices (6, 4, 4) and the shadow origin of an emitter."""
+    faces = np.tile(np.eye(4), (6, 1, 1))
+    if e.kind == DIRECTIONAL:
+        axis = np.asarray(e.direction)
+        origin = centre - axis * 2.0 * radius
+        faces[0] = orthographic(radius, radius, 0.0, 4.0 * radius) @ look_at(origin, axis, (0, 0, 1))
+        return faces, origin
+    pos = np.asarray(e.position, float)
+    far = float(np.linalg.norm(pos - centre)) + 2.0 * radius
+    near = max(far * 1e-4, 1e-5)
+    proj = perspective(math.pi / 2, 1.0, near, far)
+    for i, (fwd, up) in enumerate(CUBE_FACES):
+        faces[i] = proj @ look_at(pos, fwd, up)
+    return faces, pos
+
+
+def cube_face(d) -> int:
+    """The face index for a direction, as ``cube_face`` in base_lighting.glsl."""
+    a = np.abs(d)
+    if a[0] >= a[1] and a[0] >= a[2]:
+        return 0 if d[0] > 0 else 1
+    if a[1] >= a[2]:
+        return 2 if d[1] > 0 else 3
+    return 4 if d[2] > 0 else 5
+
+
+def frame_block(view_proj, world_color, camera_position) -> bytes:
+    data = np.zeros(FRAME_FLOATS, np.float32)
+    data[:16] = _mat(view_proj)
+    data[16:19] = world_color
+    data[20:23] = camera_position
+    return data.tobytes()
+
+
+def object_block(model, normal_matrix) -> bytes:
+    return np.concatenate([_mat(model), _mat(normal_matrix)]).astype(np.float32).tobytes()
+
+
+def light_block(e: Emitter, faces: np.ndarray, origin, texels: int, radius: float, shadows: bool = True,
+                normal_offset_texels: float = 1.5) -> bytes:
+    data = np.zeros(LIGHT_FLOATS, np.float32)
+    data[:96] = np.concatenate([_mat(f) for f in faces])
+    data[96:99] = origin
+    data[99] = float(e.kind)
+    data[100:103] = e.direction
+    data[104:107] = e.radiance
+    data[108:111] = (e.cos_half_angle, e.spot_smooth, 1.0 if e.cosine_lobe else 0.0)
+    data[112:116] = (texels, radius, normal_offset_texels, 1.0 if shadows else 0.0)
+    return data.tobytes()

@@ -1,0 +1,84 @@
+"""The render engine TRANSLUCENT_RT: F12, batch and the viewport, one pipeline."""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from . import extract
+from .pipeline import Pipeline, render_offscreen
+
+
+class TranslucentRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "TRANSLUCENT_RT"
+    bl_label = "Translucent"
+    bl_use_gpu_context = True  # a GPU context in render(), also headless (-b)
+    bl_use_preview = False
+    bl_use_eevee_viewport = False
+    bl_use_shading_nodes_custom = False  # keep Blender's material nodes
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._pipeline = None
+        self._viewport_offscreen = None
+        self.last_frame = None
+
+    def __del__(self):
+        # GPU objects are freed by their own destructors; drop references only.
+        self._pipeline = None
+        self._viewport_offscreen = None
+
+    def _get_pipeline(self) -> Pipeline:
+        if self._pipeline is None:
+            self._pipeline = Pipeline()
+        return self._pipeline
+
+    # -- F12 and batch -----------------------------------------------------
+    def render(self, depsgraph):
+        scene = depsgraph.scene
+        scale = scene.render.resolution_percentage / 100.0
+        width = max(1, int(scene.render.resolution_x * scale))
+        height = max(1, int(scene.render.resolution_y * scale))
+        try:
+            camera = extract.render_camera(depsgraph, width, height)
+        except LookupError as err:
+            self.report({"ERROR"}, f"Translucent: {err}")
+            return
+        frame = extract.frame_inputs(depsgraph, camera)
+        for message in frame.warnings:
+            self.report({"WARNING"}, f"Translucent: {message}")
+        self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
+        pixels = render_offscreen(self._get_pipeline(), frame)
+        if not np.isfinite(pixels).all():
+            self.report({"ERROR"}, "Translucent: the frame has non-finite pixels (NaN or inf)")
+        result = self.begin_result(0, 0, width, height)
+        result.layers[0].passes["Combined"].rect.foreach_set(pixels.reshape(-1))
+        self.end_result(result)
+        self.last_frame = frame
+
+    # -- viewport ------------------------------------------------------------
+    def view_update(self, context, depsgraph):
+        # Batches are keyed by a geometry hash, so edits rebuild only what changed.
+        pass
+
+    def view_draw(self, context, depsgraph):
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+
+        region, rv3d = context.region, context.region_data
+        frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
+        pipeline = self._get_pipeline()
+        pipeline.forget({m.key for m in frame.meshes})
+        size = (region.width, region.height)
+        off = self._viewport_offscreen
+        if off is None or (off.width, off.height) != size:
+            off = self._viewport_offscreen = gpu.types.GPUOffScreen(*size, format="RGBA16F")
+        with off.bind():
+            pipeline.draw(frame)
+        gpu.state.blend_set("ALPHA_PREMULT")
+        self.bind_display_space_shader(depsgraph.scene)
+        draw_texture_2d(off.texture_color, (0, 0), *size)
+        self.unbind_display_space_shader()
+        gpu.state.blend_set("NONE")
+
+
+classes = (TranslucentRenderEngine,)

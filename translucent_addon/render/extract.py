@@ -1,0 +1,167 @@
+"""Blender scene -> FrameInputs: the one bpy-facing step of rendering.
+
+Bulk ``foreach_get`` into NumPy, no per-vertex Python loops. Meshes come from
+the evaluated depsgraph (modifiers applied), instances included.
+"""
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+
+from ..bake import registry as bake_registry
+from ..bake.inputs import bake_status
+from . import methods
+from .lights import emitters_from_light
+from .scene_data import CameraView, FrameInputs, MeshInstance
+
+DEFAULT_COLOR = (0.8, 0.8, 0.8)  # Blender's default surface colour
+
+
+def material_base_color(mat) -> tuple[float, float, float]:
+    """Linear base colour: the Principled/Diffuse node feeding the output, else the viewport colour."""
+    if mat is None:
+        return DEFAULT_COLOR
+    tree = getattr(mat, "node_tree", None)
+    if tree is not None:
+        out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
+        if out is not None and out.inputs["Surface"].is_linked:
+            node = out.inputs["Surface"].links[0].from_node
+            for name in ("Base Color", "Color"):
+                sock = node.inputs.get(name)
+                if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
+                    return tuple(float(c) for c in sock.default_value[:3])
+    return tuple(float(c) for c in mat.diffuse_color[:3])
+
+
+def world_color(scene) -> np.ndarray:
+    world = scene.world
+    if world is None:
+        return np.zeros(3)
+    tree = getattr(world, "node_tree", None)
+    if tree is not None:
+        bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
+        if bg is not None and not bg.inputs["Color"].is_linked:
+            return np.array(bg.inputs["Color"].default_value[:3]) * float(bg.inputs["Strength"].default_value)
+    return np.array(world.color[:3], dtype=np.float64)
+
+
+def mesh_corner_arrays(mesh):
+    """(positions, normals, material index) per triangle corner of a mesh, object space."""
+    mesh.calc_loop_triangles()
+    n_tri = len(mesh.loop_triangles)
+    tri_loops = np.empty(n_tri * 3, np.int32)
+    mesh.loop_triangles.foreach_get("loops", tri_loops)
+    mat_index = np.empty(n_tri, np.int32)
+    mesh.loop_triangles.foreach_get("material_index", mat_index)
+    loop_vert = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", loop_vert)
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    corner_normals = np.empty(len(mesh.loops) * 3, np.float32)
+    mesh.corner_normals.foreach_get("vector", corner_normals)
+    positions = co.reshape(-1, 3)[loop_vert[tri_loops]]
+    normals = corner_normals.reshape(-1, 3)[tri_loops]
+    return positions, normals, mat_index
+
+
+def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
+    mesh = ob.to_mesh()
+    try:
+        if mesh is None or len(mesh.polygons) == 0:
+            return None
+        positions, normals, mat_index = mesh_corner_arrays(mesh)
+        palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
+                           dtype=np.float32)
+        colors = palette[np.clip(mat_index, 0, len(palette) - 1)].repeat(3, axis=0)
+        digest = hashlib.blake2b(positions.tobytes(), digest_size=8)
+        digest.update(normals.tobytes())
+        digest.update(colors.tobytes())
+        method = ob.translucent.method if hasattr(ob, "translucent") else "OFF"
+        original = ob.original
+        name = original.name
+        if method != "OFF":
+            if bake_registry.needs_bake(method):
+                status = bake_status(ob, method)
+                if status != "OK":
+                    frame_warnings.append(
+                        f"'{name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake"
+                    )
+            if not methods.has_passes(method):
+                frame_warnings.append(
+                    f"'{name}': method {method} is not available in this version; drawn with its base colour"
+                )
+        return MeshInstance(
+            key=f"{name}:{digest.hexdigest()}",
+            name=name,
+            positions=positions,
+            normals=normals,
+            colors=colors,
+            model=np.array(inst.matrix_world, dtype=np.float64),
+            method=method,
+        )
+    finally:
+        ob.to_mesh_clear()
+
+
+GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = False) -> FrameInputs:
+    """Everything of the evaluated scene that the pipeline draws."""
+    scene = depsgraph.scene
+    settings = scene.translucent
+    meshes, emitters, warnings = [], [], []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type in GEOMETRY_TYPES:
+            if only_translucent and getattr(ob.translucent, "method", "OFF") == "OFF":
+                continue
+            m = _mesh_instance(inst, ob, warnings)
+            if m is not None:
+                meshes.append(m)
+        elif ob.type == "LIGHT":
+            light = ob.data
+            emitters += emitters_from_light(
+                ob.original.name,
+                light.type,
+                np.array(inst.matrix_world),
+                light.color,
+                light.energy * (2.0 ** getattr(light, "exposure", 0.0)),
+                spot_size=getattr(light, "spot_size", 0.0),
+                spot_blend=getattr(light, "spot_blend", 0.0),
+                area_shape=getattr(light, "shape", "SQUARE"),
+                size=getattr(light, "size", 0.0),
+                size_y=getattr(light, "size_y", 0.0),
+                area_samples=settings.area_light_samples,
+            )
+    if not emitters and meshes:
+        warnings.append("the scene has no lights: objects are lit by the world colour only")
+    return FrameInputs(
+        meshes=meshes,
+        emitters=emitters,
+        camera=camera,
+        world_color=world_color(scene),
+        film_transparent=scene.render.film_transparent,
+        shadow_resolution=settings.shadow_resolution,
+        warnings=warnings,
+    )
+
+
+def render_camera(depsgraph, width: int, height: int) -> CameraView:
+    """The scene camera as seen by F12 (pixel aspect included)."""
+    scene = depsgraph.scene
+    cam = scene.camera
+    if cam is None:
+        raise LookupError("the scene has no active camera: add one or set Scene > Camera")
+    cam_eval = cam.evaluated_get(depsgraph)
+    proj = cam_eval.calc_matrix_camera(
+        depsgraph, x=width, y=height, scale_x=scene.render.pixel_aspect_x, scale_y=scene.render.pixel_aspect_y
+    )
+    view = cam_eval.matrix_world.inverted()
+    return CameraView(np.array(view), np.array(proj), width, height)
+
+
+def viewport_camera(region, region_data) -> CameraView:
+    return CameraView(np.array(region_data.view_matrix), np.array(region_data.window_matrix),
+                      region.width, region.height)

@@ -1,0 +1,26 @@
+"""Translucency methods: one module per method, each adding its own passes.
+
+A method module provides ``draw(pipeline, frame, meshes)``, called after the
+base pass with the meshes whose ``method`` is its id, and registers itself in
+``PASSES``. The method issues (IMAGE_SPACE, TEXTURE_SPACE, QUADGRAPH, GEOCUBE)
+each add a module here without touching the others. A mesh whose method has no
+module yet is drawn by the base pass and the frame carries a warning.
+"""
+from __future__ import annotations
+
+METHOD_IDS = ("OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
+
+METHOD_DESCRIPTIONS = {
+    "OFF": "Opaque: base colour with Lambert shading and shadows",
+    "IMAGE_SPACE": "Image-space splatting of the dipole (Shah 2007): no bake, deforming objects",
+    "TEXTURE_SPACE": "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects",
+    "QUADGRAPH": "Diffusion on a tetrahedral QuadGraph (Wang 2010): thin, heterogeneous, deformable",
+    "GEOCUBE": "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering",
+}
+
+# method id -> module with draw(pipeline, frame, meshes); filled as methods land.
+PASSES: dict = {}
+
+
+def has_passes(method: str) -> bool:
+    return method in PASSES

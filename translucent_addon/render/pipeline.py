@@ -1,0 +1,200 @@
+"""The one GPU render pipeline: a sequence of passes drawing a FrameInputs.
+
+Both callers share it: ``RenderEngine.render`` (F12, batch; into an RGBA32F
+offscreen) and the viewport (``view_draw`` and the SpaceView3D draw handler;
+into the bound framebuffer). Passes:
+
+1. base, world term: clear to the world colour, rho * L_world, depth;
+2. per emitter: shadow distances into an R32F cube atlas (``shadow_distance``),
+   then rho / pi * E * V added (``base_lighting``, additive blending);
+3. method passes: each translucency method registers its own module in
+   ``render.methods``; an object whose method draws nothing yet keeps the base.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import blocks, methods, shaders
+from .scene_data import FrameInputs, MeshInstance
+
+
+class Pipeline:
+    """GPU resources that outlive one frame: vertex batches and the shadow atlas."""
+
+    def __init__(self):
+        self._batches: dict[str, tuple] = {}
+        self._atlas = None  # (texels, color texture, depth texture, framebuffer)
+        self.last_timings: dict[str, float] = {}
+
+    def free(self) -> None:
+        self._batches.clear()
+        self._atlas = None
+
+    def forget(self, keys_alive: set[str]) -> None:
+        """Drop batches of meshes that are no longer drawn."""
+        for key in list(self._batches):
+            if key not in keys_alive:
+                del self._batches[key]
+
+    # -- resources ---------------------------------------------------------
+    def _batch(self, mesh: MeshInstance):
+        """(base batch, shadow batch) of a mesh, built once per geometry key."""
+        cached = self._batches.get(mesh.key)
+        if cached is None:
+            from gpu_extras.batch import batch_for_shader
+
+            pos = np.ascontiguousarray(mesh.positions, dtype=np.float32)
+            base = batch_for_shader(
+                shaders.get("base_lighting"),
+                "TRIS",
+                {
+                    "pos": pos,
+                    "nor": np.ascontiguousarray(mesh.normals, dtype=np.float32),
+                    "col": np.ascontiguousarray(mesh.colors, dtype=np.float32),
+                },
+            )
+            shadow = batch_for_shader(shaders.get("shadow_distance"), "TRIS", {"pos": pos})
+            cached = self._batches[mesh.key] = (base, shadow)
+        return cached
+
+    def _shadow_atlas(self, texels: int):
+        if self._atlas is None or self._atlas[0] != texels:
+            import gpu
+
+            size = (3 * texels, 2 * texels)
+            color = gpu.types.GPUTexture(size, format="R32F")
+            depth = gpu.types.GPUTexture(size, format="DEPTH_COMPONENT32F")
+            fb = gpu.types.GPUFrameBuffer(depth_slot=depth, color_slots=color)
+            self._atlas = (texels, color, depth, fb)
+        return self._atlas
+
+    # -- passes --------------------------------------------------------------
+    def draw(self, frame: FrameInputs, *, clear: bool = True) -> None:
+        """Draw the frame into the currently bound framebuffer."""
+        import gpu
+
+        t0 = time.perf_counter()
+        timings = {}
+        fb = gpu.state.active_framebuffer_get()
+        if clear:
+            alpha = 0.0 if frame.film_transparent else 1.0
+            fb.clear(color=(*map(float, frame.world_color), alpha), depth=1.0)
+        if not frame.meshes:
+            self.last_timings = {"total": time.perf_counter() - t0}
+            return
+        base_shader = shaders.get("base_lighting")
+        batches = [self._batch(m) for m in frame.meshes]
+        objects = [
+            gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix)) for m in frame.meshes
+        ]
+        cam = frame.camera
+        frame_ubo = gpu.types.GPUUniformBuf(
+            blocks.frame_block(cam.view_proj, frame.world_color, cam.position)
+        )
+        centre, radius = frame.bounds()
+        texels = int(frame.shadow_resolution)
+        atlas = self._shadow_atlas(texels)
+        timings["setup"] = time.perf_counter() - t0
+
+        gpu.state.face_culling_set("NONE")
+        gpu.state.depth_mask_set(True)
+        gpu.state.depth_test_set("LESS_EQUAL")
+        gpu.state.blend_set("NONE")
+        # A light block is bound in every mode; the world pass ignores it.
+        placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
+        self._draw_base(base_shader, batches, objects, frame_ubo, placeholder, atlas[1], mode=0)
+        timings["world"] = time.perf_counter() - t0 - sum(timings.values())
+
+        t_shadow = t_light = 0.0
+        for e in frame.emitters:
+            t1 = time.perf_counter()
+            faces, origin = blocks.shadow_projection(e, centre, radius)
+            light_ubo = gpu.types.GPUUniformBuf(blocks.light_block(e, faces, origin, texels, radius))
+            self._draw_shadow(e, batches, objects, light_ubo, atlas)
+            t2 = time.perf_counter()
+            # The shadow pass bound the atlas: bind the target explicitly for the light pass.
+            with fb.bind():
+                gpu.state.depth_mask_set(False)
+                gpu.state.depth_test_set("LESS_EQUAL")
+                gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
+                self._draw_base(base_shader, batches, objects, frame_ubo, light_ubo, atlas[1], mode=1)
+                gpu.state.blend_set("NONE")
+                gpu.state.depth_mask_set(True)
+            t_shadow += t2 - t1
+            t_light += time.perf_counter() - t2
+        timings["shadow_maps"] = t_shadow
+        timings["lights"] = t_light
+        for method_id, module in methods.PASSES.items():
+            meshes = [m for m in frame.meshes if m.method == method_id]
+            if meshes:
+                t1 = time.perf_counter()
+                module.draw(self, frame, meshes)
+                timings[method_id] = time.perf_counter() - t1
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        timings["total"] = time.perf_counter() - t0
+        self.last_timings = timings
+
+    @staticmethod
+    def _draw_base(shader, batches, objects, frame_ubo, light_ubo, atlas_texture, mode: int) -> None:
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        shader.uniform_block("light", light_ubo)
+        shader.uniform_sampler("shadow_atlas", atlas_texture)
+        shader.uniform_int("mode", mode)
+        for (base, _), obj in zip(batches, objects):
+            shader.uniform_block("object", obj)
+            base.draw(shader)
+
+    @staticmethod
+    def _draw_shadow(e, batches, objects, light_ubo, atlas) -> None:
+        import gpu
+
+        from .lights import DIRECTIONAL
+
+        texels, _, _, fb = atlas
+        shader = shaders.get("shadow_distance")
+        n_faces = 1 if e.kind == DIRECTIONAL else 6
+        with fb.bind():
+            fb.clear(color=(3.0e38, 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+            shader.bind()
+            shader.uniform_block("light", light_ubo)
+            for face in range(n_faces):
+                gpu.state.viewport_set((face % 3) * texels, (face // 3) * texels, texels, texels)
+                shader.uniform_int("face", face)
+                for (_, shadow), obj in zip(batches, objects):
+                    shader.uniform_block("object", obj)
+                    shadow.draw(shader)
+
+
+def read_pixels(fb, width: int, height: int) -> np.ndarray:
+    """RGBA float pixels (height, width, 4) of a bound framebuffer, row 0 at the bottom.
+
+    Read into a 1-D Buffer: NumPy views of multi-dimensional ``gpu.types.Buffer``
+    objects get wrong strides in Blender 5.0.
+    """
+    import gpu
+
+    buf = gpu.types.Buffer("FLOAT", width * height * 4)
+    fb.read_color(0, 0, width, height, 4, 0, "FLOAT", data=buf)
+    return np.asarray(buf, dtype=np.float32).reshape(height, width, 4).copy()
+
+
+def render_offscreen(pipeline: Pipeline, frame: FrameInputs) -> np.ndarray:
+    """Draw a frame into an RGBA32F offscreen and return its linear pixels."""
+    import gpu
+
+    cam = frame.camera
+    offscreen = gpu.types.GPUOffScreen(cam.width, cam.height, format="RGBA32F")
+    try:
+        with offscreen.bind():
+            fb = gpu.state.active_framebuffer_get()
+            pipeline.draw(frame)
+            return read_pixels(fb, cam.width, cam.height)
+    finally:
+        offscreen.free()

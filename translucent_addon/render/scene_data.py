@@ -1,0 +1,91 @@
+"""Pure description of one frame: what the GPU pipeline and the CPU references draw.
+
+Blender data is turned into this by ``render.extract`` (the only bpy-facing step), so
+the GPU pipeline and the NumPy reference renderers see exactly the same inputs.
+Conventions: right-handed world space in Blender units, matrices column-vector
+(``p_world = model @ p_object``), OpenGL clip space, image row 0 at the bottom.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .lights import Emitter
+
+
+@dataclasses.dataclass
+class MeshInstance:
+    """One drawn mesh: triangle corners in object space and a model matrix."""
+
+    key: str  # stable identity for GPU caches (object name + data + geometry hash)
+    name: str
+    positions: np.ndarray  # (3T, 3) float32, object space, triangle corners in order
+    normals: np.ndarray  # (3T, 3) float32, object-space corner normals (Blender's split normals)
+    colors: np.ndarray  # (3T, 3) float32, linear base colour per corner (from the material)
+    model: np.ndarray  # (4, 4) float64
+    method: str = "OFF"
+
+    def __post_init__(self):
+        n = len(self.positions)
+        if n % 3 or self.normals.shape != (n, 3) or self.colors.shape != (n, 3):
+            raise ValueError(f"{self.name}: corner arrays must be (3T, 3) and of equal length")
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.positions) // 3
+
+    @property
+    def normal_matrix(self) -> np.ndarray:
+        """Inverse transpose of the model's linear part, padded to 4x4 (std140 friendly)."""
+        m = np.eye(4)
+        m[:3, :3] = np.linalg.inv(self.model[:3, :3]).T
+        return m
+
+    def world_positions(self) -> np.ndarray:
+        p = self.positions.astype(np.float64)
+        return p @ self.model[:3, :3].T + self.model[:3, 3]
+
+    def world_normals(self) -> np.ndarray:
+        n = self.normals.astype(np.float64) @ self.normal_matrix[:3, :3].T
+        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+
+
+@dataclasses.dataclass
+class CameraView:
+    """A camera: view and projection matrices and the image size in pixels."""
+
+    view: np.ndarray  # (4, 4) world -> camera
+    projection: np.ndarray  # (4, 4) camera -> clip (OpenGL)
+    width: int
+    height: int
+
+    @property
+    def view_proj(self) -> np.ndarray:
+        return self.projection @ self.view
+
+    @property
+    def position(self) -> np.ndarray:
+        return np.linalg.inv(self.view)[:3, 3]
+
+
+@dataclasses.dataclass
+class FrameInputs:
+    """Everything one frame needs, in plain arrays."""
+
+    meshes: list[MeshInstance]
+    emitters: list[Emitter]
+    camera: CameraView
+    world_color: np.ndarray  # (3,) linear radiance of the uniform world
+    film_transparent: bool = False
+    shadow_resolution: int = 1024  # texels per shadow-map face
+    warnings: list[str] = dataclasses.field(default_factory=list)
+
+    def bounds(self) -> tuple[np.ndarray, float]:
+        """Centre and radius of a sphere around every mesh (for directional shadow maps)."""
+        if not self.meshes:
+            return np.zeros(3), 1.0
+        pts = np.concatenate([m.world_positions() for m in self.meshes])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        centre = 0.5 * (lo + hi)
+        return centre, max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-4)

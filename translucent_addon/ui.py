@@ -1,0 +1,82 @@
+"""The "Translucent" sidebar tab and our engine in Blender's own property panels."""
+from __future__ import annotations
+
+import bpy
+
+from .bake.inputs import bake_status
+from .render.methods import METHOD_DESCRIPTIONS
+
+_STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
+_STATUS_TEXT = {
+    "OK": "Bake up to date",
+    "STALE": "Bake is stale: the object changed since it was baked",
+    "MISSING": "Not baked yet",
+    "NONE": "This method needs no bake",
+}
+
+
+class VIEW3D_PT_translucent_object(bpy.types.Panel):
+    bl_label = "Translucent Object"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Translucent"
+
+    def draw(self, context):
+        layout = self.layout
+        ob = context.active_object
+        if ob is None or ob.type != "MESH":
+            layout.label(text="Select a mesh object", icon="INFO")
+            return
+        s = ob.translucent
+        layout.prop(s, "method")
+        layout.label(text=METHOD_DESCRIPTIONS[s.method])
+        col = layout.column(align=True)
+        col.prop(s, "preset")
+        col.prop(s, "sigma_a")
+        col.prop(s, "sigma_s_prime")
+        col.prop(s, "eta")
+        col.prop(s, "g")
+        layout.prop(s, "mm_per_unit")
+        status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
+        layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
+        row = layout.row(align=True)
+        row.operator("translucent.bake", icon="RENDER_STILL")
+        row.operator("translucent.clear_bake", icon="TRASH")
+
+
+class VIEW3D_PT_translucent_scene(bpy.types.Panel):
+    bl_label = "Translucent Scene"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Translucent"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        s = context.scene.translucent
+        layout = self.layout
+        layout.prop(s, "shadow_resolution")
+        layout.prop(s, "area_light_samples")
+        layout.prop(s, "overlay_other_engines")
+        layout.operator("translucent.add_demo_scene", icon="SCENE_DATA")
+
+
+classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene)
+
+# Blender's own panels (lights, world, materials, render dimensions) show only for
+# the engines in their COMPAT_ENGINES; add ours beside EEVEE's and remove it again.
+_ENGINE = "TRANSLUCENT_RT"
+_patched: list = []
+
+
+def register_compat_panels() -> None:
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if isinstance(engines, set) and "BLENDER_EEVEE" in engines and _ENGINE not in engines:
+            engines.add(_ENGINE)
+            _patched.append(panel)
+
+
+def unregister_compat_panels() -> None:
+    for panel in _patched:
+        panel.COMPAT_ENGINES.discard(_ENGINE)
+    _patched.clear()
