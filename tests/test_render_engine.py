@@ -50,3 +50,68 @@ def test_lit_cube_matches_cpu_lambert_reference(tr, scene):
     print(f"relative RMSE {rel_rmse:.4f}, 99th percentile {p99:.4f}, edge pixels {edges.mean():.3f}")
     assert rel_rmse < 0.01
     assert p99 < 0.03
+
+
+def test_scene_without_objects_is_the_world_colour(scene):
+    set_world(scene, (0.2, 0.3, 0.4))
+    add_camera(scene, (0, -5, 1), (0, 0, 0))
+    img = render(scene, 32, 24)
+    np.testing.assert_allclose(img[..., :3], np.broadcast_to([0.2, 0.3, 0.4], (24, 32, 3)), atol=1e-6)
+    np.testing.assert_allclose(img[..., 3], 1.0)
+
+
+def test_film_transparent_leaves_background_alpha_zero(scene):
+    set_world(scene, (0.2, 0.3, 0.4))
+    add_cube(scene, location=(0, 0, 0))
+    add_camera(scene, (0, -5, 0), (0, 0, 0), lens=50)
+    scene.render.film_transparent = True
+    img = render(scene, 32, 32)
+    assert img[0, 0, 3] == 0.0 and img[16, 16, 3] == 1.0
+
+
+def test_scene_without_lights_is_lit_by_the_world_and_says_so(tr, scene, capfd):
+    """No lights: a defined image (rho * L_world on objects) and a warning naming the cause."""
+    set_world(scene, (0.5, 0.5, 0.5))
+    add_cube(scene, location=(0, 0, 0), color=(0.8, 0.4, 0.2))
+    add_camera(scene, (0, -5, 0), (0, 0, 0), lens=50)
+    img = render(scene, 32, 32)
+    np.testing.assert_allclose(img[16, 16, :3], [0.4, 0.2, 0.1], rtol=1e-5)
+    frame = _frame_of(tr, scene, 32, 32)
+    assert frame.warnings == ["the scene has no lights: objects are lit by the world colour only"]
+
+
+def test_scene_without_camera_is_a_clear_error(scene):
+    add_cube(scene)
+    with pytest.raises(RuntimeError, match="no camera"):
+        bpy.ops.render.render(write_still=False)
+
+
+def test_unavailable_method_is_drawn_as_base_with_a_warning(tr, scene):
+    lit_cube_scene(scene)
+    cube = bpy.data.objects["Cube"]
+    cube.translucent.method = "IMAGE_SPACE"
+    frame = _frame_of(tr, scene, 16, 16)
+    assert "'Cube': method IMAGE_SPACE is not available in this version; drawn with its base colour" in frame.warnings
+    cube.translucent.method = "TEXTURE_SPACE"
+    frame = _frame_of(tr, scene, 16, 16)
+    assert "'Cube': TEXTURE_SPACE bake is missing; drawn with its base colour. Press Bake" in frame.warnings
+
+
+def test_modifiers_and_instances_are_drawn_evaluated(tr, scene):
+    lit_cube_scene(scene)
+    cube = bpy.data.objects["Cube"]
+    cube.modifiers.new("sub", "SUBSURF").levels = 1
+    frame = _frame_of(tr, scene, 16, 16)
+    drawn = {m.name: m.triangle_count for m in frame.meshes}
+    assert drawn["Cube"] == 48  # 6 quads -> 24 quads after one subdivision -> 48 triangles
+
+
+def test_demo_scene_renders_a_lit_bunny(tr, scene):
+    """The bundled default scene: finite, not black, the bunny brighter than the background."""
+    ext_module(tr, "translucent_addon.demo").build_default_scene(scene)
+    img = render(scene, 160, 120)
+    assert np.isfinite(img).all()
+    bg = img[-1, 0, :3]  # top-left corner: world
+    np.testing.assert_allclose(bg, [0.05, 0.055, 0.07], atol=1e-6)
+    centre = img[40:80, 60:100, :3].mean(axis=(0, 1))
+    assert centre.min() > 3 * bg.max(), centre

@@ -81,7 +81,7 @@ def build_default_scene(scene: bpy.types.Scene | None = None) -> bpy.types.Scene
     coll.objects.link(back)
 
     fill = bpy.data.objects.new("Fill Light", bpy.data.lights.new("Fill Light", "AREA"))
-    fill.data.energy = 6.0
+    fill.data.energy = 2.5
     fill.data.size = 0.3
     fill.location = (0.45, -0.35, 0.35)
     _aim(fill, centre)

@@ -77,8 +77,9 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
         digest = hashlib.blake2b(positions.tobytes(), digest_size=8)
         digest.update(normals.tobytes())
         digest.update(colors.tobytes())
-        method = ob.translucent.method if hasattr(ob, "translucent") else "OFF"
+        # Read settings from the original: editing a property does not re-evaluate the object.
         original = ob.original
+        method = original.translucent.method
         name = original.name
         if method != "OFF":
             if bake_registry.needs_bake(method):
@@ -115,7 +116,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type in GEOMETRY_TYPES:
-            if only_translucent and getattr(ob.translucent, "method", "OFF") == "OFF":
+            if only_translucent and ob.original.translucent.method == "OFF":
                 continue
             m = _mesh_instance(inst, ob, warnings)
             if m is not None:

@@ -1,0 +1,121 @@
+"""translucent.bake / clear_bake in Blender: storage, save and reload, stale detection, bad input."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import add_cube, add_mesh  # noqa: E402
+from conftest import ext_module  # noqa: E402
+
+
+def _select(ob):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    ob.select_set(True)
+    bpy.context.view_layer.objects.active = ob
+
+
+def _spot(tr, scene):
+    demo = ext_module(tr, "translucent_addon.demo")
+    ob = bpy.data.objects.new("Spot", demo.bundled_mesh("spot"))
+    scene.collection.objects.link(ob)
+    _select(ob)
+    ob.translucent.method = "TEXTURE_SPACE"
+    return ob
+
+
+def _status(tr, ob):
+    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    return inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+
+
+def test_bake_survives_save_and_reload_and_edits_mark_it_stale(tr, scene, tmp_path):
+    ob = _spot(tr, scene)
+    assert _status(tr, ob) == "MISSING"
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    assert _status(tr, ob) == "OK"
+    store = ext_module(tr, "translucent_addon.bake.store")
+    before = store.read(ob, "TEXTURE_SPACE")
+    assert before.arrays["surface_positions_mm"].shape == (2930, 3)
+
+    path = str(tmp_path / "baked.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    ob = bpy.data.objects["Spot"]
+    after = store.read(ob, "TEXTURE_SPACE")
+    assert after.inputs_hash == before.inputs_hash
+    for name, array in before.arrays.items():
+        np.testing.assert_array_equal(after.arrays[name], array)
+    assert _status(tr, ob) == "OK"
+
+    ob.data.vertices[0].co.x += 0.01  # a changed mesh
+    ob.data.update()
+    assert _status(tr, ob) == "STALE"
+    bpy.ops.translucent.bake()
+    assert _status(tr, ob) == "OK"
+    ob.translucent.sigma_a = (0.5, 0.5, 0.5)  # changed coefficients
+    assert _status(tr, ob) == "STALE"
+    bpy.ops.translucent.bake()
+    mod = ob.modifiers.new("displace", "DISPLACE")  # a modifier changes the evaluated mesh
+    mod.strength = 0.05
+    assert _status(tr, ob) == "STALE"
+
+
+def test_clear_bake_removes_it(tr, scene):
+    ob = _spot(tr, scene)
+    bpy.ops.translucent.bake()
+    assert "translucent_bake" in ob
+    assert bpy.ops.translucent.clear_bake() == {"FINISHED"}
+    assert "translucent_bake" not in ob
+    assert _status(tr, ob) == "MISSING"
+
+
+def _bake_error():
+    with pytest.raises(RuntimeError) as err:
+        bpy.ops.translucent.bake()
+    return str(err.value)
+
+
+def test_bake_bad_input_messages(tr, scene):
+    assert "no active object" in _bake_error()
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    scene.collection.objects.link(cam)
+    _select(cam)
+    assert "'Cam' is a camera, not a mesh" in _bake_error()
+
+    empty = add_mesh(scene, "Empty mesh", [], [])
+    _select(empty)
+    empty.translucent.method = "QUADGRAPH"
+    assert "'Empty mesh': the mesh is empty (no faces), nothing to bake" in _bake_error()
+
+    flat = add_mesh(scene, "Flat", [(0, 0, 0), (1, 0, 0), (2, 0, 0)], [(0, 1, 2)])
+    _select(flat)
+    flat.translucent.method = "GEOCUBE"
+    assert "'Flat': every face has zero area, nothing to bake" in _bake_error()
+
+    cube = add_cube(scene)
+    _select(cube)
+    assert "nothing to bake, method is Off" in _bake_error()
+    cube.translucent.method = "IMAGE_SPACE"
+    assert "IMAGE_SPACE needs no bake" in _bake_error()
+    cube.translucent.method = "TEXTURE_SPACE"
+    cube.translucent.sigma_s_prime = (0.0, 1.0, 1.0)  # clamped by the property's minimum
+    assert tuple(cube.translucent.sigma_s_prime)[0] > 0
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+
+
+def test_properties_refuse_negative_coefficients(tr, scene):
+    cube = add_cube(scene)
+    cube.translucent.sigma_a = (-1.0, 0.1, 0.1)
+    assert tuple(cube.translucent.sigma_a)[0] == 0.0
+    cube.translucent.mm_per_unit = -5
+    assert cube.translucent.mm_per_unit > 0
+
+
+def test_preset_sets_the_measured_coefficients(tr, scene):
+    cube = add_cube(scene)
+    cube.translucent.preset = "skin1"
+    assert tuple(round(x, 4) for x in cube.translucent.sigma_s_prime) == (0.74, 0.88, 1.01)
+    assert tuple(round(x, 4) for x in cube.translucent.sigma_a) == (0.032, 0.17, 0.48)

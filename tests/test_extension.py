@@ -1,0 +1,96 @@
+"""The built zip installs with Blender's installer, and enabling/disabling leaves nothing behind."""
+from __future__ import annotations
+
+import os
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from conftest import ext_module  # noqa: E402
+
+OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT_clear_bake",
+               "TRANSLUCENT_OT_add_demo_scene", "VIEW3D_PT_translucent_object", "VIEW3D_PT_translucent_scene",
+               "TranslucentObjectSettings", "TranslucentSceneSettings")
+_CLASSES = ()
+
+
+def _footprint():
+    """Everything the extension adds to Blender that must disappear when it is disabled."""
+    import bpy.types as T
+
+    draw_handler = __import__("sys").modules.get(f"{_PKG}.translucent_addon.render.draw_handler")
+    compat = [p.__name__ for p in T.Panel.__subclasses__()
+              if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set())]
+    return {
+        "classes": sorted(c.__name__ for c in _CLASSES if c.is_registered),
+        "engine": _engine_selectable(),
+        "object_prop": hasattr(T.Object, "translucent"),
+        "scene_prop": hasattr(T.Scene, "translucent"),
+        "operators": "bake" in dir(bpy.ops.translucent),
+        "draw_handler": bool(draw_handler and draw_handler.is_registered()),
+        "compat_panels": len(compat) > 0,
+    }
+
+
+_PKG = None
+
+
+def _engine_selectable() -> bool:
+    render = bpy.context.scene.render
+    before = render.engine
+    try:
+        render.engine = "TRANSLUCENT_RT"
+    except TypeError:
+        return False
+    render.engine = before
+    return True
+
+
+def test_enable_disable_three_times_leaves_nothing(installed):
+    global _PKG, _CLASSES
+    _PKG = installed
+    _CLASSES = __import__("importlib").import_module(installed)._classes
+    on = _footprint()
+    assert on["classes"] == sorted(OUR_CLASSES)
+    assert all(on.values()), on
+    for _ in range(3):
+        bpy.ops.preferences.addon_disable(module=installed)
+        off = _footprint()
+        assert off == {"classes": [], "engine": False, "object_prop": False, "scene_prop": False,
+                       "operators": False, "draw_handler": False, "compat_panels": False}, off
+        bpy.ops.preferences.addon_enable(module=installed)
+        assert _footprint() == on
+
+
+def test_bundled_moderngl_wheel_gives_a_standalone_context(installed):
+    """The bake GPU: moderngl from the zip's wheels, on a headless EGL context (llvmpipe here)."""
+    import moderngl
+
+    # Installed by Blender from the zip's wheels into the (temporary) extensions folder,
+    # not taken from the test environment.
+    assert f"{os.sep}.local{os.sep}" in moderngl.__file__ and "extensions" in moderngl.__file__, moderngl.__file__
+    ctx = moderngl.create_standalone_context(backend="egl")
+    try:
+        assert ctx.version_code >= 430  # compute shaders for bakes
+        prog = ctx.compute_shader(
+            "#version 430\nlayout(local_size_x=64) in;\nlayout(std430, binding=0) buffer B { float v[]; };\n"
+            "void main(){ uint i = gl_GlobalInvocationID.x; v[i] = float(i) * 2.0; }"
+        )
+        buf = ctx.buffer(reserve=256 * 4)
+        buf.bind_to_storage_buffer(0)
+        prog.run(4)
+        import numpy as np
+
+        assert np.frombuffer(buf.read(), np.float32)[255] == 510.0
+    finally:
+        ctx.release()
+
+
+def test_render_engine_and_properties_are_there(tr, scene):
+    assert scene.render.engine == "TRANSLUCENT_RT"
+    methods = ext_module(tr, "translucent_addon.render.methods")
+    ob = bpy.data.objects.new("Empty", None)
+    items = [i.identifier for i in ob.translucent.bl_rna.properties["method"].enum_items]
+    assert tuple(items) == methods.METHOD_IDS
+    assert scene.translucent.shadow_resolution == 1024

@@ -1,0 +1,90 @@
+"""Our light model (render/lights.py) against Cycles: the units the whole project relies on.
+
+A white diffuse plane, direct light only, orthographic camera from above. For each
+Blender light type, Cycles' pixels equal rho E / pi with E from
+``unshadowed_irradiance`` within 2 % (Cycles' point lights are exact; the small
+area light adds a little sampling noise).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import add_mesh, render  # noqa: E402
+from conftest import ext_module  # noqa: E402
+
+SIZE = 24
+HALF = 1.0  # the camera sees [-1, 1]^2 of the plane
+
+
+def _white_plane(scene):
+    plane = add_mesh(scene, "Plane", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], [(0, 1, 2, 3)])
+    mat = bpy.data.materials.new("White")
+    tree = mat.node_tree if mat.node_tree else None
+    if tree is None:
+        mat.use_nodes = True
+        tree = mat.node_tree
+    tree.nodes.clear()
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (1, 1, 1, 1)
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(diffuse.outputs[0], out.inputs[0])
+    plane.data.materials.append(mat)
+
+
+@pytest.mark.parametrize(
+    "kind, settings, location, rotation",
+    [
+        ("SUN", dict(energy=2.0, angle=0.0), (0, 0, 3), (0.4, 0.2, 0)),
+        ("POINT", dict(energy=80.0, shadow_soft_size=0.0), (0.3, -0.2, 1.5), (0, 0, 0)),
+        ("SPOT", dict(energy=80.0, shadow_soft_size=0.0, spot_size=math.radians(70), spot_blend=0.4),
+         (0.2, 0.0, 1.5), (0.2, 0, 0)),
+        ("AREA", dict(energy=40.0, size=0.02), (0.0, 0.3, 1.2), (0.3, 0, 0)),
+    ],
+)
+def test_light_units_match_cycles(tr, scene, kind, settings, location, rotation):
+    lights = ext_module(tr, "translucent_addon.render.lights")
+    _white_plane(scene)
+    light = bpy.data.lights.new("L", kind)
+    for key, value in settings.items():
+        setattr(light, key, value)
+    lo = bpy.data.objects.new("L", light)
+    lo.location, lo.rotation_euler = location, rotation
+    scene.collection.objects.link(lo)
+    cam = bpy.data.objects.new("C", bpy.data.cameras.new("C"))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 2 * HALF
+    cam.location = (0, 0, 5)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 64
+    scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 0
+    scene.cycles.pixel_filter_type = "BOX"
+    scene.cycles.filter_width = 0.01
+    scene.cycles.seed = 1
+    cycles = render(scene, SIZE, SIZE)[..., 0]
+
+    bpy.context.view_layer.update()
+    emitters = lights.emitters_from_light("L", kind, np.array(lo.matrix_world), light.color, light.energy,
+                                          spot_size=getattr(light, "spot_size", 0), spot_blend=getattr(light, "spot_blend", 0),
+                                          area_shape=getattr(light, "shape", "SQUARE"), size=getattr(light, "size", 0),
+                                          size_y=getattr(light, "size_y", 0), area_samples=1)
+    c = (np.arange(SIZE) + 0.5) / SIZE * 2 * HALF - HALF
+    x, y = np.meshgrid(c, c)
+    pts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1)
+    normals = np.tile([0.0, 0.0, 1.0], (len(pts), 1))
+    ours = sum(lights.unshadowed_irradiance(e, pts, normals)[0][:, 0] for e in emitters) / math.pi
+    ours = ours.reshape(SIZE, SIZE)
+    assert cycles.max() > 0.05
+    # Compare where the light is not in a spot's blend ramp edge (steep there, sampled differently).
+    keep = ours > 0.05 * ours.max()
+    rel = np.abs(cycles[keep] - ours[keep]) / ours[keep]
+    print(kind, "median", np.median(rel), "p95", np.percentile(rel, 95))
+    assert np.median(rel) < 0.02
+    assert np.percentile(rel, 95) < 0.05

@@ -1,0 +1,273 @@
+"""Pure modules: presets, light units, uniform blocks, ray casting, mesh checks, bake store.
+
+None of these needs Blender; the first test proves they do not import it.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from translucent_addon.bake import store
+from translucent_addon.bake.registry import BakeInputError, BakeInputs, run, validate
+from translucent_addon.geometry.camera import pixel_rays
+from translucent_addon.geometry.mesh_checks import check_mesh
+from translucent_addon.geometry.mesh_io import load_npz, load_obj
+from translucent_addon.geometry.raycast import closest_hit
+from translucent_addon.physics.presets import CoefficientError, load_presets, validate_coefficients
+from translucent_addon.render import blocks
+from translucent_addon.render.lights import DIRECTIONAL, POINT, emitters_from_light, unshadowed_irradiance
+
+ROOT = Path(__file__).resolve().parents[1]
+MESHES = ROOT / "translucent_addon" / "data" / "meshes"
+PURE_MODULES = [
+    "translucent_addon.physics.presets", "translucent_addon.geometry.camera", "translucent_addon.geometry.raycast",
+    "translucent_addon.geometry.mesh_checks", "translucent_addon.geometry.mesh_io", "translucent_addon.render.lights",
+    "translucent_addon.render.blocks", "translucent_addon.render.scene_data", "translucent_addon.render.methods",
+    "translucent_addon.reference.lambert", "translucent_addon.bake.store", "translucent_addon.bake.registry",
+    "translucent_addon.bake.surface", "translucent_addon.render.shaders",
+]
+
+
+def test_pure_modules_do_not_import_bpy():
+    code = "import sys; " + "; ".join(f"import {m}" for m in PURE_MODULES) + "; print('bpy' in sys.modules, 'gpu' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False False"
+
+
+# -- presets -------------------------------------------------------------------
+def test_presets_load_with_units_mm():
+    presets = load_presets()
+    assert len(presets) == 12
+    marble = presets["marble"]
+    # Jensen 2001 Fig. 5, marble, in mm^-1
+    assert marble.sigma_s_prime == (2.19, 2.62, 3.00)
+    assert marble.sigma_a == (0.0021, 0.0041, 0.0071)
+    assert marble.eta == 1.3
+    assert marble.sigma_t_prime[0] == pytest.approx(2.1921)
+    assert presets["spectralon"].sigma_a == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    "sigma_a, sigma_s_prime, eta, g, fragment",
+    [
+        ((-0.1, 0, 0), (1, 1, 1), 1.3, 0.0, "sigma_a.R = -0.1"),
+        ((0, 0, 0), (1, 0, 1), 1.3, 0.0, "sigma_s_prime.G = 0"),
+        ((0, 0, 0), (1, 1, -2), 1.3, 0.0, "sigma_s_prime.B = -2"),
+        ((0, math.nan, 0), (1, 1, 1), 1.3, 0.0, "not a finite number"),
+        ((0, 0, 0), (1, 1, 1), 0.0, 0.0, "eta = 0.0"),
+        ((0, 0, 0), (1, 1, 1), 1.3, 1.0, "g = 1.0"),
+    ],
+)
+def test_unphysical_coefficients_are_refused_with_reason(sigma_a, sigma_s_prime, eta, g, fragment):
+    with pytest.raises(CoefficientError, match=fragment.replace(".", r"\.").replace("(", r"\(")):
+        validate_coefficients(sigma_a, sigma_s_prime, eta, g)
+
+
+# -- lights ----------------------------------------------------------------------
+def _light_at(z, rot=np.eye(3)):
+    m = np.eye(4)
+    m[:3, :3] = rot
+    m[2, 3] = z
+    return m
+
+
+def test_point_light_intensity_is_power_over_4pi():
+    (e,) = emitters_from_light("p", "POINT", _light_at(2.0), (1, 1, 1), 100.0)
+    E, _, dist = unshadowed_irradiance(e, np.zeros((1, 3)), np.array([[0, 0, 1.0]]))
+    assert dist[0] == pytest.approx(2.0)
+    assert E[0, 0] == pytest.approx(100 / (4 * math.pi) / 4.0)
+
+
+def test_sun_strength_is_irradiance_and_follows_cosine():
+    rot = np.array([[1, 0, 0], [0, math.cos(1.0), -math.sin(1.0)], [0, math.sin(1.0), math.cos(1.0)]])
+    (e,) = emitters_from_light("s", "SUN", _light_at(5.0, rot), (1, 0.5, 0.25), 3.0)
+    assert e.kind == DIRECTIONAL
+    E, _, _ = unshadowed_irradiance(e, np.zeros((1, 3)), np.array([[0, 0, 1.0]]))
+    np.testing.assert_allclose(E[0], np.array([3.0, 1.5, 0.75]) * math.cos(1.0))
+
+
+def test_area_light_samples_carry_total_on_axis_intensity_p_over_pi():
+    for shape in ("SQUARE", "DISK", "RECTANGLE", "ELLIPSE"):
+        ems = emitters_from_light("a", "AREA", _light_at(1.0), (1, 1, 1), 50.0, area_shape=shape, size=0.5,
+                                  size_y=0.2, area_samples=3)
+        assert len(ems) == 9 and all(e.kind == POINT and e.cosine_lobe for e in ems)
+        assert sum(e.radiance[0] for e in ems) == pytest.approx(50 / math.pi)
+        offsets = np.array([e.position for e in ems])[:, :2]
+        half = np.array([0.25, 0.1 if shape in ("RECTANGLE", "ELLIPSE") else 0.25])
+        assert (np.abs(offsets) <= half + 1e-12).all()
+        if shape in ("DISK", "ELLIPSE"):
+            assert ((offsets / half) ** 2).sum(1).max() <= 1 + 1e-9
+
+
+def test_spot_cone_and_blend():
+    (e,) = emitters_from_light("s", "SPOT", _light_at(1.0), (1, 1, 1), 100.0, spot_size=math.radians(60),
+                               spot_blend=0.5)
+    cos_half = math.cos(math.radians(30))
+    assert e.cos_half_angle == pytest.approx(cos_half)
+    assert e.spot_smooth == pytest.approx((1 - cos_half) * 0.5)
+    # On the axis: full intensity; outside the cone: nothing; inside the blend: between.
+    angles = np.radians([0.0, 29.0, 31.0])
+    pts = np.stack([np.tan(angles), np.zeros(3), np.zeros(3)], axis=1)
+    E, _, _ = unshadowed_irradiance(e, pts, np.tile([0, 0, 1.0], (3, 1)))
+    full = 100 / (4 * math.pi) * np.cos(angles) ** 3
+    assert E[0, 0] == pytest.approx(full[0])
+    assert 0 < E[1, 0] < full[1]
+    assert E[2, 0] == 0
+
+
+# -- blocks and shadow projections ----------------------------------------------
+def test_block_sizes_match_the_glsl_structs():
+    text = (ROOT / "gpu_shaders" / "translucent_structs.glsl").read_text()
+    assert "mat4 face_view_proj[6]" in text
+    assert len(blocks.frame_block(np.eye(4), (0, 0, 0), (0, 0, 0))) == 96
+    assert len(blocks.object_block(np.eye(4), np.eye(4))) == 128
+    (e,) = emitters_from_light("p", "POINT", _light_at(1.0), (1, 1, 1), 10.0)
+    faces, origin = blocks.shadow_projection(e, np.zeros(3), 1.0)
+    assert len(blocks.light_block(e, faces, origin, 512, 1.0)) == 6 * 64 + 5 * 16
+
+
+def test_point_shadow_faces_cover_every_direction():
+    (e,) = emitters_from_light("p", "POINT", _light_at(0.5), (1, 1, 1), 10.0)
+    faces, origin = blocks.shadow_projection(e, np.zeros(3), 2.0)
+    rng = np.random.default_rng(1)
+    for d in rng.normal(size=(500, 3)):
+        p = origin + d / np.linalg.norm(d) * rng.uniform(0.1, 3.0)
+        clip = faces[blocks.cube_face(p - origin)] @ np.append(p, 1.0)
+        ndc = clip[:3] / clip[3]
+        assert clip[3] > 0 and np.all(np.abs(ndc) <= 1.0 + 1e-9), (d, ndc)
+
+
+def test_directional_shadow_map_covers_the_scene_sphere():
+    rot = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0.0]])
+    (e,) = emitters_from_light("s", "SUN", _light_at(3.0, rot), (1, 1, 1), 1.0)
+    faces, origin = blocks.shadow_projection(e, np.array([1.0, 2.0, 0.5]), 1.5)
+    rng = np.random.default_rng(2)
+    for d in rng.normal(size=(200, 3)):
+        p = np.array([1.0, 2.0, 0.5]) + d / np.linalg.norm(d) * 1.5 * rng.uniform()
+        ndc = (faces[0] @ np.append(p, 1.0))[:3]
+        assert np.all(np.abs(ndc) <= 1.0 + 1e-9)
+
+
+# -- camera and ray casting ------------------------------------------------------
+def test_pixel_rays_hit_a_plane_where_the_projection_puts_it():
+    view = blocks.look_at((0, 0, 5.0), (0, 0, -1.0), (0, 1, 0))
+    proj = blocks.perspective(math.radians(40), 1.5, 0.1, 100)
+    origins, dirs = pixel_rays(proj @ view, 12, 8)
+    tris = np.array([[[-10, -10, 0], [10, -10, 0], [10, 10, 0]], [[-10, -10, 0], [10, 10, 0], [-10, 10, 0]]], float)
+    t, idx, _, _ = closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3), tris)
+    assert (idx >= 0).all()
+    hits = origins.reshape(-1, 3) + t[:, None] * dirs.reshape(-1, 3)
+    np.testing.assert_allclose(hits[:, 2], 0.0, atol=1e-9)
+    clip = np.c_[hits, np.ones(len(hits))] @ (proj @ view).T
+    ndc = clip[:, :2] / clip[:, 3:]
+    xs = (np.arange(12) + 0.5) / 12 * 2 - 1
+    ys = (np.arange(8) + 0.5) / 8 * 2 - 1
+    np.testing.assert_allclose(ndc[:, 0], np.tile(xs, 8), atol=1e-9)
+    np.testing.assert_allclose(ndc[:, 1], np.repeat(ys, 12), atol=1e-9)
+
+
+def test_closest_hit_picks_the_nearest_triangle():
+    tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], float)
+    tris = np.stack([tri + [0, 0, z] for z in (3.0, 1.0, 2.0)])
+    t, idx, u, v = closest_hit(np.array([[0, 0, -1.0]]), np.array([[0, 0, 1.0]]), tris)
+    assert idx[0] == 1 and t[0] == pytest.approx(2.0)
+    assert u[0] + v[0] <= 1
+
+
+# -- meshes --------------------------------------------------------------------
+def test_bundled_meshes_match_their_sources():
+    v, t = load_npz(MESHES / "bunny.npz")
+    assert (len(v), len(t)) == (35947, 69451)
+    report = check_mesh(*load_npz(MESHES / "spot.npz"))
+    assert report.closed_manifold and report.zero_area_triangles == 0
+
+
+def test_mesh_checks_find_open_and_degenerate_and_non_manifold(tmp_path):
+    obj = tmp_path / "bad.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 2 5\nf 1 -4 -4\n")
+    v, t = load_obj(obj)
+    assert t.tolist()[-1] == [0, 1, 1]  # negative indices resolve from the end
+    r = check_mesh(v, t)
+    assert r.zero_area_triangles == 2  # (1,2,5) is collinear, (1,2,2) repeats a vertex
+    assert r.non_manifold_edges == 1  # edge 1-2 has four faces
+    assert r.boundary_edges > 0 and not r.closed_manifold
+
+
+# -- bake store and validation -----------------------------------------------------
+def test_bake_store_round_trip_and_stale_status():
+    ob = {}
+    arrays = {"a": np.arange(12, dtype=np.float32).reshape(4, 3), "i": np.arange(5, dtype=np.int32)}
+    digest = store.inputs_hash({"v": np.ones(3)}, {"x": 1})
+    store.write(ob, "TEXTURE_SPACE", digest, arrays, {"seconds": 1.5})
+    rec = store.read(ob, "TEXTURE_SPACE")
+    np.testing.assert_array_equal(rec.arrays["a"], arrays["a"])
+    assert rec.arrays["i"].dtype == np.int32 and rec.meta == {"seconds": 1.5}
+    assert store.status(ob, "TEXTURE_SPACE", digest) == "OK"
+    assert store.status(ob, "TEXTURE_SPACE", store.inputs_hash({"v": np.ones(3) * 2}, {"x": 1})) == "STALE"
+    assert store.status(ob, "TEXTURE_SPACE", store.inputs_hash({"v": np.ones(3)}, {"x": 2})) == "STALE"
+    assert store.status(ob, "QUADGRAPH", digest) == "MISSING"
+    with pytest.raises(TypeError, match="dtype float16"):
+        store.write(ob, "X", digest, {"h": np.zeros(2, np.float16)})
+    assert store.clear(ob, "TEXTURE_SPACE") and store.read(ob, "TEXTURE_SPACE") is None and ob == {}
+
+
+def _inputs(method="TEXTURE_SPACE", **kw):
+    v, t = load_npz(MESHES / "spot.npz")
+    base = dict(name="Spot", method=method, vertices=v, triangles=t, mm_per_unit=100.0, sigma_a=(0.01,) * 3,
+                sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0)
+    base.update(kw)
+    return BakeInputs(**base)
+
+
+def test_surface_stage_conserves_area_and_scales_to_mm():
+    gen = run(_inputs())
+    try:
+        while True:
+            next(gen)
+    except StopIteration as done:
+        arrays, meta = done.value
+    v, t = load_npz(MESHES / "spot.npz")
+    vv = v.astype(np.float64)[t]
+    area_units = 0.5 * np.linalg.norm(np.cross(vv[:, 1] - vv[:, 0], vv[:, 2] - vv[:, 0]), axis=1).sum()
+    assert arrays["surface_areas_mm2"].sum() == pytest.approx(area_units * 100.0 ** 2, rel=1e-4)
+    np.testing.assert_allclose(np.linalg.norm(arrays["surface_normals"], axis=1), 1.0, atol=1e-5)
+    assert meta["triangles"] == len(t)
+
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(method="IMAGE_SPACE"), "nothing to bake, IMAGE_SPACE needs no bake"),
+        (dict(method="OFF"), "nothing to bake, method is Off"),
+        (dict(triangles=np.zeros((0, 3), np.int32)), "the mesh is empty"),
+        (dict(sigma_s_prime=(1.0, 0.0, 1.0)), r"sigma_s_prime\.G = 0\.0 mm\^-1, must be > 0"),
+        (dict(sigma_a=(-1.0, 0.0, 0.0)), r"sigma_a\.R = -1\.0"),
+        (dict(mm_per_unit=0.0), "mm per unit is 0.0"),
+        (dict(vertices=np.zeros((3, 3), np.float32), triangles=np.array([[0, 1, 2]], np.int32)), "every face has zero area"),
+    ],
+)
+def test_bake_refuses_bad_input_with_one_line(kw, message):
+    with pytest.raises(BakeInputError, match=message):
+        validate(_inputs(**kw))
+
+
+def test_bake_warns_on_open_mesh_and_zero_area_faces():
+    v, t = load_npz(MESHES / "teapot.npz")
+    warnings = validate(_inputs(vertices=v, triangles=t))
+    assert any("the mesh is open" in w for w in warnings)
+    t2 = np.vstack([load_npz(MESHES / "spot.npz")[1], [[0, 0, 1]]]).astype(np.int32)
+    warnings = validate(_inputs(triangles=t2))
+    assert any("1 zero-area faces" in w for w in warnings)
+
+
+def test_bake_refuses_huge_meshes_and_names_the_count():
+    from translucent_addon.bake.registry import MAX_BAKE_TRIANGLES
+
+    huge = np.zeros((MAX_BAKE_TRIANGLES + 1, 3), np.int32)
+    with pytest.raises(BakeInputError, match="2,000,001 triangles is more than a bake takes"):
+        validate(_inputs(triangles=huge))
