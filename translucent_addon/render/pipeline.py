@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from . import blocks, methods, shaders
+from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
 
 
@@ -151,8 +152,6 @@ class Pipeline:
     @staticmethod
     def _draw_shadow(e, batches, objects, light_ubo, atlas) -> None:
         import gpu
-
-        from .lights import DIRECTIONAL
 
         texels, _, _, fb = atlas
         shader = shaders.get("shadow_distance")
