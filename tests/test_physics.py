@@ -66,3 +66,101 @@ def test_exact_fresnel_known_values():
     assert float(fresnel_schlick(1.0, 1.5)) == pytest.approx(0.04)
     mu = np.linspace(0.2, 1, 50)
     assert np.abs(fresnel_schlick(mu, 1.5) - fresnel_dielectric(mu, 1.5)).max() < 0.02
+
+
+# -- splat size and count (Shah Eq. 6.16-6.18) ------------------------------------
+from translucent_addon.physics.dipole import R_d_disk, overlap_count, r_max, splat_grid  # noqa: E402
+from translucent_addon.physics.lut import dipole_lut  # noqa: E402
+from translucent_addon.physics.multipole import Grid, Layer, layered_profiles, radial_profile, slab_profiles  # noqa: E402
+
+
+def test_disk_integral_closed_form_matches_quadrature_and_tends_to_the_total():
+    args = (0.032, 0.74, 1.3)  # skin1, red
+    for radius in (0.1, 1.0, 5.0):
+        numeric = integrate.quad(lambda r: float(R_d(r, *args)) * 2 * math.pi * r, 0, radius, epsrel=1e-11)[0]
+        assert float(R_d_disk(radius, *args)) == pytest.approx(numeric, rel=1e-8)
+    assert float(R_d_disk(1e6, *args)) == pytest.approx(float(total_diffuse_reflectance(*args)), rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["marble", "skin1", "ketchup", "wholemilk"])
+def test_r_max_holds_one_minus_epsilon_of_the_energy(name):
+    m = load_presets()[name]
+    sa, ss = np.array(m.sigma_a), np.array(m.sigma_s_prime)
+    for eps in (0.01, 0.05):
+        radius = r_max(sa, ss, m.eta, eps)
+        held = R_d_disk(radius, sa, ss, m.eta) / total_diffuse_reflectance(sa, ss, m.eta)
+        np.testing.assert_allclose(held, 1 - eps, rtol=1e-9)
+    # A more absorbing channel scatters less far: ketchup's green and blue absorb far more than red.
+    if name == "ketchup":
+        radius = r_max(sa, ss, m.eta)
+        assert radius[0] > radius[1] > 0 and radius[0] > radius[2]
+
+
+def test_overlap_count_and_splat_grid_follow_eq_6_17_and_6_18():
+    sa, ss, eta, eps = 0.032, 0.74, 1.3, 0.01
+    radius = r_max(sa, ss, eta, eps)
+    n_o = float(overlap_count(sa, ss, eta, eps))
+    ratio = float(R_d(0.0, sa, ss, eta) / R_d(radius, sa, ss, eta))
+    assert ratio / n_o < eps <= ratio / (n_o - 1)  # the smallest n_o satisfying Eq. 6.17
+    assert float(splat_grid(100.0, sa, ss, eta, eps)) == math.ceil(0.5 * n_o * 100.0 / radius)
+
+
+def test_profile_lut_reproduces_the_dipole():
+    m = load_presets()["marble"]
+    lut = dipole_lut(m.sigma_a, m.sigma_s_prime, m.eta, samples=512)
+    r = np.linspace(0.05, 0.9 * lut.r_max.min(), 200)
+    exact = R_d(r[:, None], np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta)
+    np.testing.assert_allclose(lut.lookup(r), exact, rtol=2e-3)
+    assert (lut.lookup(lut.r_max.max() * 1.01) == 0).all()
+
+
+# -- multipole -----------------------------------------------------------------------
+def test_thick_single_layer_multipole_equals_the_dipole():
+    r = np.array([0.0, 0.2, 1.0, 3.0, 8.0])
+    R_slab, T_slab = slab_profiles(r, 0.032, 0.74, 1.3, thickness=400.0)
+    np.testing.assert_allclose(R_slab, R_d(r, 0.032, 0.74, 1.3), rtol=1e-6)
+    assert T_slab.max() < 1e-12
+
+
+def test_thin_slab_transmits_and_conserves_energy():
+    """Integrated over the plane, R + T of a slab stays below the semi-infinite reflectance plus the missing
+    part, and a thinner slab reflects less and transmits more."""
+    r = np.concatenate([np.linspace(0, 2, 4001)[:-1], np.geomspace(2, 400, 4000)])
+
+    def totals(d):
+        R, T = slab_profiles(r, 0.01, 1.0, 1.3, d)
+        return [np.trapz(p * 2 * math.pi * r, r) for p in (R, T)]
+    R1, T1 = totals(1.0)
+    R5, T5 = totals(5.0)
+    assert 0 < R1 < R5 < float(total_diffuse_reflectance(0.01, 1.0, 1.3))
+    assert T1 > T5 > 0
+    assert R1 + T1 < 1.0
+
+
+def test_layer_adding_obeys_the_scalar_adding_equation_for_totals():
+    """At zero frequency the Fourier adding is the scalar Kubelka-Munk adding of plane totals:
+    R12 = R1 + T1^2 R2 / (1 - R1 R2), T12 = T1 T2 / (1 - R1 R2) (Donner & Jensen Eq. 14-15).
+
+    (Note: a 1 mm + 1 mm stack of one material is not a 2 mm slab in diffusion theory: the stack
+    reflects 8 % less, from the extrapolated boundaries at the interface; converged on the grid.)
+    """
+    grid = Grid(n=256, h=0.1)
+    top, bottom = Layer(0.1, 1.0, 1.0), Layer(0.05, 2.0, 1.5)
+    tot = lambda img: img.sum() * grid.h**2  # noqa: E731
+    R1, T1 = (tot(x) for x in layered_profiles([top], 1.3, grid))
+    R2, T2 = (tot(x) for x in layered_profiles([bottom], 1.3, grid))
+    R12, T12 = (tot(x) for x in layered_profiles([top, bottom], 1.3, grid))
+    assert R12 == pytest.approx(R1 + T1 * T1 * R2 / (1 - R1 * R2), rel=1e-9)
+    assert T12 == pytest.approx(T1 * T2 / (1 - R1 * R2), rel=1e-9)
+    assert R1 < R12 and T12 < T1
+
+
+def test_layer_over_semi_infinite_base_reflects_between_the_two_materials():
+    grid = Grid(n=256, h=0.05)
+    thin = Layer(0.5, 1.0, 0.3)  # absorbing top layer
+    base = Layer(0.01, 1.0, np.inf)
+    R, _ = layered_profiles([thin, base], 1.3, grid)
+    total = R.sum() * grid.h**2
+    only_base = float(R_d_disk(grid.n * grid.h / 2, 0.01, 1.0, 1.3))
+    only_thin_thick = float(total_diffuse_reflectance(0.5, 1.0, 1.3))
+    assert only_thin_thick < total < only_base

@@ -57,3 +57,56 @@ def total_diffuse_reflectance(sigma_a, sigma_s_prime, eta):
     alpha_prime, _, _, _ = dipole_parameters(sigma_a, sigma_s_prime, eta)
     s = np.sqrt(3.0 * (1.0 - alpha_prime))
     return 0.5 * alpha_prime * (1.0 + np.exp(-4.0 / 3.0 * A(eta) * s)) * np.exp(-s)
+
+
+def R_d_disk(radius, sigma_a, sigma_s_prime, eta):
+    """Integral of R_d over a disk of the given radius [mm] (closed form).
+
+    With d^2 = r^2 + z^2 and r dr = d dd, and d/dd[-e^{-s d}/d] = (s d + 1) e^{-s d}/d^2:
+    int_0^R z (s d + 1) e^{-s d}/d^3 2 pi r dr = 2 pi (e^{-s z} - z e^{-s D}/D), D = sqrt(R^2 + z^2).
+    As R -> inf this is the total diffuse reflectance of Jensen 2001 Eq. 6.
+    """
+    alpha_prime, sigma_tr, z_r, z_v = dipole_parameters(sigma_a, sigma_s_prime, eta)
+    radius = np.asarray(radius, dtype=np.float64)
+    total = 0.0
+    for z in (z_r, z_v):
+        D = np.sqrt(radius**2 + z**2)
+        total = total + np.exp(-sigma_tr * z) - z * np.exp(-sigma_tr * D) / D
+    return 0.5 * alpha_prime * total
+
+
+def r_max(sigma_a, sigma_s_prime, eta, epsilon=0.01):
+    """Splat radius r_max [mm]: the disk holding all but epsilon of R_d's integral (Shah Eq. 6.16).
+
+    Solved by bisection on the closed-form disk integral; per channel for RGB input.
+    """
+    sa, ss = np.broadcast_arrays(np.asarray(sigma_a, float), np.asarray(sigma_s_prime, float))
+    total = total_diffuse_reflectance(sa, ss, eta)
+    lo = np.zeros(sa.shape)
+    hi = np.full(sa.shape, 1.0)
+    # Grow the bracket until the disk holds enough (the profile tail is exponential, or 1/r for sigma_a = 0).
+    for _ in range(200):
+        short = R_d_disk(hi, sa, ss, eta) < (1.0 - epsilon) * total
+        if not short.any():
+            break
+        hi = np.where(short, hi * 2.0, hi)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        short = R_d_disk(mid, sa, ss, eta) < (1.0 - epsilon) * total
+        lo, hi = np.where(short, mid, lo), np.where(short, hi, mid)
+    return hi if hi.shape else float(hi)
+
+
+def overlap_count(sigma_a, sigma_s_prime, eta, epsilon=0.01, radius=None):
+    """Overlapping splats n_o per point, the smallest with R_d(0) / (n_o R_d(r_max)) < epsilon (Shah Eq. 6.17)."""
+    if radius is None:
+        radius = r_max(sigma_a, sigma_s_prime, eta, epsilon)
+    ratio = R_d(0.0, sigma_a, sigma_s_prime, eta) / R_d(radius, sigma_a, sigma_s_prime, eta)
+    return np.floor(ratio / epsilon) + 1.0
+
+
+def splat_grid(frustum_width, sigma_a, sigma_s_prime, eta, epsilon=0.01):
+    """Splat grid resolution n (n x n splats) for a light frustum W mm wide (Shah Eq. 6.18): n = n_o W / (2 r_max)."""
+    radius = r_max(sigma_a, sigma_s_prime, eta, epsilon)
+    n_o = overlap_count(sigma_a, sigma_s_prime, eta, epsilon, radius)
+    return np.ceil(0.5 * n_o * frustum_width / radius)
