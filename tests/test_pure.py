@@ -31,7 +31,7 @@ PURE_MODULES = [
     "translucent_addon.reference.lambert", "translucent_addon.bake.store", "translucent_addon.bake.registry",
     "translucent_addon.bake.surface", "translucent_addon.render.shaders", "translucent_addon.physics.dipole",
     "translucent_addon.physics.fresnel", "translucent_addon.physics.multipole", "translucent_addon.physics.lut",
-    "translucent_addon.reference.dipole_model",
+    "translucent_addon.reference.dipole_model", "translucent_addon.compare.conversion",
 ]
 
 

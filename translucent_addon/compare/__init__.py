@@ -1,0 +1,1 @@
+"""Comparison with Cycles and EEVEE: parameter conversions, metrics, charts, twin scenes."""
