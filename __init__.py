@@ -3,6 +3,7 @@
 Registration only: every class comes from an explicit tuple of its module.
 """
 from .operators import bake as _op_bake
+from .operators import compare as _op_compare
 from .operators import demo as _op_demo
 from .translucent_addon import props as _props
 from .translucent_addon import ui as _ui
@@ -13,6 +14,7 @@ from .translucent_addon.render import shaders as _shaders
 _classes = (
     *_props.classes,
     *_op_bake.classes,
+    *_op_compare.classes,
     *_op_demo.classes,
     *_engine.classes,
     *_ui.classes,

@@ -32,6 +32,7 @@ PURE_MODULES = [
     "translucent_addon.bake.surface", "translucent_addon.render.shaders", "translucent_addon.physics.dipole",
     "translucent_addon.physics.fresnel", "translucent_addon.physics.multipole", "translucent_addon.physics.lut",
     "translucent_addon.reference.dipole_model", "translucent_addon.compare.conversion",
+    "translucent_addon.compare.metrics", "translucent_addon.compare.cache", "translucent_addon.compare.report",
 ]
 
 
@@ -273,3 +274,40 @@ def test_bake_refuses_huge_meshes_and_names_the_count():
     huge = np.zeros((MAX_BAKE_TRIANGLES + 1, 3), np.int32)
     with pytest.raises(BakeInputError, match="2,000,001 triangles is more than a bake takes"):
         validate(_inputs(triangles=huge))
+
+
+# -- comparison metrics ------------------------------------------------------------------
+def test_metrics_on_known_images():
+    from translucent_addon.compare.metrics import median_relative_error, relative_rmse, ssim
+
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(0.2, 1.0, (32, 32, 4))
+    mask = np.zeros((32, 32), bool)
+    mask[8:24, 8:24] = True
+    assert relative_rmse(ref, ref, mask) == 0.0
+    assert ssim(ref, ref, mask) == pytest.approx(1.0)
+    assert relative_rmse(ref * 1.1, ref, mask) == pytest.approx(0.1)
+    # Outside the mask nothing counts.
+    other = ref.copy()
+    other[~mask] = 100.0
+    assert relative_rmse(other, ref, mask) == 0.0
+    # A firefly moves the RMSE a lot and the median not at all.
+    spiky = ref.copy()
+    spiky[10, 10, :3] = 1e4
+    assert relative_rmse(spiky, ref, mask) > 10 and median_relative_error(spiky, ref, mask) == 0.0
+    assert ssim(ref * 0.5, ref, mask) < 0.95
+    with pytest.raises(ValueError, match="selects no pixel"):
+        relative_rmse(ref, ref, np.zeros((32, 32), bool))
+
+
+def test_reference_cache_round_trip(tmp_path):
+    from translucent_addon.compare import cache
+
+    desc = {"scene": "a", "samples": 64}
+    assert cache.load(tmp_path, desc) is None
+    img = np.arange(24, dtype=np.float32).reshape(2, 3, 4)
+    cache.store(tmp_path, desc, img, 1.25)
+    got, seconds = cache.load(tmp_path, desc)
+    np.testing.assert_array_equal(got, img)
+    assert seconds == 1.25
+    assert cache.load(tmp_path, {"scene": "a", "samples": 65}) is None

@@ -62,3 +62,16 @@ def occluded(origins: np.ndarray, dirs: np.ndarray, t_max: np.ndarray, tris: np.
     """True where a triangle lies on the ray between t = 0 and t_max (exclusive)."""
     t, _, _, _ = closest_hit(origins, dirs, tris, t_min=0.0)
     return t < t_max
+
+
+class BruteForceTracer:
+    """Ray queries against a fixed triangle set, by brute force (small scenes)."""
+
+    def __init__(self, tris: np.ndarray):
+        self.tris = np.asarray(tris, dtype=np.float64).reshape(-1, 3, 3)
+
+    def closest_hit(self, origins, dirs):
+        return closest_hit(origins, dirs, self.tris)
+
+    def occluded(self, origins, dirs, t_max):
+        return occluded(origins, dirs, t_max, self.tris)

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ..geometry.camera import pixel_rays
-from ..geometry.raycast import closest_hit, occluded
+from ..geometry.raycast import BruteForceTracer
 from ..physics.dipole import R_d, R_d_disk, r_max
 from ..physics.fresnel import fresnel_dielectric
 from ..render.lights import DIRECTIONAL, unshadowed_irradiance
@@ -95,9 +95,8 @@ def near_field(rho: float, sigma_a, sigma_s_prime, eta) -> np.ndarray:
     return inner + np.trapz(f, r, axis=0)
 
 
-def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, all_tris) -> np.ndarray:
+def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, tracer, scale: float) -> np.ndarray:
     """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world."""
-    scale = max(float(np.ptp(all_tris.reshape(-1, 3), axis=0).max()), 1e-6) if len(all_tris) else 1.0
     p_off = points + normals * 1e-4 * scale
     E = np.zeros((len(points), 3))
     for e in frame.emitters:
@@ -106,7 +105,7 @@ def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, 
         if lit.any():
             t_max = np.full(len(points), np.inf) if e.kind == DIRECTIONAL else dist
             blocked = np.zeros(len(points), dtype=bool)
-            blocked[lit] = occluded(p_off[lit], to_light[lit], t_max[lit], all_tris)
+            blocked[lit] = tracer.occluded(p_off[lit], to_light[lit], t_max[lit])
             cos_i = np.einsum("ij,ij->i", normals, to_light)
             E += np.where(blocked[:, None], 0.0, E_e) * (1.0 - fresnel_dielectric(cos_i, medium.eta))[:, None]
     E += math.pi * np.asarray(frame.world_color) * hemispherical_transmittance(medium.eta)
@@ -114,16 +113,22 @@ def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, 
 
 
 def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 200_000,
-                  epsilon: float = 1e-3) -> np.ndarray:
-    """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base."""
+                  epsilon: float = 1e-3, tracer=None) -> np.ndarray:
+    """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
+
+    ``tracer`` answers ray queries over the frame's triangles in order (``closest_hit`` and
+    ``occluded``); by default a brute-force one, fine for test scenes of a few thousand triangles.
+    """
     from scipy.spatial import cKDTree
 
-    image = render_lambert(frame)
+    all_tris, _, _ = scene_triangles(frame)
+    tracer = tracer or BruteForceTracer(all_tris)
+    image = render_lambert(frame, tracer=tracer)
     cam = frame.camera
     origins, dirs = pixel_rays(cam.view_proj, cam.width, cam.height)
     origins, dirs = origins.reshape(-1, 3), dirs.reshape(-1, 3)
-    all_tris, _, _ = scene_triangles(frame)
-    t, tri, u, v = closest_hit(origins, dirs, all_tris)
+    scale = max(float(np.ptp(all_tris.reshape(-1, 3), axis=0).max()), 1e-6) if len(all_tris) else 1.0
+    t, tri, u, v = tracer.closest_hit(origins, dirs)
     offsets = np.cumsum([0] + [m.triangle_count for m in frame.meshes])
     flat = image.reshape(-1, 4)
     for k, mesh in enumerate(frame.meshes):
@@ -143,8 +148,8 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         cos_o = np.abs(np.einsum("ij,ij->i", n_o, -dirs[mine]))
         # Emitting points x_i.
         x_i, n_i, area = sample_surface(mesh, samples)
-        E_i = transmitted_irradiance(frame, x_i, n_i, medium, all_tris)
-        E_o = transmitted_irradiance(frame, x_o, n_o, medium, all_tris)
+        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale)
+        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale)
         mm = medium.mm_per_unit
         sa, ss = np.asarray(medium.sigma_a, float), np.asarray(medium.sigma_s_prime, float)
         area_mm2 = area * mm * mm

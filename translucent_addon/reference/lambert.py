@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ..geometry.camera import pixel_rays
-from ..geometry.raycast import closest_hit, occluded
+from ..geometry.raycast import BruteForceTracer
 from ..render.lights import DIRECTIONAL, unshadowed_irradiance
 from ..render.scene_data import FrameInputs
 
@@ -32,14 +32,18 @@ def scene_triangles(frame: FrameInputs):
     return tris, nors, cols
 
 
-def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4) -> np.ndarray:
-    """Linear RGBA image (height, width, 4) of the frame, row 0 at the bottom."""
+def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None) -> np.ndarray:
+    """Linear RGBA image (height, width, 4) of the frame, row 0 at the bottom.
+
+    ``tracer``: ray queries over ``scene_triangles(frame)`` (brute force by default).
+    """
     cam = frame.camera
     origins, dirs = pixel_rays(cam.view_proj, cam.width, cam.height)
     origins = origins.reshape(-1, 3)
     dirs = dirs.reshape(-1, 3)
     tris, nors, cols = scene_triangles(frame)
-    t, tri, u, v = closest_hit(origins, dirs, tris)
+    tracer = tracer or BruteForceTracer(tris)
+    t, tri, u, v = tracer.closest_hit(origins, dirs)
     hit = tri >= 0
     img = np.zeros((len(origins), 4))
     img[:, :3] = frame.world_color
@@ -66,7 +70,7 @@ def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4) -> np.ndarra
             if e.kind == DIRECTIONAL:
                 t_max = np.full(len(P), np.inf)
             blocked = np.zeros(len(P), dtype=bool)
-            blocked[lit] = occluded(P_off[lit], to_light[lit], t_max[lit], tris)
+            blocked[lit] = tracer.occluded(P_off[lit], to_light[lit], t_max[lit])
             E[blocked] = 0.0
         radiance += rho * E / math.pi
     img[hit, :3] = radiance

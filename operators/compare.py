@@ -1,0 +1,36 @@
+"""translucent.compare_cycles: our engine against Cycles and EEVEE, with report and chart."""
+import bpy
+
+from ..translucent_addon.compare import runner
+
+
+class TRANSLUCENT_OT_compare_cycles(bpy.types.Operator):
+    """Render the camera view with Translucent, Cycles (random walk, brute force) and EEVEE; write
+    report.json, images, error images and the speed-vs-accuracy chart"""
+
+    bl_idname = "translucent.compare_cycles"
+    bl_label = "Compare with Cycles"
+
+    output_dir: bpy.props.StringProperty(name="Output folder", subtype="DIR_PATH", default="//translucent_compare")
+    quick: bpy.props.BoolProperty(name="Quick", description="Few samples: a first look in minutes", default=False)
+    cache_dir: bpy.props.StringProperty(name="Cache folder", subtype="DIR_PATH", default="",
+                                        description="Where reference renders are cached (default: output/cache)")
+
+    def execute(self, context):
+        settings = runner.CompareSettings.quick() if self.quick else runner.CompareSettings()
+        settings.cache_dir = bpy.path.abspath(self.cache_dir) if self.cache_dir else ""
+        try:
+            entries, meta = runner.run(context.scene, self.output_dir, settings,
+                                       progress=lambda text: print(f"Translucent compare: {text}", flush=True))
+        except runner.CompareError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        ours = [e for e in entries if e.engine == "TRANSLUCENT_RT"]
+        best = min(ours, key=lambda e: e.rel_rmse) if ours else None
+        if best is not None:
+            self.report({"INFO"}, f"Translucent {best.settings['label']}: relative RMSE {best.rel_rmse:.3f}, "
+                                  f"{best.seconds:.2f} s; report in {self.output_dir}")
+        return {"FINISHED"}
+
+
+classes = (TRANSLUCENT_OT_compare_cycles,)

@@ -1,0 +1,65 @@
+"""Image error metrics over an object's pixels, in linear radiance. Pure NumPy/SciPy."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def _rgb(img):
+    return np.asarray(img, dtype=np.float64)[..., :3]
+
+
+def relative_rmse(image, reference, mask) -> float:
+    """sqrt(mean |I - R|^2) / sqrt(mean |R|^2) over the masked pixels and the three channels."""
+    mask = np.asarray(mask, dtype=bool)
+    if not mask.any():
+        raise ValueError("the mask selects no pixel: the object is not in view")
+    diff = _rgb(image)[mask] - _rgb(reference)[mask]
+    norm = np.sqrt(np.mean(_rgb(reference)[mask] ** 2))
+    if norm == 0:
+        raise ValueError("the reference is black over the object")
+    return float(np.sqrt(np.mean(diff**2)) / norm)
+
+
+def median_relative_error(image, reference, mask) -> float:
+    """Median over the masked pixels of |I - R| / mean(R) (luminance): robust to fireflies."""
+    return float(np.median(relative_error_image(image, reference, mask)[np.asarray(mask, bool)]))
+
+
+def luminance(img) -> np.ndarray:
+    rgb = _rgb(img)
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def ssim(image, reference, mask, sigma: float = 1.5) -> float:
+    """Mean SSIM (Wang et al. 2004, Gaussian window) of linear luminance over the masked pixels.
+
+    The dynamic range L is the reference's maximum over the mask (linear HDR has no fixed range).
+    """
+    from scipy.ndimage import gaussian_filter
+
+    mask = np.asarray(mask, dtype=bool)
+    x, y = luminance(image), luminance(reference)
+    L = float(y[mask].max()) if mask.any() else 1.0
+    c1, c2 = (0.01 * L) ** 2, (0.03 * L) ** 2
+    mu_x, mu_y = gaussian_filter(x, sigma), gaussian_filter(y, sigma)
+    sxx = gaussian_filter(x * x, sigma) - mu_x**2
+    syy = gaussian_filter(y * y, sigma) - mu_y**2
+    sxy = gaussian_filter(x * y, sigma) - mu_x * mu_y
+    s = ((2 * mu_x * mu_y + c1) * (2 * sxy + c2)) / ((mu_x**2 + mu_y**2 + c1) * (sxx + syy + c2))
+    return float(s[mask].mean())
+
+
+def relative_error_image(image, reference, mask) -> np.ndarray:
+    """Per-pixel |I - R| / mean(R) (luminance), zero outside the mask."""
+    mask = np.asarray(mask, dtype=bool)
+    err = np.abs(luminance(image) - luminance(reference))
+    scale = max(float(luminance(reference)[mask].mean()), 1e-12) if mask.any() else 1.0
+    return np.where(mask, err / scale, 0.0)
+
+
+def display(img, exposure: float = 1.0) -> np.ndarray:
+    """Linear radiance to 8-bit sRGB for looking (Reinhard on luminance-free RGB, then sRGB)."""
+    x = np.clip(_rgb(img) * exposure, 0.0, None)
+    x = x / (1.0 + x)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)

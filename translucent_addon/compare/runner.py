@@ -1,0 +1,294 @@
+"""Compare with Cycles: our engine, Cycles (random walk, brute force), EEVEE and the dipole model.
+
+Renders the scene camera's view at the scene resolution with every engine and quality setting,
+measures each against a reference over the pixels of the translucent objects, and writes
+report.json, the images, false-colour error images and the speed-vs-accuracy chart. The
+reference (Cycles random walk at many samples unless chosen otherwise) and the brute-force
+check are cached by a hash of everything that made them.
+Blender-facing: swaps twin materials onto the objects for the other engines and restores them.
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import os
+import platform
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ..geometry.camera import pixel_rays
+from ..reference.dipole_model import Medium, render_dipole
+from ..reference.lambert import scene_triangles
+from ..render import extract
+from . import cache, twin_materials
+from .bvh_tracer import BVHTracer
+from .metrics import median_relative_error, relative_rmse, ssim
+from .report import Entry, save_error_png, save_image_png, speed_accuracy_chart, write_report
+
+
+class CompareError(RuntimeError):
+    """The comparison cannot run; the message says what and why."""
+
+
+@dataclasses.dataclass
+class CompareSettings:
+    our_shadow_resolutions: tuple = (512, 1024, 2048)
+    cycles_random_walk_samples: tuple = (4, 16, 64, 256)
+    cycles_brute_force_samples: tuple = (16, 64, 256)
+    eevee_samples: tuple = (1, 4, 16, 64)
+    reference_samples: int = 1024  # Cycles random walk: the reference
+    brute_force_reference_samples: int = 1024  # the brute-force check of the reference (0: off)
+    model_reference_samples: int = 200_000  # CPU dipole model (0: off)
+    cycles_bounces: int = 1024
+    cache_dir: str = ""  # default: <output_dir>/cache
+
+    @classmethod
+    def quick(cls) -> "CompareSettings":
+        """Minutes-not-hours settings for tests and a first look."""
+        return cls(our_shadow_resolutions=(256, 512), cycles_random_walk_samples=(4, 16),
+                   cycles_brute_force_samples=(16,), eevee_samples=(1, 4), reference_samples=64,
+                   brute_force_reference_samples=64, model_reference_samples=20_000)
+
+
+def translucent_objects(scene) -> list:
+    return [ob for ob in scene.objects if ob.type == "MESH" and ob.visible_get()
+            and ob.translucent.method != "OFF"]
+
+
+# -- rendering through an engine -------------------------------------------------------
+def render_pixels(scene, width: int, height: int) -> tuple[np.ndarray, float]:
+    """F12 with the scene's engine: linear RGBA (height, width, 4) and the seconds it took."""
+    r = scene.render
+    saved = (r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
+             r.image_settings.file_format, r.image_settings.color_depth)
+    fd, path = tempfile.mkstemp(suffix=".exr")
+    os.close(fd)
+    try:
+        r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
+        r.image_settings.file_format = "OPEN_EXR"
+        r.image_settings.color_depth = "32"
+        r.filepath = path
+        t0 = time.perf_counter()
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+        seconds = time.perf_counter() - t0
+        image = bpy.data.images.load(path)
+        try:
+            px = np.empty(len(image.pixels), np.float32)
+            image.pixels.foreach_get(px)
+        finally:
+            bpy.data.images.remove(image)
+        return px.reshape(height, width, 4), seconds
+    finally:
+        (r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
+         r.image_settings.file_format, r.image_settings.color_depth) = saved
+        os.remove(path)
+
+
+@contextlib.contextmanager
+def engine_setup(scene, engine: str, **options):
+    """Set the render engine and its options for the duration of a block, then restore."""
+    saved_engine = scene.render.engine
+    saved = {}
+    target = {"CYCLES": scene.cycles, "BLENDER_EEVEE": scene.eevee}.get(engine)
+    try:
+        scene.render.engine = engine
+        for name, value in options.items():
+            owner, attr = (scene.translucent, name[len("translucent_"):]) if name.startswith("translucent_") \
+                else (target, name)
+            saved[(id(owner), attr)] = (owner, attr, getattr(owner, attr))
+            setattr(owner, attr, value)
+        yield
+    finally:
+        for owner, attr, value in saved.values():
+            setattr(owner, attr, value)
+        scene.render.engine = saved_engine
+
+
+@contextlib.contextmanager
+def twin_materials_applied(objects, kind: str):
+    """Give each translucent object the twin material of its medium, restore afterwards."""
+    saved = []
+    made = []
+    try:
+        for ob in objects:
+            s = ob.translucent
+            mat = getattr(twin_materials, kind)(f"{ob.name} ({kind})", tuple(s.sigma_a), tuple(s.sigma_s_prime),
+                                                s.eta, s.g, s.mm_per_unit)
+            made.append(mat)
+            saved.append((ob, [slot.material for slot in ob.material_slots]))
+            if not ob.material_slots:
+                ob.data.materials.append(None)
+            for slot in ob.material_slots:
+                slot.material = mat
+        yield
+    finally:
+        for ob, mats in saved:
+            if not mats:
+                ob.data.materials.clear()
+            for slot, mat in zip(ob.material_slots, mats):
+                slot.material = mat
+        for mat in made:
+            bpy.data.materials.remove(mat)
+
+
+def cycles_options(samples: int, bounces: int, seed: int = 1) -> dict:
+    return dict(device="CPU", samples=samples, use_adaptive_sampling=False, use_denoising=False, seed=seed,
+                max_bounces=bounces, volume_bounces=bounces, transmission_bounces=bounces, glossy_bounces=bounces,
+                diffuse_bounces=bounces, transparent_max_bounces=bounces, caustics_reflective=True,
+                caustics_refractive=True, blur_glossy=0.0, sample_clamp_direct=0.0, sample_clamp_indirect=0.0,
+                pixel_filter_type="BOX")
+
+
+def eevee_options(samples: int) -> dict:
+    return dict(taa_render_samples=samples)
+
+
+# -- what the renders depend on (cache keys) -----------------------------------------------
+def scene_description(depsgraph, frame, objects) -> dict:
+    """Everything of the scene that a render depends on, as hashable values."""
+    h = hashlib.blake2b(digest_size=12)
+    for m in frame.meshes:
+        h.update(m.key.encode())
+        h.update(np.asarray(m.model, np.float64).tobytes())
+    for e in frame.emitters:
+        h.update(repr(e).encode())
+    h.update(np.asarray(frame.camera.view_proj).tobytes())
+    media = {ob.name: [list(ob.translucent.sigma_a), list(ob.translucent.sigma_s_prime), ob.translucent.eta,
+                       ob.translucent.g, ob.translucent.mm_per_unit] for ob in objects}
+    return {"geometry_lights_camera": h.hexdigest(), "world": list(map(float, frame.world_color)), "media": media,
+            "size": [frame.camera.width, frame.camera.height], "blender": bpy.app.version_string}
+
+
+def _mask(frame, tracer, names: set[str]) -> np.ndarray:
+    cam = frame.camera
+    origins, dirs = pixel_rays(cam.view_proj, cam.width, cam.height)
+    _, tri, _, _ = tracer.closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3))
+    owner = np.full(len(tri), -1)
+    offsets = np.cumsum([0] + [m.triangle_count for m in frame.meshes])
+    hit = tri >= 0
+    owner[hit] = np.searchsorted(offsets, tri[hit], side="right") - 1
+    wanted = np.array([m.name in names for m in frame.meshes] + [False])
+    return wanted[owner].reshape(cam.height, cam.width)
+
+
+def run(scene, output_dir, settings: CompareSettings | None = None, progress=print):
+    """Run the whole comparison; returns (entries, meta) and writes everything into output_dir."""
+    settings = settings or CompareSettings()
+    out = Path(bpy.path.abspath(str(output_dir)))
+    out.mkdir(parents=True, exist_ok=True)
+    cache_dir = Path(settings.cache_dir) if settings.cache_dir else out / "cache"
+    if scene.camera is None:
+        raise CompareError("the scene has no active camera: the comparison renders the camera's view")
+    objects = translucent_objects(scene)
+    if not objects:
+        raise CompareError("no visible object has a translucency method (Object > Translucent > Method)")
+    scale = scene.render.resolution_percentage / 100
+    width, height = max(1, int(scene.render.resolution_x * scale)), max(1, int(scene.render.resolution_y * scale))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tris, _, _ = scene_triangles(frame)
+    tracer = BVHTracer(tris)
+    names = {ob.name for ob in objects}
+    mask = _mask(frame, tracer, names)
+    if not mask.any():
+        raise CompareError("the translucent objects are not in the camera's view")
+    description = scene_description(depsgraph, frame, objects)
+    images: dict[str, np.ndarray] = {}
+    entries: list[Entry] = []
+
+    def add(series, engine, label, seconds, image, cached=False, **extra):
+        key = f"{series} {label}".strip()
+        images[key] = image
+        entries.append(Entry(series=series, engine=engine, settings={"label": label, **extra}, seconds=seconds,
+                             reference="", cached=cached))
+
+    def cached_cycles(kind, samples):
+        desc = {**description, "engine": "CYCLES", "kind": kind, "samples": samples,
+                "bounces": settings.cycles_bounces}
+        hit = cache.load(cache_dir, desc)
+        if hit is not None:
+            progress(f"Cycles {kind} {samples} spp: from the cache")
+            return hit[0], hit[1], True
+        with twin_materials_applied(objects, kind), \
+                engine_setup(scene, "CYCLES", **cycles_options(samples, settings.cycles_bounces)):
+            progress(f"Cycles {kind} {samples} spp ...")
+            image, seconds = render_pixels(scene, width, height)
+        cache.store(cache_dir, desc, image, seconds)
+        return image, seconds, False
+
+    # The reference first, so that every other render is measured against it.
+    ref_name = f"Cycles random walk {settings.reference_samples} spp"
+    ref_image, ref_seconds, ref_cached = cached_cycles("random_walk", settings.reference_samples)
+    add("Cycles random walk (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
+        ref_cached, samples=settings.reference_samples)
+    if settings.brute_force_reference_samples:
+        img, sec, hit = cached_cycles("brute_force", settings.brute_force_reference_samples)
+        add("Cycles brute force (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp", sec, img, hit,
+            samples=settings.brute_force_reference_samples)
+    for spp in settings.cycles_random_walk_samples:
+        img, sec, hit = cached_cycles("random_walk", spp)
+        add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
+    for spp in settings.cycles_brute_force_samples:
+        img, sec, hit = cached_cycles("brute_force", spp)
+        add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
+    for spp in settings.eevee_samples:
+        with twin_materials_applied(objects, "random_walk"), engine_setup(scene, "BLENDER_EEVEE", **eevee_options(spp)):
+            progress(f"EEVEE {spp} samples ...")
+            img, sec = render_pixels(scene, width, height)
+        add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
+    methods = sorted({ob.translucent.method for ob in objects})
+    for texels in settings.our_shadow_resolutions:
+        with engine_setup(scene, "TRANSLUCENT_RT", translucent_shadow_resolution=texels):
+            progress(f"Translucent ({', '.join(methods)}) shadow {texels} ...")
+            img, sec = render_pixels(scene, width, height)
+        add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", f"shadow {texels}", sec, img,
+            shadow_resolution=texels, methods=methods)
+    if settings.model_reference_samples:
+        media = {ob.name: Medium(tuple(ob.translucent.sigma_a), tuple(ob.translucent.sigma_s_prime),
+                                 ob.translucent.eta, ob.translucent.mm_per_unit) for ob in objects}
+        progress(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
+        t0 = time.perf_counter()
+        img = render_dipole(frame, media, samples=settings.model_reference_samples, tracer=tracer)
+        add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{settings.model_reference_samples // 1000}k samples",
+            time.perf_counter() - t0, img, samples=settings.model_reference_samples)
+
+    for e in entries:
+        key = f"{e.series} {e.settings['label']}".strip()
+        img = images[key]
+        slug = "".join(c if c.isalnum() else "_" for c in key).strip("_").lower()
+        e.image = f"{slug}.png"
+        save_image_png(out / e.image, img)
+        if e.series.endswith("(reference)"):
+            e.reference = "itself"
+            continue
+        e.reference = ref_name
+        e.rel_rmse = relative_rmse(img, ref_image, mask)
+        e.ssim = ssim(img, ref_image, mask)
+        e.median_rel_error = median_relative_error(img, ref_image, mask)
+        e.error_image = f"{slug}_error.png"
+        save_error_png(out / e.error_image, img, ref_image, mask)
+    meta = {
+        "scene": scene.name, "size": [width, height], "objects": sorted(names), "reference": ref_name,
+        "mask_pixels": int(mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
+        "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels",
+    }
+    write_report(out / "report.json", entries, meta)
+    speed_accuracy_chart(entries, out / "chart.png", f"{scene.name}: speed against accuracy ({width}x{height}); "
+                                                      f"reference {ref_name}")
+    progress(f"wrote {out / 'report.json'} and {out / 'chart.png'}")
+    return entries, meta
+
+
+def machine_description() -> dict:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), cpu)
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "system": platform.platform(), "python": platform.python_version()}
