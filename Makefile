@@ -29,5 +29,8 @@ demo: $(STAMP)
 test: extension
 	$(PY) -m pytest tests
 
+bench: $(STAMP)
+	$(PY) scripts/bench.py
+
 clean:
 	rm -rf dist wheels out .pytest_cache

@@ -7,10 +7,7 @@ out/demo.exr (linear float), out/demo.png (display-referred) and out/demo.blend.
 from __future__ import annotations
 
 import argparse
-import os
-import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -26,20 +23,12 @@ def main() -> int:
     out = (ROOT / args.output).resolve()
     out.mkdir(parents=True, exist_ok=True)
 
-    user = tempfile.mkdtemp(prefix="translucent-demo-user-")
-    for var in ("BLENDER_USER_CONFIG", "BLENDER_USER_SCRIPTS", "BLENDER_USER_EXTENSIONS"):
-        os.environ[var] = os.path.join(user, var.split("_")[-1].lower())
-    import bpy
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import blender_env
 
-    # Link this checkout as an extension of a temporary local repository.
-    repo_dir = Path(user) / "repo"
-    repo_dir.mkdir()
-    (repo_dir / "translucent").symlink_to(ROOT, target_is_directory=True)
-    repo = bpy.context.preferences.extensions.repos.new(name="demo", module="demo_repo",
-                                                        custom_directory=str(repo_dir))
-    repo.use_custom_directory = True
-    bpy.ops.preferences.addon_enable(module="bl_ext.demo_repo.translucent")
-    from bl_ext.demo_repo.translucent.translucent_addon.demo import build_default_scene
+    blender_env.start()
+    import bpy
+    from bl_ext.checkout_repo.translucent.translucent_addon.demo import build_default_scene
 
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = build_default_scene(bpy.context.scene)
@@ -51,7 +40,6 @@ def main() -> int:
         t0 = time.perf_counter()
         bpy.ops.render.render(write_still=True)
         print(f"wrote {out / name} ({args.width}x{args.height}, {time.perf_counter() - t0:.2f} s)")
-    shutil.rmtree(user, ignore_errors=True)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""The bundled default scene: a back-lit marble Stanford bunny on a ground plane."""
+"""The bundled scenes: the default back-lit marble bunny and the benchmark set."""
 from __future__ import annotations
 
 import math
@@ -48,48 +48,65 @@ def _aim(ob, target: Vector) -> None:
     ob.rotation_euler = (target - ob.location).to_track_quat("-Z", "Y").to_euler()
 
 
-def build_default_scene(scene: bpy.types.Scene | None = None) -> bpy.types.Scene:
-    """Fill a scene (a new one by default) with the demo and make it use our engine."""
-    scene = scene or bpy.data.scenes.new("Translucent Demo")
-    coll = scene.collection
+# The scene set of DESIGN.md section 5 that exists so far: mesh, preset, size (largest extent, m), key light.
+SCENES = {
+    "bunny_backlit": dict(mesh="bunny", preset="marble", size=0.15, key="BACK"),
+    "bunny_frontlit": dict(mesh="bunny", preset="marble", size=0.15, key="FRONT"),
+    "cow_backlit": dict(mesh="cow", preset="skin1", size=0.25, key="BACK"),
+    "spot_frontlit": dict(mesh="spot", preset="potato", size=0.15, key="FRONT"),
+}
 
-    bunny = bpy.data.objects.new("Bunny", bundled_mesh("bunny"))
-    bunny.rotation_euler = (math.pi / 2, 0.0, 0.0)  # the scan is Y-up, Blender is Z-up
-    coll.objects.link(bunny)
-    bunny.data.shade_smooth()
-    bunny.data.materials.append(_material("Marble", (0.83, 0.79, 0.75)))
-    settings = bunny.translucent
-    settings.preset = "marble"
-    apply_preset(settings, "marble")
-    settings.mm_per_unit = 1000.0  # the scan is in metres: 15 cm tall
+
+def build_scene(name: str, scene: bpy.types.Scene | None = None) -> bpy.types.Scene:
+    """One scene of the set: the mesh on a ground plane, a key spot (behind or in front), a fill, a camera."""
+    spec = SCENES[name]
+    scene = scene or bpy.data.scenes.new(f"Translucent {name}")
+    coll = scene.collection
+    size = spec["size"]
+
+    ob = bpy.data.objects.new(spec["mesh"].capitalize(), bundled_mesh(spec["mesh"]))
+    ob.rotation_euler = (math.pi / 2, 0.0, 0.0)  # the meshes are Y-up, Blender is Z-up
+    coll.objects.link(ob)
+    ob.data.shade_smooth()
+    ob.data.materials.append(_material(spec["preset"].capitalize(), (0.83, 0.79, 0.75)))
+    extent = np.ptp(np.array([Vector(c) for c in ob.bound_box]), axis=0).max()
+    ob.scale = (size / extent,) * 3
+    settings = ob.translucent
+    settings.preset = spec["preset"]
+    apply_preset(settings, spec["preset"])
+    settings.mm_per_unit = 1000.0  # metres
     # Stand it on z = 0, centred on the origin.
-    corners = np.array([bunny.matrix_basis @ Vector(c) for c in bunny.bound_box])
-    bunny.location = (-corners[:, 0].mean(), -corners[:, 1].mean(), -corners[:, 2].min())
-    centre = Vector((0.0, 0.0, float(np.ptp(corners[:, 2])) * 0.5))
+    corners = np.array([ob.matrix_basis @ Vector(c) for c in ob.bound_box])
+    ob.location = (-corners[:, 0].mean(), -corners[:, 1].mean(), -corners[:, 2].min())
+    height = float(np.ptp(corners[:, 2]))
+    centre = Vector((0.0, 0.0, height * 0.5))
 
     ground = bpy.data.objects.new("Ground", bpy.data.meshes.new("Ground"))
-    ground.data.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    g = 7.0 * size
+    ground.data.from_pydata([(-g, -g, 0), (g, -g, 0), (g, g, 0), (-g, g, 0)], [], [(0, 1, 2, 3)])
     ground.data.materials.append(_material("Ground", (0.35, 0.35, 0.37)))
     coll.objects.link(ground)
 
-    back = bpy.data.objects.new("Back Light", bpy.data.lights.new("Back Light", "SPOT"))
-    back.data.energy = 60.0
-    back.data.spot_size = math.radians(50)
-    back.data.spot_blend = 0.3
-    back.location = (-0.08, 0.45, 0.32)
-    _aim(back, centre)
-    coll.objects.link(back)
+    k = size / 0.15  # light distances scale with the object; powers with their square
+    key = bpy.data.objects.new("Key Light", bpy.data.lights.new("Key Light", "SPOT"))
+    key.data.energy = 60.0 * k * k
+    key.data.spot_size = math.radians(50)
+    key.data.spot_blend = 0.3
+    key.data.shadow_soft_size = 0.005 * k
+    key.location = (Vector((-0.08, 0.45, 0.32)) if spec["key"] == "BACK" else Vector((-0.35, -0.4, 0.4))) * k
+    _aim(key, centre)
+    coll.objects.link(key)
 
     fill = bpy.data.objects.new("Fill Light", bpy.data.lights.new("Fill Light", "AREA"))
-    fill.data.energy = 2.5
-    fill.data.size = 0.3
-    fill.location = (0.45, -0.35, 0.35)
+    fill.data.energy = 2.5 * k * k
+    fill.data.size = 0.3 * k
+    fill.location = Vector((0.45, -0.35, 0.35)) * k
     _aim(fill, centre)
     coll.objects.link(fill)
 
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.data.lens = 50
-    cam.location = (0.12, -0.62, 0.2)
+    cam.location = Vector((0.12, -0.62, 0.2)) * k
     _aim(cam, centre)
     coll.objects.link(cam)
     scene.camera = cam
@@ -106,4 +123,10 @@ def build_default_scene(scene: bpy.types.Scene | None = None) -> bpy.types.Scene
     scene.render.engine = "TRANSLUCENT_RT"
     scene.render.resolution_x, scene.render.resolution_y = 640, 480
     scene.render.resolution_percentage = 100
+    return scene
+
+
+def build_default_scene(scene: bpy.types.Scene | None = None) -> bpy.types.Scene:
+    """The bundled default scene: a back-lit marble Stanford bunny (15 cm) on a ground plane."""
+    scene = build_scene("bunny_backlit", scene or bpy.data.scenes.new("Translucent Demo"))
     return scene

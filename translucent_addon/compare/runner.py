@@ -39,10 +39,10 @@ class CompareError(RuntimeError):
 class CompareSettings:
     our_shadow_resolutions: tuple = (512, 1024, 2048)
     cycles_random_walk_samples: tuple = (4, 16, 64, 256)
-    cycles_brute_force_samples: tuple = (16, 64, 256)
+    cycles_brute_force_samples: tuple = (16, 64)
     eevee_samples: tuple = (1, 4, 16, 64)
     reference_samples: int = 1024  # Cycles random walk: the reference
-    brute_force_reference_samples: int = 1024  # the brute-force check of the reference (0: off)
+    brute_force_reference_samples: int = 256  # the brute-force check of the reference (0: off)
     model_reference_samples: int = 200_000  # CPU dipole model (0: off)
     cycles_bounces: int = 1024
     cache_dir: str = ""  # default: <output_dir>/cache
@@ -176,15 +176,18 @@ def _mask(frame, tracer, names: set[str]) -> np.ndarray:
     return wanted[owner].reshape(cam.height, cam.width)
 
 
-def run(scene, output_dir, settings: CompareSettings | None = None, progress=print):
-    """Run the whole comparison; returns (entries, meta) and writes everything into output_dir."""
+def run(scene, output_dir, settings: CompareSettings | None = None, progress=print, objects=None):
+    """Run the whole comparison; returns (entries, meta) and writes everything into output_dir.
+
+    ``objects``: the objects whose medium is compared (default: every visible mesh with a method).
+    """
     settings = settings or CompareSettings()
     out = Path(bpy.path.abspath(str(output_dir)))
     out.mkdir(parents=True, exist_ok=True)
     cache_dir = Path(settings.cache_dir) if settings.cache_dir else out / "cache"
     if scene.camera is None:
         raise CompareError("the scene has no active camera: the comparison renders the camera's view")
-    objects = translucent_objects(scene)
+    objects = list(objects) if objects is not None else translucent_objects(scene)
     if not objects:
         raise CompareError("no visible object has a translucency method (Object > Translucent > Method)")
     scale = scene.render.resolution_percentage / 100
