@@ -1,8 +1,8 @@
-/* Base pass: Lambert shading of the material's base colour.
- * mode 0: world term rho * L_world (also lays down depth);
- * mode 1: one emitter, rho / pi * E * V, added with additive blending.
- * E follows translucent_addon/render/lights.py (Cycles' light units), V is a
- * hard shadow-map test with a normal offset of shadow.z texels. */
+/* Base pass. Lambert objects: rho * L_world (mode 0), rho / pi * E * V per emitter (mode 1).
+ * Subsurface objects (shading.x > 0): the world term F_r L_w + F_t(w_o) L_w R_d (1 - F_dr,in)
+ * M_i (a uniform world over a locally flat surface), and per emitter the near field of the
+ * profile F_t(w_o) / pi * E F_t(w_i) V * near(M_d) * M_i (the far field is splatted by
+ * IMAGE_SPACE). The painted mask m blends subsurface (m = 1) and Lambert (m = 0). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -10,25 +10,13 @@ void main()
   v_world = world.xyz;
   v_normal = mat3(object.normal_matrix) * nor;
   v_color = col;
+  v_paint = paint;
+  v_tint = tint;
   gl_Position = frame.view_proj * world;
 }
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
-#define PI 3.14159265358979
-
-int cube_face(vec3 d)
-{
-  vec3 a = abs(d);
-  if (a.x >= a.y && a.x >= a.z) {
-    return d.x > 0.0 ? 0 : 1;
-  }
-  if (a.y >= a.z) {
-    return d.y > 0.0 ? 2 : 3;
-  }
-  return d.z > 0.0 ? 4 : 5;
-}
-
 float visibility(vec3 p, vec3 n)
 {
   if (light.shadow.w < 0.5) {
@@ -55,38 +43,55 @@ float visibility(vec3 p, vec3 n)
   return (here - 0.5 * texel_world <= stored) ? 1.0 : 0.0;
 }
 
+/* near(M) of a slot, linear in M over [0.25, 1] (physics/lut.py image_space_tables). */
+vec3 near_field(int slot, float M)
+{
+  int n = textureSize(near_lut, 0).x;
+  float x = clamp((M - 0.25) / 0.75, 0.0, 1.0) * float(n - 1);
+  int i0 = int(floor(x));
+  int i1 = min(i0 + 1, n - 1);
+  return mix(texelFetch(near_lut, ivec2(i0, slot), 0).rgb, texelFetch(near_lut, ivec2(i1, slot), 0).rgb,
+             x - float(i0));
+}
+
 void main()
 {
   vec3 n = normalize(v_normal);
   if (!gl_FrontFacing) {
     n = -n;
   }
+  int slot = int(object.shading.x + 0.5) - 1;
+  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
+                                                  normalize(frame.camera_position.xyz - v_world);
+  float cos_o = max(dot(n, to_eye), 0.0);
+  float m = (slot >= 0) ? v_paint.x : 0.0;
+  vec3 modulation = v_paint.z * v_tint; /* M_i: glow and tint */
   if (mode == 0) {
-    out_color = vec4(v_color * frame.world_color.rgb, 1.0);
+    vec3 lambert = v_color * frame.world_color.rgb;
+    vec3 sss = vec3(0.0);
+    if (slot >= 0) {
+      float eta = materials.params[2 * slot].w;
+      float F_r = fresnel_dielectric(cos_o, eta);
+      sss = frame.world_color.rgb * (F_r + (1.0 - F_r) * materials.params[2 * slot + 1].rgb * modulation);
+    }
+    out_color = vec4(mix(lambert, sss, m), 1.0);
     return;
   }
-  vec3 irradiance;
   vec3 to_light;
-  if (light.position_kind.w < 0.5) {
-    to_light = -light.direction.xyz;
-    irradiance = light.radiance.rgb * max(dot(n, to_light), 0.0);
+  vec3 radiance = emitter_irradiance(v_world, to_light);
+  float cos_i = dot(n, to_light);
+  if (cos_i <= 0.0 || max(radiance.r, max(radiance.g, radiance.b)) <= 0.0) {
+    discard;
   }
-  else {
-    vec3 d = light.position_kind.xyz - v_world;
-    float dist = length(d);
-    to_light = d / dist;
-    float cos_axis = dot(-to_light, light.direction.xyz);
-    float lobe = 1.0;
-    if (light.cone.x >= -1.0) {
-      lobe = (light.cone.y > 0.0) ? smoothstep(0.0, 1.0, (cos_axis - light.cone.x) / light.cone.y) :
-                                    float(cos_axis > light.cone.x);
-    }
-    if (light.cone.z > 0.5) {
-      lobe *= max(cos_axis, 0.0);
-    }
-    irradiance = light.radiance.rgb * lobe * max(dot(n, to_light), 0.0) / (dist * dist);
+  vec3 E = radiance * cos_i * visibility(v_world, n);
+  vec3 lambert = v_color * E / PI;
+  vec3 sss = vec3(0.0);
+  if (slot >= 0) {
+    float eta = materials.params[2 * slot].w;
+    float M = clamp(v_paint.y, 0.25, 1.0);
+    sss = (1.0 - fresnel_dielectric(cos_o, eta)) / PI * E * (1.0 - fresnel_dielectric(cos_i, eta)) *
+          near_field(slot, M) * modulation;
   }
-  float v = (max(irradiance.r, max(irradiance.g, irradiance.b)) > 0.0) ? visibility(v_world, n) : 0.0;
-  out_color = vec4(v_color * irradiance * v / PI, 0.0);
+  out_color = vec4(mix(lambert, sss, m), 0.0);
 }
 #endif

@@ -1,21 +1,32 @@
 /* Uniform blocks shared by every pass (std140). Packed on the CPU by
- * translucent_addon/render/blocks.py: keep the two in step. */
+ * translucent_addon/render/blocks.py and render/methods/image_space_data.py: keep them in step. */
 struct FrameData {
   mat4 view_proj;
+  mat4 view;
+  mat4 proj;
   vec4 world_color;     /* rgb: uniform world radiance */
-  vec4 camera_position; /* xyz */
+  vec4 camera_position; /* xyz; w: 1 for an orthographic camera */
+  vec4 camera_forward;  /* xyz: view direction (orthographic cameras) */
 };
 
 struct ObjectData {
   mat4 model;
   mat4 normal_matrix; /* inverse transpose of model's 3x3, padded */
+  vec4 shading;       /* x: subsurface material slot + 1 (0: Lambert) */
 };
 
 struct LightData {
-  mat4 face_view_proj[6]; /* shadow cube faces +X -X +Y -Y +Z -Z; face 0 only for directional */
-  vec4 position_kind;     /* xyz: position (point) or shadow origin (directional); w: 0 dir, 1 point */
+  mat4 face_view_proj[6]; /* cube faces +X -X +Y -Y +Z -Z; face 0 only for directional */
+  vec4 position_kind;     /* xyz: position (point) or map origin (directional); w: 0 dir, 1 point */
   vec4 direction;         /* xyz: unit emission axis */
   vec4 radiance;          /* rgb: irradiance (directional) or on-axis intensity W/sr (point) */
   vec4 cone;              /* x: cos half angle (< -1: none), y: blend width, z: cosine lobe flag */
-  vec4 shadow;            /* x: texels per face, y: scene radius, z: normal offset in texels, w: enabled */
+  vec4 shadow;            /* x: texels per face, y: scene radius, z: normal offset in texels,
+                           * w: shadows on; for light-view samples x: texels, y: texel measure */
+};
+
+struct MaterialsData {
+  /* per subsurface slot k: [2k] (mm per unit, r_max mm, rho mm, eta),
+   *                         [2k + 1] (R_d (1 - F_dr,in) rgb, k) */
+  vec4 params[64];
 };

@@ -8,9 +8,7 @@ table; tests/test_cycles_conversion.py re-measures points of it against the Cycl
 """
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +24,7 @@ def measure(A: float, eta: float, samples: int = 1024) -> float:
     import bpy
 
     from translucent_addon.compare import slab_scene
+    from translucent_addon.compare.runner import render_pixels
     from translucent_addon.physics.fresnel import fresnel_dielectric
 
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -47,30 +46,9 @@ def measure(A: float, eta: float, samples: int = 1024) -> float:
     tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
     slab_scene.build(scene, mat)
     slab_scene.configure_cycles(scene, samples, bounces=64)
-    L = float(slab_scene.mean_radiance(render(scene)).mean())
+    L = float(slab_scene.mean_radiance(render_pixels(scene, 8, 8)[0]).mean())
     F0 = float(fresnel_dielectric(1.0, eta))
     return (L - F0) / (1.0 - F0)
-
-
-def render(scene, size: int = 8) -> np.ndarray:
-    import bpy
-
-    scene.render.resolution_x = scene.render.resolution_y = size
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    fd, path = tempfile.mkstemp(suffix=".exr")
-    os.close(fd)
-    try:
-        scene.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-        img = bpy.data.images.load(path)
-        px = np.empty(len(img.pixels), np.float32)
-        img.pixels.foreach_get(px)
-        bpy.data.images.remove(img)
-        return px.reshape(size, size, 4)
-    finally:
-        os.remove(path)
 
 
 def main() -> None:

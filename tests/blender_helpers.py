@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 
 import bpy
 import numpy as np
@@ -81,24 +79,9 @@ def add_camera(scene, location, target, lens=35.0):
 
 def render(scene, width=96, height=96) -> np.ndarray:
     """F12 through the scene's engine; linear RGBA (height, width, 4), row 0 at the bottom."""
-    scene.render.resolution_x, scene.render.resolution_y = width, height
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    fd, path = tempfile.mkstemp(suffix=".exr")
-    os.close(fd)
-    try:
-        scene.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-        image = bpy.data.images.load(path)
-        try:
-            pixels = np.empty(len(image.pixels), np.float32)
-            image.pixels.foreach_get(pixels)
-            return pixels.reshape(height, width, 4)
-        finally:
-            bpy.data.images.remove(image)
-    finally:
-        os.remove(path)
+    from translucent_addon.compare.runner import render_pixels
+
+    return render_pixels(scene, width, height)[0]
 
 
 def lit_cube_scene(scene):

@@ -89,9 +89,9 @@ def test_scene_without_camera_is_a_clear_error(scene):
 def test_unavailable_method_is_drawn_as_base_with_a_warning(tr, scene):
     lit_cube_scene(scene)
     cube = bpy.data.objects["Cube"]
-    cube.translucent.method = "IMAGE_SPACE"
+    cube.translucent.method = "GEOCUBE"
     frame = _frame_of(tr, scene, 16, 16)
-    assert "'Cube': method IMAGE_SPACE is not available in this version; drawn with its base colour" in frame.warnings
+    assert "'Cube': method GEOCUBE is not available in this version; drawn with its base colour" in frame.warnings
     cube.translucent.method = "TEXTURE_SPACE"
     frame = _frame_of(tr, scene, 16, 16)
     assert "'Cube': TEXTURE_SPACE bake is missing; drawn with its base colour. Press Bake" in frame.warnings

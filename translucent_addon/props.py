@@ -84,6 +84,25 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         name="Area light samples", description="Area lights are drawn as n x n point emitters", min=1, max=8,
         default=2,
     )
+    splat_threshold: bpy.props.FloatProperty(
+        name="Splat threshold",
+        description="IMAGE_SPACE: share of the profile's energy beyond the splat radius (Shah Eq. 6.16)",
+        min=1e-4, max=0.2, default=0.01, precision=3,
+    )
+    splat_overlap: bpy.props.FloatProperty(
+        name="Splat overlap",
+        description="IMAGE_SPACE: light-view samples per splat radius; more is smoother and slower",
+        min=2.0, max=128.0, default=16.0,
+    )
+    splat_max_grid: bpy.props.IntProperty(
+        name="Max samples per side",
+        description="IMAGE_SPACE: light-view samples per face side, at most",
+        min=16, max=4096, default=512,
+    )
+    capture_passes: bpy.props.BoolProperty(
+        name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",
+        default=False, options={"HIDDEN"},
+    )
     overlay_other_engines: bpy.props.BoolProperty(
         name="Draw in other engines",
         description="Draw objects with a translucency method over the viewport of other render engines",

@@ -16,7 +16,6 @@ between objects), as in the GPU methods.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -26,16 +25,8 @@ from ..geometry.raycast import BruteForceTracer
 from ..physics.dipole import R_d, R_d_disk, r_max
 from ..physics.fresnel import fresnel_dielectric
 from ..render.lights import DIRECTIONAL, unshadowed_irradiance
-from ..render.scene_data import FrameInputs, MeshInstance
+from ..render.scene_data import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-exported)
 from .lambert import render_lambert, scene_triangles
-
-
-@dataclasses.dataclass(frozen=True)
-class Medium:
-    sigma_a: tuple  # mm^-1, RGB
-    sigma_s_prime: tuple  # mm^-1, RGB
-    eta: float
-    mm_per_unit: float
 
 
 def hemispherical_transmittance(eta: float, n: int = 4096) -> float:

@@ -12,8 +12,8 @@ import numpy as np
 
 from .lights import DIRECTIONAL, Emitter
 
-FRAME_FLOATS = 16 + 4 + 4
-OBJECT_FLOATS = 16 + 16
+FRAME_FLOATS = 3 * 16 + 3 * 4
+OBJECT_FLOATS = 16 + 16 + 4
 LIGHT_FLOATS = 6 * 16 + 5 * 4
 
 # Cube faces +X -X +Y -Y +Z -Z: (forward, up). The lookup picks the face by the
@@ -93,16 +93,26 @@ def cube_face(d) -> int:
     return 4 if d[2] > 0 else 5
 
 
-def frame_block(view_proj, world_color, camera_position) -> bytes:
+def frame_block(view, projection, world_color) -> bytes:
+    """FrameData: view_proj, view, proj, world colour, camera position (w: orthographic), forward."""
+    view = np.asarray(view, np.float64)
+    projection = np.asarray(projection, np.float64)
     data = np.zeros(FRAME_FLOATS, np.float32)
-    data[:16] = _mat(view_proj)
-    data[16:19] = world_color
-    data[20:23] = camera_position
+    data[0:16] = _mat(projection @ view)
+    data[16:32] = _mat(view)
+    data[32:48] = _mat(projection)
+    data[48:51] = world_color
+    inv = np.linalg.inv(view)
+    data[52:55] = inv[:3, 3]
+    data[55] = 1.0 if projection[3, 3] == 1.0 else 0.0
+    data[56:59] = -inv[:3, 2]
     return data.tobytes()
 
 
-def object_block(model, normal_matrix) -> bytes:
-    return np.concatenate([_mat(model), _mat(normal_matrix)]).astype(np.float32).tobytes()
+def object_block(model, normal_matrix, subsurface_slot: int = -1) -> bytes:
+    """ObjectData: model, normal matrix, shading (x: subsurface slot + 1, 0 for Lambert)."""
+    shading = np.array([subsurface_slot + 1, 0, 0, 0], np.float32)
+    return np.concatenate([_mat(model), _mat(normal_matrix), shading]).astype(np.float32).tobytes()
 
 
 def light_block(e: Emitter, faces: np.ndarray, origin, texels: int, radius: float, shadows: bool = True,

@@ -5,7 +5,16 @@ import bpy
 import numpy as np
 
 from . import extract
+from .methods.image_space_data import SamplingSettings
 from .pipeline import Pipeline, render_offscreen
+
+# Read-backs of the last F12's intermediate passes when Scene.translucent.capture_passes is on.
+LAST_CAPTURE: dict = {}
+
+
+def sampling_settings(scene) -> SamplingSettings:
+    s = scene.translucent
+    return SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid)
 
 
 class TranslucentRenderEngine(bpy.types.RenderEngine):
@@ -47,7 +56,13 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         for message in frame.warnings:
             self.report({"WARNING"}, f"Translucent: {message}")
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
-        pixels = render_offscreen(self._get_pipeline(), frame)
+        pipeline = self._get_pipeline()
+        pipeline.sampling = sampling_settings(scene)
+        pipeline.capture = {} if scene.translucent.capture_passes else None
+        pixels = render_offscreen(pipeline, frame)
+        LAST_CAPTURE.clear()
+        if pipeline.capture is not None:
+            LAST_CAPTURE.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))
         if not np.isfinite(pixels).all():
             self.report({"ERROR"}, "Translucent: the frame has non-finite pixels (NaN or inf)")
         result = self.begin_result(0, 0, width, height)
@@ -67,6 +82,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         region, rv3d = context.region, context.region_data
         frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
         pipeline = self._get_pipeline()
+        pipeline.sampling = sampling_settings(depsgraph.scene)
         pipeline.forget({m.key for m in frame.meshes})
         size = (region.width, region.height)
         off = self._viewport_offscreen

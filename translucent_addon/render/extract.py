@@ -13,7 +13,15 @@ from ..bake import registry as bake_registry
 from ..bake.inputs import bake_status
 from . import methods
 from .lights import emitters_from_light
-from .scene_data import CameraView, FrameInputs, MeshInstance
+from ..physics.lut import BLUR_MIN
+from .scene_data import CameraView, FrameInputs, Medium, MeshInstance
+
+# Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
+BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
+GLOW_GROUP = "translucent_glow"  # Weight Paint: irradiance modulation 1 + 3 w
+MASK_GROUP = "translucent_mask"  # Weight Paint: 1 translucent, 0 opaque (all translucent when absent)
+TINT_ATTRIBUTE = "translucent_tint"  # Vertex Paint (colour attribute): RGB irradiance modulation
+PAINT_GROUPS = (MASK_GROUP, BLUR_GROUP, GLOW_GROUP)
 
 DEFAULT_COLOR = (0.8, 0.8, 0.8)  # Blender's default surface colour
 
@@ -47,7 +55,8 @@ def world_color(scene) -> np.ndarray:
 
 
 def mesh_corner_arrays(mesh):
-    """(positions, normals, material index) per triangle corner of a mesh, object space."""
+    """Positions, normals per triangle corner (object space), material index per triangle, and the
+    corner-to-loop and loop-to-vertex maps."""
     mesh.calc_loop_triangles()
     n_tri = len(mesh.loop_triangles)
     tri_loops = np.empty(n_tri * 3, np.int32)
@@ -62,7 +71,50 @@ def mesh_corner_arrays(mesh):
     mesh.corner_normals.foreach_get("vector", corner_normals)
     positions = co.reshape(-1, 3)[loop_vert[tri_loops]]
     normals = corner_normals.reshape(-1, 3)[tri_loops]
-    return positions, normals, mat_index
+    return positions, normals, mat_index, tri_loops, loop_vert
+
+
+def vertex_group_weights(ob, mesh, names) -> dict[str, np.ndarray]:
+    """Weights (V,) of the named vertex groups that exist on the object.
+
+    Blender has no bulk access to deform weights, so this loops over vertices once, and only for
+    objects that have one of the groups.
+    """
+    index = {vg.index: vg.name for vg in ob.vertex_groups if vg.name in names}
+    if not index:
+        return {}
+    weights = {name: np.zeros(len(mesh.vertices), np.float32) for name in index.values()}
+    for v in mesh.vertices:
+        for g in v.groups:
+            name = index.get(g.group)
+            if name is not None:
+                weights[name][v.index] = g.weight
+    return weights
+
+
+def paint_arrays(ob, mesh, tri_loops, loop_vert):
+    """(paint (3T, 4), tint (3T, 3)) per corner from the painted layers, or (None, None) when unpainted."""
+    weights = vertex_group_weights(ob, mesh, PAINT_GROUPS)
+    tint_attr = mesh.color_attributes.get(TINT_ATTRIBUTE)
+    if not weights and tint_attr is None:
+        return None, None
+    corner_vert = loop_vert[tri_loops]
+    n = len(tri_loops)
+    paint = np.ones((n, 4), np.float32)
+    paint[:, 3] = 0.0
+    if MASK_GROUP in weights:
+        paint[:, 0] = weights[MASK_GROUP][corner_vert]
+    if BLUR_GROUP in weights:
+        paint[:, 1] = 1.0 / (1.0 + (1.0 / BLUR_MIN - 1.0) * weights[BLUR_GROUP][corner_vert])
+    if GLOW_GROUP in weights:
+        paint[:, 2] = 1.0 + 3.0 * weights[GLOW_GROUP][corner_vert]
+    tint = np.ones((n, 3), np.float32)
+    if tint_attr is not None:
+        rgba = np.empty(len(tint_attr.data) * 4, np.float32)
+        tint_attr.data.foreach_get("color", rgba)
+        rgba = rgba.reshape(-1, 4)
+        tint = rgba[corner_vert if tint_attr.domain == "POINT" else tri_loops, :3]
+    return paint, tint
 
 
 def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
@@ -70,13 +122,15 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
     try:
         if mesh is None or len(mesh.polygons) == 0:
             return None
-        positions, normals, mat_index = mesh_corner_arrays(mesh)
+        positions, normals, mat_index, tri_loops, loop_vert = mesh_corner_arrays(mesh)
         palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
                            dtype=np.float32)
         colors = palette[np.clip(mat_index, 0, len(palette) - 1)].repeat(3, axis=0)
+        paint, tint = paint_arrays(ob, mesh, tri_loops, loop_vert)
         digest = hashlib.blake2b(positions.tobytes(), digest_size=8)
-        digest.update(normals.tobytes())
-        digest.update(colors.tobytes())
+        for part in (normals, colors, paint, tint):
+            if part is not None:
+                digest.update(part.tobytes())
         # Read settings from the original: editing a property does not re-evaluate the object.
         original = ob.original
         method = original.translucent.method
@@ -92,6 +146,10 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
                 frame_warnings.append(
                     f"'{name}': method {method} is not available in this version; drawn with its base colour"
                 )
+        medium = None
+        if method != "OFF":
+            s = original.translucent
+            medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g))
         return MeshInstance(
             key=f"{name}:{digest.hexdigest()}",
             name=name,
@@ -100,6 +158,9 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             colors=colors,
             model=np.array(inst.matrix_world, dtype=np.float64),
             method=method,
+            medium=medium,
+            paint=paint,
+            tint=tint,
         )
     finally:
         ob.to_mesh_clear()

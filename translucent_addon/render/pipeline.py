@@ -7,8 +7,9 @@ into the bound framebuffer). Passes:
 1. base, world term: clear to the world colour, rho * L_world, depth;
 2. per emitter: shadow distances into an R32F cube atlas (``shadow_distance``),
    then rho / pi * E * V added (``base_lighting``, additive blending);
-3. method passes: each translucency method registers its own module in
-   ``render.methods``; an object whose method draws nothing yet keeps the base.
+3. method passes: IMAGE_SPACE (``methods/image_space.py``) adds the near field of the profile in
+   the lighting pass above (objects with a subsurface slot) and splats the far field after it;
+   an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
 
@@ -16,9 +17,22 @@ import time
 
 import numpy as np
 
-from . import blocks, methods, shaders
+from . import blocks, shaders
+from .methods import image_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
+
+
+def clear_target(fb, color=(0.0, 0.0, 0.0, 0.0), depth: float | None = 1.0) -> None:
+    """Clear a bound framebuffer. Depth writes are enabled first: a depth clear obeys the depth
+    mask, and a pass that left it off would leave the last frame's depth in place."""
+    import gpu
+
+    gpu.state.depth_mask_set(True)
+    if depth is None:
+        fb.clear(color=color)
+    else:
+        fb.clear(color=color, depth=depth)
 
 
 class Pipeline:
@@ -27,11 +41,15 @@ class Pipeline:
     def __init__(self):
         self._batches: dict[str, tuple] = {}
         self._atlas = None  # (texels, color texture, depth texture, framebuffer)
+        self.targets: dict = {}  # method render targets by (name, size), reused across frames
         self.last_timings: dict[str, float] = {}
+        self.sampling = image_space.SamplingSettings()
+        self.capture = None  # a dict to receive read-backs of intermediate passes (tests)
 
     def free(self) -> None:
         self._batches.clear()
         self._atlas = None
+        self.targets.clear()
 
     def forget(self, keys_alive: set[str]) -> None:
         """Drop batches of meshes that are no longer drawn."""
@@ -54,6 +72,8 @@ class Pipeline:
                     "pos": pos,
                     "nor": np.ascontiguousarray(mesh.normals, dtype=np.float32),
                     "col": np.ascontiguousarray(mesh.colors, dtype=np.float32),
+                    "paint": np.ascontiguousarray(mesh.paint, dtype=np.float32),
+                    "tint": np.ascontiguousarray(mesh.tint, dtype=np.float32),
                 },
             )
             shadow = batch_for_shader(shaders.get("shadow_distance"), "TRIS", {"pos": pos})
@@ -81,19 +101,20 @@ class Pipeline:
         fb = gpu.state.active_framebuffer_get()
         if clear:
             alpha = 0.0 if frame.film_transparent else 1.0
-            fb.clear(color=(*map(float, frame.world_color), alpha), depth=1.0)
+            clear_target(fb, (*map(float, frame.world_color), alpha))
         if not frame.meshes:
             self.last_timings = {"total": time.perf_counter() - t0}
             return
         base_shader = shaders.get("base_lighting")
         batches = [self._batch(m) for m in frame.meshes]
+        subsurface = image_space.prepare(frame, self.sampling)
+        slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
-            gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix)) for m in frame.meshes
+            gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
+            for k, m in enumerate(frame.meshes)
         ]
         cam = frame.camera
-        frame_ubo = gpu.types.GPUUniformBuf(
-            blocks.frame_block(cam.view_proj, frame.world_color, cam.position)
-        )
+        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color))
         centre, radius = frame.bounds()
         texels = int(frame.shadow_resolution)
         atlas = self._shadow_atlas(texels)
@@ -105,7 +126,8 @@ class Pipeline:
         gpu.state.blend_set("NONE")
         # A light block is bound in every mode; the world pass ignores it.
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
-        self._draw_base(base_shader, batches, objects, frame_ubo, placeholder, atlas[1], mode=0)
+        base_inputs = (batches, objects, frame_ubo, subsurface.materials, subsurface.near_lut, atlas[1])
+        self._draw_base(base_shader, *base_inputs, placeholder, mode=0)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
         t_shadow = t_light = 0.0
@@ -120,30 +142,31 @@ class Pipeline:
                 gpu.state.depth_mask_set(False)
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
-                self._draw_base(base_shader, batches, objects, frame_ubo, light_ubo, atlas[1], mode=1)
+                self._draw_base(base_shader, *base_inputs, light_ubo, mode=1)
                 gpu.state.blend_set("NONE")
                 gpu.state.depth_mask_set(True)
             t_shadow += t2 - t1
             t_light += time.perf_counter() - t2
         timings["shadow_maps"] = t_shadow
         timings["lights"] = t_light
-        for method_id, module in methods.PASSES.items():
-            meshes = [m for m in frame.meshes if m.method == method_id]
-            if meshes:
-                t1 = time.perf_counter()
-                module.draw(self, frame, meshes)
-                timings[method_id] = time.perf_counter() - t1
+        if subsurface.plan is not None:
+            t1 = time.perf_counter()
+            image_space.draw(subsurface, frame, batches, objects, frame_ubo, fb, self)
+            timings["IMAGE_SPACE"] = time.perf_counter() - t1
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         timings["total"] = time.perf_counter() - t0
         self.last_timings = timings
 
     @staticmethod
-    def _draw_base(shader, batches, objects, frame_ubo, light_ubo, atlas_texture, mode: int) -> None:
+    def _draw_base(shader, batches, objects, frame_ubo, materials_ubo, near_lut, atlas_texture, light_ubo,
+                   mode: int) -> None:
         shader.bind()
         shader.uniform_block("frame", frame_ubo)
         shader.uniform_block("light", light_ubo)
+        shader.uniform_block("materials", materials_ubo)
         shader.uniform_sampler("shadow_atlas", atlas_texture)
+        shader.uniform_sampler("near_lut", near_lut)
         shader.uniform_int("mode", mode)
         for (base, _), obj in zip(batches, objects):
             shader.uniform_block("object", obj)
@@ -157,7 +180,7 @@ class Pipeline:
         shader = shaders.get("shadow_distance")
         n_faces = 1 if e.kind == DIRECTIONAL else 6
         with fb.bind():
-            fb.clear(color=(3.0e38, 0.0, 0.0, 0.0), depth=1.0)
+            clear_target(fb, (3.0e38, 0.0, 0.0, 0.0))
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
@@ -171,7 +194,7 @@ class Pipeline:
                     shadow.draw(shader)
 
 
-def read_pixels(fb, width: int, height: int) -> np.ndarray:
+def read_pixels(fb, width: int, height: int, slot: int = 0) -> np.ndarray:
     """RGBA float pixels (height, width, 4) of a bound framebuffer, row 0 at the bottom.
 
     Read into a 1-D Buffer: NumPy views of multi-dimensional ``gpu.types.Buffer``
@@ -180,7 +203,7 @@ def read_pixels(fb, width: int, height: int) -> np.ndarray:
     import gpu
 
     buf = gpu.types.Buffer("FLOAT", width * height * 4)
-    fb.read_color(0, 0, width, height, 4, 0, "FLOAT", data=buf)
+    fb.read_color(0, 0, width, height, 4, slot, "FLOAT", data=buf)
     return np.asarray(buf, dtype=np.float32).reshape(height, width, 4).copy()
 
 

@@ -14,6 +14,22 @@ import numpy as np
 from .lights import Emitter
 
 
+@dataclasses.dataclass(frozen=True)
+class Medium:
+    """A homogeneous scattering medium: coefficients in mm^-1 and the object's scale."""
+
+    sigma_a: tuple
+    sigma_s_prime: tuple
+    eta: float
+    mm_per_unit: float
+    g: float = 0.0
+
+
+# Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
+# (blur), glow factor; the RGB tint is a separate array. Neutral: (1, 1, 1, 0) and tint (1, 1, 1).
+NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
+
+
 @dataclasses.dataclass
 class MeshInstance:
     """One drawn mesh: triangle corners in object space and a model matrix."""
@@ -25,11 +41,20 @@ class MeshInstance:
     colors: np.ndarray  # (3T, 3) float32, linear base colour per corner (from the material)
     model: np.ndarray  # (4, 4) float64
     method: str = "OFF"
+    medium: Medium | None = None
+    paint: np.ndarray | None = None  # (3T, 4) float32: mask, M_d, glow, 0
+    tint: np.ndarray | None = None  # (3T, 3) float32
 
     def __post_init__(self):
         n = len(self.positions)
         if n % 3 or self.normals.shape != (n, 3) or self.colors.shape != (n, 3):
             raise ValueError(f"{self.name}: corner arrays must be (3T, 3) and of equal length")
+        if self.paint is None:
+            self.paint = np.tile(np.asarray(NEUTRAL_PAINT, np.float32), (n, 1))
+        if self.tint is None:
+            self.tint = np.ones((n, 3), np.float32)
+        if self.paint.shape != (n, 4) or self.tint.shape != (n, 3):
+            raise ValueError(f"{self.name}: paint must be (3T, 4) and tint (3T, 3)")
 
     @property
     def triangle_count(self) -> int:

@@ -21,6 +21,7 @@ class ShaderSpec:
     """Interface of one pass: inputs, varyings, uniform blocks, samplers, outputs."""
 
     source: str
+    libraries: tuple = ("translucent_common.glsl",)  # prepended to the source, in order
     vertex_in: tuple = ()  # (type, name)
     varyings: tuple = ()  # ("smooth" | "flat", type, name)
     uniform_blocks: tuple = ()  # (slot, struct, name)
@@ -29,22 +30,63 @@ class ShaderSpec:
     fragment_out: tuple = ()  # (slot, type, name)
 
 
+_LIGHT_LIBS = ("translucent_common.glsl", "translucent_light.glsl")
+_SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint"), ("VEC3", "tint"))
+
 SPECS = {
     "shadow_distance": ShaderSpec(
         source="shadow_distance.glsl",
         vertex_in=(("VEC3", "pos"),),
         varyings=(("smooth", "VEC3", "v_world"),),
-        uniform_blocks=((0, "LightData", "light"), (1, "ObjectData", "object")),
+        uniform_blocks=((2, "LightData", "light"), (1, "ObjectData", "object")),
         push_constants=(("INT", "face"),),
         fragment_out=((0, "FLOAT", "out_distance"),),
     ),
     "base_lighting": ShaderSpec(
         source="base_lighting.glsl",
-        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col")),
-        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color")),
-        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
-        samplers=((0, "FLOAT_2D", "shadow_atlas"),),
+        libraries=_LIGHT_LIBS,
+        vertex_in=_SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
+                  ("smooth", "VEC4", "v_paint"), ("smooth", "VEC3", "v_tint")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),
+                        (3, "MaterialsData", "materials")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "near_lut")),
         push_constants=(("INT", "mode"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+    "is_gbuffer": ShaderSpec(
+        source="is_gbuffer.glsl",
+        vertex_in=(("VEC3", "pos"),),
+        varyings=(("smooth", "VEC3", "v_world"),),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
+        fragment_out=((0, "VEC4", "out_pos_id"),),
+    ),
+    "is_samples": ShaderSpec(
+        source="is_samples.glsl",
+        libraries=_LIGHT_LIBS,
+        vertex_in=_SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
+                  ("smooth", "VEC3", "v_tint")),
+        uniform_blocks=((1, "ObjectData", "object"), (2, "LightData", "light"), (3, "MaterialsData", "materials")),
+        push_constants=(("INT", "face"),),
+        fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
+    ),
+    "is_splat": ShaderSpec(
+        source="is_splat.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        varyings=(("flat", "VEC3", "v_xi"), ("flat", "VEC4", "v_flux"), ("flat", "FLOAT", "v_slot")),
+        uniform_blocks=((0, "FrameData", "frame"), (3, "MaterialsData", "materials")),
+        samplers=((0, "FLOAT_2D", "sample_pos_id"), (1, "FLOAT_2D", "sample_flux"), (2, "FLOAT_2D", "gbuffer"),
+                  (3, "FLOAT_2D", "far_lut")),
+        push_constants=(("INT", "samples_per_row"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+    "is_composite": ShaderSpec(
+        source="is_composite.glsl",
+        vertex_in=_SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),
+        samplers=((0, "FLOAT_2D", "scatter"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
 }
@@ -78,7 +120,7 @@ def create_info(name: str, spec: ShaderSpec):
         info.vertex_out(iface)
     for slot, kind, out in spec.fragment_out:
         info.fragment_out(slot, kind, out)
-    source = read_source(spec.source)
+    source = "\n".join(read_source(lib) for lib in spec.libraries) + "\n" + read_source(spec.source)
     info.vertex_source(source)
     info.fragment_source(source)
     return info

@@ -1,10 +1,9 @@
 """Translucency methods: one module per method, each adding its own passes.
 
-A method module provides ``draw(pipeline, frame, meshes)``, called after the
-base pass with the meshes whose ``method`` is its id, and registers itself in
-``PASSES``. The method issues (IMAGE_SPACE, TEXTURE_SPACE, QUADGRAPH, GEOCUBE)
-each add a module here without touching the others. A mesh whose method has no
-module yet is drawn by the base pass and the frame carries a warning.
+A method module holds its GPU passes (``image_space.py``) and its pure maths
+(``image_space_data.py``); the pipeline calls it after the base pass. The method
+issues (TEXTURE_SPACE, QUADGRAPH, GEOCUBE) each add their module here. A mesh whose
+method has no module yet is drawn by the base pass and the frame carries a warning.
 """
 from __future__ import annotations
 
@@ -18,9 +17,9 @@ METHOD_DESCRIPTIONS = {
     "GEOCUBE": "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering",
 }
 
-# method id -> module with draw(pipeline, frame, meshes); filled as methods land.
-PASSES: dict = {}
+# The methods whose passes exist (render/methods/<method>.py); the others draw as the base.
+AVAILABLE = frozenset({"OFF", "IMAGE_SPACE"})
 
 
 def has_passes(method: str) -> bool:
-    return method in PASSES
+    return method in AVAILABLE

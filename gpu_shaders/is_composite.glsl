@@ -1,0 +1,28 @@
+/* IMAGE_SPACE final pass: adds F_t(w_o) / pi * S(x_o) * m, the splatted far field, to the
+ * subsurface objects' pixels (additive over the base pass, depth-tested against it). */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  vec4 world = object.model * vec4(pos, 1.0);
+  v_world = world.xyz;
+  v_normal = mat3(object.normal_matrix) * nor;
+  v_paint = paint;
+  gl_Position = frame.view_proj * world;
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+void main()
+{
+  int slot = int(object.shading.x + 0.5) - 1;
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) {
+    n = -n;
+  }
+  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
+                                                  normalize(frame.camera_position.xyz - v_world);
+  float eta = materials.params[2 * slot].w;
+  vec3 S = texelFetch(scatter, ivec2(gl_FragCoord.xy), 0).rgb;
+  out_color = vec4((1.0 - fresnel_dielectric(max(dot(n, to_eye), 0.0), eta)) / PI * S * v_paint.x, 0.0);
+}
+#endif

@@ -1,0 +1,17 @@
+/* IMAGE_SPACE pass 2 (Shah 6.4.1): camera-view world positions x_o and subsurface slot + 1
+ * (0 for other surfaces, which occlude). */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  vec4 world = object.model * vec4(pos, 1.0);
+  v_world = world.xyz;
+  gl_Position = frame.view_proj * world;
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+void main()
+{
+  out_pos_id = vec4(v_world, object.shading.x);
+}
+#endif

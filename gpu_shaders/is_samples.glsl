@@ -1,0 +1,49 @@
+/* IMAGE_SPACE pass 1 (Shah 6.4.1): light-view samples x_i. Every surface is drawn (other
+ * objects occlude: shadows); subsurface surfaces store their position and slot + 1, and the
+ * power entering through their texel, Phi = E F_t(w_i) dA (point: I F_t dw_texel; directional:
+ * E F_t texel area), times mm per unit^2 (dA in mm^2), the mask and M_i; alpha holds M_d. */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  vec4 world = object.model * vec4(pos, 1.0);
+  v_world = world.xyz;
+  v_normal = mat3(object.normal_matrix) * nor;
+  v_paint = paint;
+  v_tint = tint;
+  gl_Position = light.face_view_proj[face] * world;
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+void main()
+{
+  int slot = int(object.shading.x + 0.5) - 1;
+  if (slot < 0) {
+    out_pos_id = vec4(0.0);
+    out_flux = vec4(0.0);
+    return;
+  }
+  vec4 mat = materials.params[2 * slot];
+  vec3 n = normalize(v_normal);
+  vec3 to_light;
+  vec3 radiance = emitter_irradiance(v_world, to_light);
+  float cos_i = abs(dot(n, to_light));
+  float measure;
+  if (light.position_kind.w < 0.5) {
+    measure = light.shadow.y; /* texel area, world units^2 */
+    radiance = light.radiance.rgb;
+  }
+  else {
+    /* Solid angle of this texel of a 90 degree cube face; intensity without the 1/d^2. */
+    float texels = light.shadow.x;
+    vec2 in_face = mod(gl_FragCoord.xy, texels) / texels * 2.0 - 1.0;
+    measure = light.shadow.y / pow(1.0 + dot(in_face, in_face), 1.5);
+    vec3 d = light.position_kind.xyz - v_world;
+    radiance *= dot(d, d);
+  }
+  vec3 phi = radiance * (1.0 - fresnel_dielectric(cos_i, mat.w)) * measure * mat.x * mat.x;
+  phi *= v_paint.x * v_paint.z * v_tint;
+  out_pos_id = vec4(v_world, object.shading.x);
+  out_flux = vec4(phi, clamp(v_paint.y, 0.25, 1.0));
+}
+#endif

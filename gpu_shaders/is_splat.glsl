@@ -1,0 +1,56 @@
+/* IMAGE_SPACE pass 3 (Shah 6.4.1): one camera-facing quad per light-view sample x_i, radius
+ * r_max / M_d, accumulating R_d(M_d r) M_d^2 w(r) Phi into the scatter texture at every x_o of
+ * the same object (id clipping, Shah 6.4.3). The quad is moved toward the camera by its radius
+ * so that its projection covers the whole sphere of influence. */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  int i = gl_InstanceID;
+  ivec2 t = ivec2(i % samples_per_row, i / samples_per_row);
+  vec4 pid = texelFetch(sample_pos_id, t, 0);
+  v_flux = texelFetch(sample_flux, t, 0);
+  v_xi = pid.xyz;
+  v_slot = pid.w;
+  if (pid.w < 0.5 || max(v_flux.r, max(v_flux.g, v_flux.b)) <= 0.0) {
+    gl_Position = vec4(2.0, 2.0, 2.0, 1.0); /* no sample: outside the clip volume */
+    return;
+  }
+  vec4 mat = materials.params[2 * (int(pid.w + 0.5) - 1)];
+  float radius = mat.y / v_flux.a / mat.x; /* world units */
+  vec4 c = frame.view * vec4(pid.xyz, 1.0);
+  if (frame.camera_position.w < 0.5) {
+    c.z = min(c.z + radius, -1e-4);
+  }
+  gl_Position = frame.proj * (c + vec4(corner * radius, 0.0, 0.0));
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+vec3 far_profile(int slot, float u)
+{
+  int n = textureSize(far_lut, 0).x;
+  float x = u * float(n - 1);
+  int i0 = int(floor(x));
+  int i1 = min(i0 + 1, n - 1);
+  return mix(texelFetch(far_lut, ivec2(i0, slot), 0).rgb, texelFetch(far_lut, ivec2(i1, slot), 0).rgb,
+             x - float(i0));
+}
+
+void main()
+{
+  vec4 xo = texelFetch(gbuffer, ivec2(gl_FragCoord.xy), 0);
+  if (abs(xo.w - v_slot) > 0.5) {
+    discard; /* another object, or the background */
+  }
+  int slot = int(v_slot + 0.5) - 1;
+  vec4 mat = materials.params[2 * slot];
+  float M = v_flux.a;
+  float r_mm = length(xo.xyz - v_xi) * mat.x;
+  float s = r_mm * M;
+  if (s >= mat.y) {
+    discard;
+  }
+  vec3 R = far_profile(slot, sqrt(s / mat.y));
+  out_color = vec4(R * (M * M * partition_weight(r_mm, mat.z)) * v_flux.rgb, 1.0);
+}
+#endif

@@ -1,0 +1,35 @@
+/* Functions shared by the passes (prepended to each pass source). */
+#define PI 3.14159265358979
+
+/* Unpolarised Fresnel reflectance entering a dielectric of relative index eta. */
+float fresnel_dielectric(float cos_i, float eta)
+{
+  cos_i = clamp(cos_i, 0.0, 1.0);
+  float sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+  if (sin2_t >= 1.0) {
+    return 1.0;
+  }
+  float cos_t = sqrt(1.0 - sin2_t);
+  float r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  float r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  return 0.5 * (r_s * r_s + r_p * r_p);
+}
+
+int cube_face(vec3 d)
+{
+  vec3 a = abs(d);
+  if (a.x >= a.y && a.x >= a.z) {
+    return d.x > 0.0 ? 0 : 1;
+  }
+  if (a.y >= a.z) {
+    return d.y > 0.0 ? 2 : 3;
+  }
+  return d.z > 0.0 ? 4 : 5;
+}
+
+/* Smooth partition of the profile: 0 below rho, 1 above 2 rho (physics/lut.py partition). */
+float partition_weight(float r, float rho)
+{
+  float x = clamp((r - rho) / rho, 0.0, 1.0);
+  return x * x * (3.0 - 2.0 * x);
+}
