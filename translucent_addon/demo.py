@@ -75,6 +75,7 @@ def build_scene(name: str, scene: bpy.types.Scene | None = None) -> bpy.types.Sc
     settings.preset = spec["preset"]
     apply_preset(settings, spec["preset"])
     settings.mm_per_unit = 1000.0  # metres
+    settings.method = "IMAGE_SPACE"
     # Stand it on z = 0, centred on the origin.
     corners = np.array([ob.matrix_basis @ Vector(c) for c in ob.bound_box])
     ob.location = (-corners[:, 0].mean(), -corners[:, 1].mean(), -corners[:, 2].min())

@@ -22,6 +22,7 @@ class Entry:
     rel_rmse: float | None = None
     ssim: float | None = None
     median_rel_error: float | None = None  # robust to fireflies
+    rel_rmse_model: float | None = None  # ours against the CPU dipole model: the discretisation error
     image: str = ""
     error_image: str = ""
     cached: bool = False
@@ -90,6 +91,31 @@ def speed_accuracy_chart(entries: list[Entry], path: Path, title: str) -> None:
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def error_against_samples_chart(rows: list[dict], path: Path, title: str) -> None:
+    """Relative RMSE against the dipole model over the number of light-view samples (Shah Fig. 6.10)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    xs = [r["object_samples"] for r in rows]
+    ax.plot(xs, [r["rel_rmse_vs_model"] for r in rows], marker="o")
+    for r in rows:
+        ax.annotate(f"k={r['overlap']:g}, {r['seconds']:.2f} s", (r["object_samples"], r["rel_rmse_vs_model"]),
+                    textcoords="offset points", xytext=(4, 4), fontsize=7)
+    ax.axhline(0.05, color="grey", linestyle="--", linewidth=0.8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("light-view samples on the object (all lights)")
+    ax.set_ylabel("relative RMSE against the dipole model")
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

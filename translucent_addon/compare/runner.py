@@ -35,9 +35,17 @@ class CompareError(RuntimeError):
     """The comparison cannot run; the message says what and why."""
 
 
+OUR_QUALITY = (
+    {"label": "k=4", "splat_overlap": 4.0},
+    {"label": "k=8", "splat_overlap": 8.0},
+    {"label": "k=16", "splat_overlap": 16.0},
+    {"label": "k=32", "splat_overlap": 32.0, "splat_max_grid": 1024},
+)
+
+
 @dataclasses.dataclass
 class CompareSettings:
-    our_shadow_resolutions: tuple = (512, 1024, 2048)
+    our_quality: tuple = OUR_QUALITY  # Scene.translucent overrides per setting, with a label
     cycles_random_walk_samples: tuple = (4, 16, 64, 256)
     cycles_brute_force_samples: tuple = (16, 64)
     eevee_samples: tuple = (1, 4, 16, 64)
@@ -50,7 +58,7 @@ class CompareSettings:
     @classmethod
     def quick(cls) -> "CompareSettings":
         """Minutes-not-hours settings for tests and a first look."""
-        return cls(our_shadow_resolutions=(256, 512), cycles_random_walk_samples=(4, 16),
+        return cls(our_quality=OUR_QUALITY[:2], cycles_random_walk_samples=(4, 16),
                    cycles_brute_force_samples=(16,), eevee_samples=(1, 4), reference_samples=64,
                    brute_force_reference_samples=64, model_reference_samples=20_000)
 
@@ -164,6 +172,14 @@ def scene_description(depsgraph, frame, objects) -> dict:
             "size": [frame.camera.width, frame.camera.height], "blender": bpy.app.version_string}
 
 
+def interior(mask: np.ndarray) -> np.ndarray:
+    """The mask without its one-pixel border: silhouette pixels are anti-aliased by Cycles and EEVEE,
+    point-sampled by rasterisers and ray casts, so no renderer can agree on them."""
+    from scipy.ndimage import binary_erosion
+
+    return binary_erosion(mask, iterations=1)
+
+
 def _mask(frame, tracer, names: set[str]) -> np.ndarray:
     cam = frame.camera
     origins, dirs = pixel_rays(cam.view_proj, cam.width, cam.height)
@@ -197,9 +213,9 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
     tris, _, _ = scene_triangles(frame)
     tracer = BVHTracer(tris)
     names = {ob.name for ob in objects}
-    mask = _mask(frame, tracer, names)
+    mask = interior(_mask(frame, tracer, names))
     if not mask.any():
-        raise CompareError("the translucent objects are not in the camera's view")
+        raise CompareError("the translucent objects are not in the camera's view (or less than 3 pixels wide)")
     description = scene_description(depsgraph, frame, objects)
     images: dict[str, np.ndarray] = {}
     entries: list[Entry] = []
@@ -245,20 +261,19 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
             img, sec = render_pixels(scene, width, height)
         add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
     methods = sorted({ob.translucent.method for ob in objects})
-    for texels in settings.our_shadow_resolutions:
-        with engine_setup(scene, "TRANSLUCENT_RT", translucent_shadow_resolution=texels):
-            progress(f"Translucent ({', '.join(methods)}) shadow {texels} ...")
+    for quality in settings.our_quality:
+        options = {f"translucent_{k}": v for k, v in quality.items() if k != "label"}
+        with engine_setup(scene, "TRANSLUCENT_RT", **options):
+            progress(f"Translucent ({', '.join(methods)}) {quality['label']} ...")
             img, sec = render_pixels(scene, width, height)
-        add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", f"shadow {texels}", sec, img,
-            shadow_resolution=texels, methods=methods)
+        add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
+            methods=methods, **{k: v for k, v in quality.items() if k != "label"})
+    model_image = None
     if settings.model_reference_samples:
-        media = {ob.name: Medium(tuple(ob.translucent.sigma_a), tuple(ob.translucent.sigma_s_prime),
-                                 ob.translucent.eta, ob.translucent.mm_per_unit) for ob in objects}
-        progress(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
-        t0 = time.perf_counter()
-        img = render_dipole(frame, media, samples=settings.model_reference_samples, tracer=tracer)
-        add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{settings.model_reference_samples // 1000}k samples",
-            time.perf_counter() - t0, img, samples=settings.model_reference_samples)
+        model_image, sec, hit = model_reference(frame, objects, tracer, settings.model_reference_samples, description,
+                                                cache_dir, progress)
+        add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{settings.model_reference_samples // 1000}k samples", sec,
+            model_image, hit, samples=settings.model_reference_samples)
 
     for e in entries:
         key = f"{e.series} {e.settings['label']}".strip()
@@ -273,18 +288,85 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
         e.rel_rmse = relative_rmse(img, ref_image, mask)
         e.ssim = ssim(img, ref_image, mask)
         e.median_rel_error = median_relative_error(img, ref_image, mask)
+        if model_image is not None and e.engine == "TRANSLUCENT_RT":
+            e.rel_rmse_model = relative_rmse(img, model_image, mask)
         e.error_image = f"{slug}_error.png"
         save_error_png(out / e.error_image, img, ref_image, mask)
     meta = {
         "scene": scene.name, "size": [width, height], "objects": sorted(names), "reference": ref_name,
         "mask_pixels": int(mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
-        "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels",
+        "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels "
+                 "(their silhouette pixels excluded)",
     }
     write_report(out / "report.json", entries, meta)
     speed_accuracy_chart(entries, out / "chart.png", f"{scene.name}: speed against accuracy ({width}x{height}); "
                                                       f"reference {ref_name}")
     progress(f"wrote {out / 'report.json'} and {out / 'chart.png'}")
     return entries, meta
+
+
+def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
+    """The CPU dipole model of the translucent objects (cached): (image, seconds, from cache)."""
+    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples}
+    hit = cache.load(cache_dir, desc)
+    if hit is not None:
+        progress("dipole model reference: from the cache")
+        return hit[0], hit[1], True
+    media = {ob.name: Medium(tuple(ob.translucent.sigma_a), tuple(ob.translucent.sigma_s_prime), ob.translucent.eta,
+                             ob.translucent.mm_per_unit) for ob in objects}
+    progress(f"dipole model reference (CPU, {samples} samples) ...")
+    t0 = time.perf_counter()
+    image = render_dipole(frame, media, samples=samples, tracer=tracer)
+    seconds = time.perf_counter() - t0
+    cache.store(cache_dir, desc, image, seconds)
+    return image, seconds, False
+
+
+def discretisation(scene, objects, output_dir, overlaps=(2.0, 4.0, 8.0, 16.0, 32.0), samples: int = 300_000,
+                   cache_dir=None, progress=print):
+    """Our engine at several splat overlaps against the CPU dipole model: error against splat count.
+
+    Measures the discretisation error of the GPU method apart from the dipole's model error, at the
+    scene's resolution; returns rows (overlap, light-view samples, seconds, rel. RMSE) and writes
+    discretisation.json and discretisation.png into output_dir.
+    """
+    import json
+
+    from . import report as report_mod
+    from ..render import engine as engine_mod
+
+    out = Path(output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cache_dir = Path(cache_dir) if cache_dir else out / "cache"
+    scale = scene.render.resolution_percentage / 100
+    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tracer = BVHTracer(scene_triangles(frame)[0])
+    mask = interior(_mask(frame, tracer, {ob.name for ob in objects}))
+    model_image, model_seconds, _ = model_reference(frame, objects, tracer, samples,
+                                                    scene_description(depsgraph, frame, objects), cache_dir, progress)
+    rows = []
+    for k in overlaps:
+        grid = 4096 if k > 16 else 1024
+        with engine_setup(scene, "TRANSLUCENT_RT", translucent_splat_overlap=k, translucent_splat_max_grid=grid,
+                          translucent_capture_passes=True):
+            progress(f"IMAGE_SPACE k={k} ...")
+            img, sec = render_pixels(scene, width, height)
+        plan = engine_mod.LAST_CAPTURE.get("plan")
+        count = int(sum(s.sample_count for s in plan.samplings)) if plan else 0
+        lit = sum(int((pid[..., 3] > 0.5).sum()) for pid, _ in engine_mod.LAST_CAPTURE.get("samples", []))
+        rows.append({"overlap": k, "light_view_texels": count, "object_samples": lit, "seconds": sec,
+                     "rel_rmse_vs_model": relative_rmse(img, model_image, mask)})
+        report_mod.save_error_png(out / f"image_space_k{int(k)}_vs_model_error.png", img, model_image, mask)
+        report_mod.save_image_png(out / f"image_space_k{int(k)}.png", img)
+    report_mod.save_image_png(out / "dipole_model.png", model_image)
+    engine_mod.LAST_CAPTURE.clear()
+    (out / "discretisation.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
+                                                          "model_seconds": model_seconds, "rows": rows}, indent=2))
+    report_mod.error_against_samples_chart(rows, out / "discretisation.png", f"{scene.name}: IMAGE_SPACE against the "
+                                           f"dipole model ({width}x{height})")
+    return rows
 
 
 def machine_description() -> dict:

@@ -2,7 +2,7 @@
 
 For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, Jensen 2001):
 
-    L_o(x_o) = F_t(eta, w_o) / pi * int_A R_d(|x_i - x_o|) E(x_i) dA(x_i)
+    L_o(x_o) = F_t(eta, w_o) / pi * int_A R_d(|x_i - x_o|) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
     E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
 
 The integral is split by a smooth partition of unity w(r) (0 below rho, 1 above 2 rho): the near
@@ -104,7 +104,7 @@ def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, 
 
 
 def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 200_000,
-                  epsilon: float = 1e-3, tracer=None) -> np.ndarray:
+                  epsilon: float = 1e-3, tracer=None, max_pairs: int = 20_000_000) -> np.ndarray:
     """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
 
     ``tracer`` answers ray queries over the frame's triangles in order (``closest_hit`` and
@@ -147,14 +147,22 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         rho = 2.0 * math.sqrt(float(area_mm2.max()))  # two sample spacings
         reach = max(float(np.max(r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
         total = E_o * near_field(rho, sa, ss, medium.eta)
-        pairs = cKDTree(x_o).sparse_distance_matrix(cKDTree(x_i), reach, output_type="coo_matrix")
-        r_mm = pairs.data * mm
-        far = r_mm > rho
-        rows, cols = pairs.row[far], pairs.col[far]
-        weight = _smooth_partition(r_mm[far], rho) * area_mm2[cols]
-        contrib = R_d(r_mm[far, None], sa, ss, medium.eta) * (E_i[cols] * weight[:, None])
-        for c in range(3):
-            total[:, c] += np.bincount(rows, weights=contrib[:, c], minlength=len(x_o))
-        L = (1.0 - fresnel_dielectric(cos_o, medium.eta))[:, None] / math.pi * total
+        tree_i = cKDTree(x_i)
+        # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
+        neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))
+        chunk = max(1, int(max_pairs / max(neighbours, 1.0)))
+        for start in range(0, len(x_o), chunk):
+            stop = min(start + chunk, len(x_o))
+            pairs = cKDTree(x_o[start:stop]).sparse_distance_matrix(tree_i, reach, output_type="coo_matrix")
+            r_mm = pairs.data * mm
+            far = r_mm > rho
+            rows, cols = pairs.row[far], pairs.col[far]
+            weight = _smooth_partition(r_mm[far], rho) * area_mm2[cols]
+            contrib = R_d(r_mm[far, None], sa, ss, medium.eta) * (E_i[cols] * weight[:, None])
+            for c in range(3):
+                total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
+        F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]
+        # Subsurface light, plus the smooth boundary's reflection of the uniform world (unoccluded).
+        L = (1.0 - F_r) / math.pi * total + F_r * np.asarray(frame.world_color)
         flat[np.flatnonzero(mine), :3] = L
     return image

@@ -1,0 +1,152 @@
+"""IMAGE_SPACE (Shah ch. 6-7) on the GPU against CPU twins and the dipole model reference."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import add_camera, add_light, render, set_world  # noqa: E402
+from conftest import ext_module  # noqa: E402
+
+
+def _ball(scene, name="Ball", location=(0, 0, 0.05), radius=0.05, preset="skin1"):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=radius, location=location)
+    ob = bpy.context.active_object
+    ob.name = name
+    bpy.ops.object.shade_smooth()
+    ob.translucent.preset = preset
+    ob.translucent.method = "IMAGE_SPACE"
+    return ob
+
+
+def _back_lit_ball(scene):
+    set_world(scene, (0.0, 0.0, 0.0))
+    ob = _ball(scene)
+    add_light(scene, "POINT", (0.1, 0.3, 0.25), (0, 0, 0.05), energy=20.0)
+    add_camera(scene, (0.0, -0.35, 0.12), (0, 0, 0.05), lens=50)
+    scene.translucent.capture_passes = True
+    return ob
+
+
+def _capture(tr):
+    return ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE
+
+
+def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
+    """The scatter texture equals splat_cpu over the captured samples to 1e-4 relative (float32)."""
+    _back_lit_ball(scene)
+    render(scene, 64, 48)
+    cap = _capture(tr)
+    data = ext_module(tr, "translucent_addon.render.methods.image_space_data")
+    (pos_id, flux), = cap["samples"]
+    g, scatter = cap["gbuffer"], cap["scatter"]
+    assert (pos_id[..., 3] > 0.5).sum() > 1000, "the light sees the ball"
+    pixels = np.argwhere(g[..., 3] > 0.5)
+    pixels = pixels[np.linspace(0, len(pixels) - 1, 40).astype(int)]
+    cpu = data.splat_cpu(cap["plan"], pos_id.reshape(-1, 4), flux.reshape(-1, 4), g[pixels[:, 0], pixels[:, 1], :3],
+                         g[pixels[:, 0], pixels[:, 1], 3])
+    gpu_values = scatter[pixels[:, 0], pixels[:, 1], :3]
+    assert cpu.max() > 0
+    np.testing.assert_allclose(gpu_values, cpu, rtol=1e-4, atol=1e-6 * cpu.max())
+
+
+def test_power_entering_the_samples_is_what_the_light_sends(tr, scene):
+    """Sum of Phi over the light-view samples = int over the ball's solid angle of I F_t(theta_i) dw,
+    times mm per unit^2, to 1 %: the samples carry exactly the power the light sends into the ball."""
+    ob = _back_lit_ball(scene)
+    render(scene, 32, 24)
+    (pos_id, flux), = _capture(tr)["samples"]
+    light = bpy.data.objects["POINT light"]
+    d, a = (light.location - ob.location).length, 0.05
+    fresnel = ext_module(tr, "translucent_addon.physics.fresnel")
+    # A ray at angle alpha from the centre line meets the sphere at incidence theta, sin(theta) = d/a sin(alpha).
+    alpha = np.linspace(0, math.asin(a / d), 200001)
+    cos_i = np.sqrt(np.clip(1 - (d / a * np.sin(alpha)) ** 2, 0, 1))
+    F_t = 1 - fresnel.fresnel_dielectric(cos_i, ob.translucent.eta)
+    expected = 20.0 / (4 * math.pi) * np.trapz(F_t * 2 * math.pi * np.sin(alpha), alpha) * 1000.0**2
+    total = flux[pos_id[..., 3] > 0.5][:, :3].sum(axis=0)
+    np.testing.assert_allclose(total, expected, rtol=0.01)
+
+
+def test_discretisation_error_against_the_dipole_model_is_below_5_percent(tr, scene):
+    _back_lit_ball(scene)
+    w, h = 96, 72
+    img = render(scene, w, h)
+    extract = ext_module(tr, "translucent_addon.render.extract")
+    model = ext_module(tr, "translucent_addon.reference.dipole_model")
+    runner = ext_module(tr, "translucent_addon.compare.runner")
+    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    lambert = ext_module(tr, "translucent_addon.reference.lambert")
+    tracer_mod = ext_module(tr, "translucent_addon.compare.bvh_tracer")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
+    tracer = tracer_mod.BVHTracer(lambert.scene_triangles(frame)[0])
+    ref = model.render_dipole(frame, {"Ball": frame.meshes[0].medium}, samples=60_000, tracer=tracer)
+    mask = runner.interior(runner._mask(frame, tracer, {"Ball"}))
+    err = metrics.relative_rmse(img, ref, mask)
+    print(f"IMAGE_SPACE vs dipole model: relative RMSE {err:.4f}")
+    assert np.isfinite(img).all() and img[mask][:, :3].max() > 0.01
+    assert err < 0.05
+
+
+def test_touching_objects_do_not_bleed(tr, scene):
+    """Splats from the lit ball must not light its unlit neighbour (id clipping, Shah 6.4.3)."""
+    set_world(scene, (0.0, 0.0, 0.0))
+    _ball(scene, "Lit", location=(-0.05, 0, 0.05), preset="skin1")
+    _ball(scene, "Dark", location=(0.05, 0, 0.05), preset="marble")
+    add_light(scene, "SPOT", (-0.3, -0.1, 0.08), (-0.05, 0, 0.05), energy=30.0, spot_size=math.radians(20),
+              spot_blend=0.0)
+    add_camera(scene, (0.0, -0.4, 0.05), (0, 0, 0.05), lens=50)
+    scene.translucent.capture_passes = True
+    render(scene, 96, 48)
+    cap = _capture(tr)
+    g, scatter = cap["gbuffer"], cap["scatter"]
+    slot_dark = cap["plan"].slot_of[[m.name for m in cap["frame"].meshes].index("Dark")] + 1
+    slot_lit = cap["plan"].slot_of[[m.name for m in cap["frame"].meshes].index("Lit")] + 1
+    (pos_id, flux), = cap["samples"]
+    lit_samples = flux[..., :3].max(axis=-1) > 0
+    assert not np.any(np.isclose(pos_id[..., 3], slot_dark) & lit_samples), "the spot only reaches the lit ball"
+    dark = np.isclose(g[..., 3], slot_dark)
+    lit = np.isclose(g[..., 3], slot_lit)
+    assert dark.sum() > 100 and lit.sum() > 100
+    assert scatter[lit][:, :3].max() > 0
+    assert scatter[dark][:, :3].max() == 0.0
+
+
+def test_painted_tint_changes_the_image_where_painted_and_nowhere_else(tr, scene):
+    """A red tint painted on the lit side changes pixels within reach of it (r_max) and no others."""
+    ob = _back_lit_ball(scene)
+    before = render(scene, 96, 72)
+    verts = np.array([v.co for v in ob.data.vertices])
+    painted = verts[:, 0] > 0.02  # the +x side of the ball (object space)
+    attr = ob.data.color_attributes.new("translucent_tint", "FLOAT_COLOR", "POINT")
+    colors = np.ones((len(verts), 4), np.float32)
+    colors[painted] = (1.0, 0.2, 0.2, 1.0)
+    attr.data.foreach_set("color", colors.ravel())
+    ob.data.update()
+    after = render(scene, 96, 72)
+    cap = _capture(tr)
+    g = cap["gbuffer"]
+    on_ball = g[..., 3] > 0.5
+    world_painted = verts[painted] @ np.array(ob.matrix_world)[:3, :3].T + np.array(ob.matrix_world)[:3, 3]
+    reach = cap["plan"].tables[0].r_max / 1000.0 + 0.01  # splat radius (m) + a vertex spacing
+    from scipy.spatial import cKDTree
+
+    dist, _ = cKDTree(world_painted).query(g[on_ball][:, :3])
+    far_from_paint = np.zeros_like(on_ball)
+    far_from_paint[on_ball] = dist > reach
+    changed = np.abs(after[..., :3] - before[..., :3]).max(axis=-1)
+    assert far_from_paint.sum() > 50
+    assert changed[far_from_paint].max() < 1e-6
+    near_paint = np.zeros_like(on_ball)
+    near_paint[on_ball] = dist < 0.005
+    lit = before[..., 1] > 0.2 * before[on_ball][:, 1].max()
+    region = near_paint & lit
+    assert region.sum() > 5
+    # Green and blue drop where red stays: the tint multiplies the scattered light.
+    ratio_g = after[region][:, 1].sum() / before[region][:, 1].sum()
+    ratio_r = after[region][:, 0].sum() / before[region][:, 0].sum()
+    assert ratio_g < 0.6 < 0.95 < ratio_r <= 1.0 + 1e-5
