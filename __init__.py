@@ -10,6 +10,7 @@ from .translucent_addon import ui as _ui
 from .translucent_addon.render import draw_handler as _draw_handler
 from .translucent_addon.render import engine as _engine
 from .translucent_addon.render import shaders as _shaders
+from .translucent_addon.render.methods import image_space as _image_space
 
 _classes = (
     *_props.classes,
@@ -35,6 +36,7 @@ def unregister():
     import bpy
 
     _draw_handler.unregister()
+    _image_space.clear_history()
     _shaders.free_all()
     _ui.unregister_compat_panels()
     _props.unregister_pointers()

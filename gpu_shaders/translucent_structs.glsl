@@ -30,3 +30,12 @@ struct MaterialsData {
    *                         [2k + 1] (R_d (1 - F_dr,in) rgb, k) */
   vec4 params[64];
 };
+
+struct TemporalData {
+  /* IMAGE_SPACE temporal accumulation: per subsurface slot, the inverse of this frame's model
+   * matrix and the previous frame's model matrix; the previous camera. */
+  mat4 inverse_model[32];
+  mat4 previous_model[32];
+  mat4 previous_view_proj;
+  vec4 tolerance; /* x: world distance under which a reprojected point is the same surface */
+};

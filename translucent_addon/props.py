@@ -99,6 +99,12 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         description="IMAGE_SPACE: light-view samples per face side, at most",
         min=16, max=4096, default=512,
     )
+    temporal_coherence: bpy.props.BoolProperty(
+        name="Temporal coherence",
+        description="IMAGE_SPACE: reuse the previous frame's light samples to reduce flicker in animation and "
+                    "in the viewport (Shah 6.5.2)",
+        default=True,
+    )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",
         default=False, options={"HIDDEN"},

@@ -63,3 +63,21 @@ def display(img, exposure: float = 1.0) -> np.ndarray:
     x = x / (1.0 + x)
     srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
     return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def flicker(frames, masks) -> float:
+    """Temporal noise of an animation: mean over t of sum |I_t - (I_{t-1} + I_{t+1}) / 2| / sum I_t
+    (luminance), over the pixels inside the object in all three frames.
+
+    The second difference cancels smooth change (an object turning at constant speed changes its
+    pixels almost linearly in time) and keeps frame-to-frame sampling noise: Shah 6.5.2's flicker.
+    """
+    values = []
+    for t in range(1, len(frames) - 1):
+        m = np.asarray(masks[t - 1], bool) & np.asarray(masks[t], bool) & np.asarray(masks[t + 1], bool)
+        if m.any():
+            prev, cur, nxt = (luminance(frames[k])[m] for k in (t - 1, t, t + 1))
+            values.append(float(np.abs(cur - 0.5 * (prev + nxt)).sum() / max(cur.sum(), 1e-12)))
+    if not values:
+        raise ValueError("no pixel stays on the object over three frames")
+    return float(np.mean(values))

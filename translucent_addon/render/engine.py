@@ -59,6 +59,9 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(scene)
         pipeline.capture = {} if scene.translucent.capture_passes else None
+        # Coherent with the previous F12 only when it drew the previous frame of the same scene.
+        pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
+        pipeline.coherence_frame = scene.frame_current
         pixels = render_offscreen(pipeline, frame)
         LAST_CAPTURE.clear()
         if pipeline.capture is not None:
@@ -83,6 +86,8 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(depsgraph.scene)
+        pipeline.coherence_key = "viewport" if depsgraph.scene.translucent.temporal_coherence else None
+        pipeline.coherence_frame += 1
         pipeline.forget({m.key for m in frame.meshes})
         size = (region.width, region.height)
         off = self._viewport_offscreen

@@ -45,6 +45,10 @@ class Pipeline:
         self.last_timings: dict[str, float] = {}
         self.sampling = image_space.SamplingSettings()
         self.capture = None  # a dict to receive read-backs of intermediate passes (tests)
+        # Frame-to-frame sample coherence (IMAGE_SPACE, Shah 6.5.2): a key naming the sequence (None:
+        # off) and the frame number; samples of frame f - 1 are reused in frame f.
+        self.coherence_key = None
+        self.coherence_frame = 0
 
     def free(self) -> None:
         self._batches.clear()

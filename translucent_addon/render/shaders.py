@@ -81,6 +81,15 @@ SPECS = {
         push_constants=(("INT", "samples_per_row"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
+    "is_temporal": ShaderSpec(
+        source="is_temporal.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        uniform_blocks=((0, "TemporalData", "temporal"),),
+        samplers=((0, "FLOAT_2D", "scatter"), (1, "FLOAT_2D", "gbuffer"), (2, "FLOAT_2D", "previous_accum"),
+                  (3, "FLOAT_2D", "previous_gbuffer")),
+        push_constants=(("FLOAT", "blend"),),
+        fragment_out=((0, "VEC4", "out_accum"),),
+    ),
     "is_composite": ShaderSpec(
         source="is_composite.glsl",
         vertex_in=_SURFACE_IN,

@@ -3,8 +3,9 @@
 Per frame: material tables (``image_space_data.plan``); the base pass adds the near field of the
 profile; then a camera-view G-buffer of positions and object slots (pass 2), and per emitter the
 light-view samples (pass 1, a 3x2 cube atlas for point emitters) and one camera-facing splat per
-sample (pass 3) accumulating the far field into a scatter texture; finally the composite adds
-F_t / pi * S to the subsurface objects. Blender-facing (``gpu``), the maths is in
+sample (pass 3) accumulating the far field into a scatter texture; with temporal coherence on, the
+far field is blended with the previous frame's, reprojected through each object's motion
+(``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects. Blender-facing (``gpu``), the maths is in
 ``image_space_data`` and the GLSL in ``gpu_shaders/is_*.glsl``.
 """
 from __future__ import annotations
@@ -15,6 +16,16 @@ import numpy as np
 
 from .. import blocks, shaders
 from .image_space_data import FAR_SAMPLES, NEAR_SAMPLES, ImageSpacePlan, SamplingSettings, plan  # noqa: F401
+
+
+# Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
+# camera and object matrices (two targets of each, used in turn). Module level, because every F12
+# makes a new engine.
+_history: dict = {}
+
+
+def clear_history() -> None:
+    _history.clear()
 
 
 @dataclasses.dataclass
@@ -50,17 +61,76 @@ def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):
     The depth texture is kept in the cache too: a GPUTexture that Python frees is silently
     detached from the framebuffer, which then draws without a depth test.
     """
-    import gpu
-
     key = (name, tuple(size), depth, attachments)
     found = pipeline.targets.get(key)
     if found is None:
-        colors = [gpu.types.GPUTexture(size, format="RGBA32F") for _ in range(attachments)]
-        depth_tex = gpu.types.GPUTexture(size, format="DEPTH_COMPONENT32F") if depth else None
-        fb = gpu.types.GPUFrameBuffer(depth_slot=depth_tex, color_slots=colors if attachments > 1 else colors[0])
-        pipeline.targets[key] = (fb, colors, depth_tex)
-        found = pipeline.targets[key]
+        found = pipeline.targets[key] = _new_target(size, depth, attachments)
     return found[:2]
+
+
+TEMPORAL_BLEND = 0.3  # weight of the current frame in the accumulated far field
+
+
+def _history_for(pipeline, frame, p: ImageSpacePlan, size):
+    """This sequence's temporal history (created or reset as needed), or None when coherence is off."""
+    if pipeline.coherence_key is None:
+        return None
+    signature = (tuple(size), tuple(sorted((frame.meshes[k].name, slot) for k, slot in p.slot_of.items())))
+    history = _history.get(pipeline.coherence_key)
+    if history is None or history["signature"] != signature:
+        history = _history[pipeline.coherence_key] = {
+            "signature": signature, "parity": 0, "frame": None, "view_proj": None, "models": None,
+            "gbuffer": [_new_target(size, depth=True) for _ in range(2)],
+            "accum": [_new_target(size, depth=False) for _ in range(2)],
+        }
+    return history
+
+
+def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad):
+    """Blend this frame's far field with the previous accumulation, reprojected; returns the result."""
+    import gpu
+
+    parity = history["parity"]
+    models = np.tile(np.eye(4), (32, 1, 1))
+    inverse = np.tile(np.eye(4), (32, 1, 1))
+    for k, slot in p.slot_of.items():
+        models[slot] = frame.meshes[k].model
+        inverse[slot] = np.linalg.inv(frame.meshes[k].model)
+    valid = history["frame"] == pipeline.coherence_frame - 1 and history["view_proj"] is not None
+    previous_models = history["models"] if valid else models
+    data = np.concatenate([
+        np.concatenate([m.T.ravel() for m in inverse]), np.concatenate([m.T.ravel() for m in previous_models]),
+        np.asarray(history["view_proj"] if valid else frame.camera.view_proj).T.ravel(),
+        [max(p.rho_world), 0.0, 0.0, 0.0]]).astype(np.float32)
+    out_fb, (out,), _ = history["accum"][1 - parity]
+    _, (previous_accum,), _ = history["accum"][parity]
+    _, (previous_gbuffer,), _ = history["gbuffer"][parity]
+    shader = shaders.get("is_temporal")
+    temporal_ubo = gpu.types.GPUUniformBuf(data.tobytes())  # referenced until the draw: a freed UBO reads as 0
+    with out_fb.bind():
+        gpu.state.depth_test_set("NONE")
+        gpu.state.blend_set("NONE")
+        shader.bind()
+        shader.uniform_block("temporal", temporal_ubo)
+        shader.uniform_sampler("scatter", scatter)
+        shader.uniform_sampler("gbuffer", gbuf)
+        shader.uniform_sampler("previous_accum", previous_accum if valid else scatter)
+        shader.uniform_sampler("previous_gbuffer", previous_gbuffer if valid else gbuf)
+        shader.uniform_float("blend", TEMPORAL_BLEND if valid else 1.0)
+        quad.draw(shader)
+    history.update(parity=1 - parity, frame=pipeline.coherence_frame, view_proj=frame.camera.view_proj,
+                   models=models)
+    return out
+
+
+def _new_target(size, depth: bool, attachments: int = 1):
+    """(framebuffer, color textures, depth texture): keep all three referenced."""
+    import gpu
+
+    colors = [gpu.types.GPUTexture(size, format="RGBA32F") for _ in range(attachments)]
+    depth_tex = gpu.types.GPUTexture(size, format="DEPTH_COMPONENT32F") if depth else None
+    fb = gpu.types.GPUFrameBuffer(depth_slot=depth_tex, color_slots=colors if attachments > 1 else colors[0])
+    return fb, colors, depth_tex
 
 
 def _quad_batch(pipeline):
@@ -84,8 +154,12 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
     size = (cam.width, cam.height)
     is_subsurface = [k in p.slot_of for k in range(len(frame.meshes))]
 
+    history = _history_for(pipeline, frame, p, size)
     # Pass 2: camera-view positions and slots of every surface (others occlude with slot 0).
-    gbuf_fb, (gbuf,) = _target(pipeline, "gbuffer", size, depth=True)
+    if history is not None:
+        gbuf_fb, (gbuf,), _ = history["gbuffer"][1 - history["parity"]]
+    else:
+        gbuf_fb, (gbuf,) = _target(pipeline, "gbuffer", size, depth=True)
     shader = shaders.get("is_gbuffer")
     with gbuf_fb.bind():
         clear_target(gbuf_fb)
@@ -107,14 +181,13 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
     samples_shader = shaders.get("is_samples")
     splat_shader = shaders.get("is_splat")
     quad = _quad_batch(pipeline)
-    centre, radius = frame.bounds()
     for sampling in p.samplings:
         n = sampling.grid
         atlas_size = (3 * n, 2 * n) if sampling.n_faces == 6 else (n, n)
         light_ubo = gpu.types.GPUUniformBuf(
             blocks.light_block(sampling.emitter, sampling.faces, sampling.origin, n, sampling.texel_measure))
-        # Pass 1: light-view samples x_i with the power entering through each texel.
         samples_fb, (pos_id, flux) = _target(pipeline, "samples", atlas_size, depth=True, attachments=2)
+        # Pass 1: light-view samples x_i with the power entering through each texel.
         with samples_fb.bind():
             clear_target(samples_fb)
             gpu.state.depth_test_set("LESS_EQUAL")
@@ -151,6 +224,9 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
         with scatter_fb.bind():
             pipeline.capture["scatter"] = read_pixels(scatter_fb, *size)
         pipeline.capture["plan"] = p
+
+    if history is not None:
+        scatter = _accumulate(history, frame, p, scatter, gbuf, pipeline, quad)
 
     # Final: add F_t / pi * S to the subsurface objects' visible pixels.
     composite = shaders.get("is_composite")
