@@ -139,28 +139,73 @@ def test_thin_slab_transmits_and_conserves_energy():
 
 def test_layer_adding_obeys_the_scalar_adding_equation_for_totals():
     """At zero frequency the Fourier adding is the scalar Kubelka-Munk adding of plane totals:
-    R12 = R1 + T1^2 R2 / (1 - R1 R2), T12 = T1 T2 / (1 - R1 R2) (Donner & Jensen Eq. 14-15).
+    R12 = R1 + T1^2 R2 / (1 - R1 R2), T12 = T1 T2 / (1 - R1 R2) (Donner & Jensen Eq. 14-15), with each
+    layer's totals in closed form (top: eta above, index-matched below; bottom: the reverse)."""
+    from translucent_addon.physics.multipole import slab_disk_integrals
 
-    (Note: a 1 mm + 1 mm stack of one material is not a 2 mm slab in diffusion theory: the stack
-    reflects 8 % less, from the extrapolated boundaries at the interface; converged on the grid.)
-    """
-    grid = Grid(n=256, h=0.1)
-    top, bottom = Layer(0.1, 1.0, 1.0), Layer(0.05, 2.0, 1.5)
-    tot = lambda img: img.sum() * grid.h**2  # noqa: E731
-    R1, T1 = (tot(x) for x in layered_profiles([top], 1.3, grid))
-    R2, T2 = (tot(x) for x in layered_profiles([bottom], 1.3, grid))
-    R12, T12 = (tot(x) for x in layered_profiles([top, bottom], 1.3, grid))
-    assert R12 == pytest.approx(R1 + T1 * T1 * R2 / (1 - R1 * R2), rel=1e-9)
-    assert T12 == pytest.approx(T1 * T2 / (1 - R1 * R2), rel=1e-9)
+    grid = Grid(n=512, h=0.1)
+    top, bottom = Layer(0.1, 1.0, 1.5), Layer(0.05, 2.0, 1.5)
+    R1, T1 = slab_disk_integrals(1e4, top.sigma_a, top.sigma_s_prime, 1.3, top.thickness, eta_bottom=1.0)
+    R2, T2 = slab_disk_integrals(1e4, bottom.sigma_a, bottom.sigma_s_prime, 1.0, bottom.thickness, eta_bottom=1.3)
+    R12, T12 = (img.sum() * grid.h**2 for img in layered_profiles([top, bottom], 1.3, grid))
+    # 3e-3: the grid (25.6 mm wide) truncates the profiles' tails.
+    assert R12 == pytest.approx(R1 + T1 * T1 * R2 / (1 - R1 * R2), rel=3e-3)
+    assert T12 == pytest.approx(T1 * T2 / (1 - R1 * R2), rel=3e-3)
     assert R1 < R12 and T12 < T1
+
+
+def test_slab_disk_integrals_are_the_integrals_of_the_profiles():
+    from translucent_addon.physics.multipole import slab_disk_integrals
+
+    r = np.concatenate([np.linspace(0, 2, 20001)[:-1], np.geomspace(2, 60, 20000)])
+    R, T = slab_profiles(r, 0.05, 1.0, 1.3, 2.0, eta_bottom=1.0)
+    R_int, T_int = slab_disk_integrals(60.0, 0.05, 1.0, 1.3, 2.0, eta_bottom=1.0)
+    assert np.trapz(R * 2 * math.pi * r, r) == pytest.approx(float(R_int), rel=1e-4)
+    assert np.trapz(T * 2 * math.pi * r, r) == pytest.approx(float(T_int), rel=1e-4)
 
 
 def test_layer_over_semi_infinite_base_reflects_between_the_two_materials():
     grid = Grid(n=256, h=0.05)
-    thin = Layer(0.5, 1.0, 0.3)  # absorbing top layer
+    thin = Layer(0.5, 1.0, 1.0)  # absorbing top layer, 1.5 mean free paths
     base = Layer(0.01, 1.0, np.inf)
     R, _ = layered_profiles([thin, base], 1.3, grid)
     total = R.sum() * grid.h**2
     only_base = float(R_d_disk(grid.n * grid.h / 2, 0.01, 1.0, 1.3))
     only_thin_thick = float(total_diffuse_reflectance(0.5, 1.0, 1.3))
     assert only_thin_thick < total < only_base
+
+
+def test_profile_tables_from_a_tabulated_dipole_match_the_closed_form_tables():
+    """profile_tables (used for the multipole) on a tabulated dipole gives the dipole's own tables."""
+    from translucent_addon.physics.lut import image_space_tables, profile_tables
+
+    sa, ss, eta = np.array([0.032, 0.17, 0.48]), np.array([0.74, 0.88, 1.01]), 1.3
+    radii = np.concatenate([np.linspace(0, 2, 4001), np.linspace(2.001, 120, 60000)])
+    profile = R_d(radii[:, None], sa, ss, eta)
+    ours = profile_tables(radii, profile, eta, rho_mm=0.8)
+    exact = image_space_tables(sa, ss, eta, rho_mm=0.8)
+    assert ours.r_max == pytest.approx(exact.r_max, rel=1e-3)
+    np.testing.assert_allclose(ours.total, exact.total, rtol=1e-3)
+    np.testing.assert_allclose(ours.near, exact.near, rtol=2e-3)
+    np.testing.assert_allclose(ours.far, exact.far, rtol=1e-3, atol=1e-6 * exact.far.max())
+
+
+def test_multipole_layer_over_base_lies_between_its_materials():
+    """A thin absorbing layer over a bright base: the total reflectance lies between the two thick media,
+    and a thicker layer moves it toward the layer's own."""
+    from translucent_addon.physics.lut import multipole_profile
+
+    top_a, top_s = (0.5, 0.5, 0.5), (1.0, 1.0, 1.0)
+    base_a, base_s = (0.01, 0.01, 0.01), (1.0, 1.0, 1.0)
+
+    def total(thickness):
+        radii, R = multipole_profile(top_a, top_s, thickness, base_a, base_s, 1.3, extent_mm=20.0, h_mm=0.1)
+        return np.trapz(R[:, 0] * 2 * np.pi * radii, radii)
+
+    thin, thick = total(1.0), total(3.0)
+    only_top = float(total_diffuse_reflectance(0.5, 1.0, 1.3))
+    only_base = float(total_diffuse_reflectance(0.01, 1.0, 1.3))
+    assert only_top < thick < thin < only_base
+    assert thick == pytest.approx(only_top, rel=0.02)  # 3 mean free paths: the base no longer shows
+    with pytest.raises(ValueError, match="thinner than the layer's mean free path"):
+        multipole_profile(top_a, top_s, 0.3, base_a, base_s, 1.3)

@@ -69,6 +69,23 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
     g: bpy.props.FloatProperty(
         name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99, max=0.99, default=0.0
     )
+    profile: bpy.props.EnumProperty(
+        name="Profile",
+        items=[("DIPOLE", "Dipole", "Homogeneous medium (Jensen 2001)"),
+               ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium: multipole, "
+                                                "Donner & Jensen 2005 (IMAGE_SPACE)")],
+        default="DIPOLE",
+    )
+    layer_thickness: bpy.props.FloatProperty(
+        name="Layer (mm)", description="Thickness of the layer over the base, in mm (at least one mean free path)",
+        min=0.01, soft_max=20.0, default=1.0,
+    )
+    base_sigma_a: bpy.props.FloatVectorProperty(
+        name="Base absorption (mm⁻¹)", size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071),
+    )
+    base_sigma_s_prime: bpy.props.FloatVectorProperty(
+        name="Base reduced scattering (mm⁻¹)", size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.0),
+    )
     mm_per_unit: bpy.props.FloatProperty(
         name="mm per unit",
         description="Millimetres per Blender unit for this object (1 m = 1000 mm); sets the scale of scattering",

@@ -37,11 +37,26 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         col.prop(s, "eta")
         col.prop(s, "g")
         layout.prop(s, "mm_per_unit")
+        if s.method == "IMAGE_SPACE":
+            layout.prop(s, "profile")
+            if s.profile == "MULTIPOLE":
+                col = layout.column(align=True)
+                col.prop(s, "layer_thickness")
+                col.prop(s, "base_sigma_a")
+                col.prop(s, "base_sigma_s_prime")
         status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
         layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
         row = layout.row(align=True)
         row.operator("translucent.bake", icon="RENDER_STILL")
         row.operator("translucent.clear_bake", icon="TRASH")
+        if s.method == "IMAGE_SPACE":
+            box = layout.box()
+            box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
+            grid = box.grid_flow(columns=2, align=True)
+            for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
+                                 ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
+                op = grid.operator("translucent.add_paint_layer", text=label)
+                op.layer = layer
 
 
 class VIEW3D_PT_translucent_scene(bpy.types.Panel):
@@ -56,6 +71,12 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         layout = self.layout
         layout.prop(s, "shadow_resolution")
         layout.prop(s, "area_light_samples")
+        col = layout.column(align=True)
+        col.label(text="Image-space splatting")
+        col.prop(s, "splat_threshold")
+        col.prop(s, "splat_overlap")
+        col.prop(s, "splat_max_grid")
+        col.prop(s, "temporal_coherence")
         layout.prop(s, "overlay_other_engines")
         layout.operator("translucent.add_demo_scene", icon="SCENE_DATA")
 

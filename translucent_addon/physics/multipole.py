@@ -13,7 +13,8 @@ With z_r = 1/sigma_t', D = 1/(3 sigma_t'), z_b = 2 A D and l = d + 2 z_b (Donner
 (d_{r,i} = sqrt(r^2 + z_{r,i}^2) for R, sqrt(r^2 + (d - z_{r,i})^2) for T). The i = 0 pair of R is the
 dipole, so a thick slab reproduces it. Layers are combined in the Fourier domain (Donner & Jensen
 Eq. 14-15): R12 = R1 + T1 R2 T1 / (1 - R2 R1), T12 = T1 T2 / (1 - R2 R1), with the convolutions of the
-radially symmetric profiles done by 2D FFT on a grid.
+radially symmetric profiles done by 2D FFT on a grid whose cells hold exact ring averages (every
+pair integrates over a disk in closed form), since T has sharp peaks that point samples miss.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import dataclasses
 
 import numpy as np
 
-from .dipole import A, R_d
+from .dipole import A, R_d_disk
 
 
 def _pair_terms(r, z, sigma_tr):
@@ -29,15 +30,21 @@ def _pair_terms(r, z, sigma_tr):
     return (sigma_tr * d + 1.0) * np.exp(-sigma_tr * d) / d**3
 
 
-def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None):
-    """R(r) and T(r) [mm^-2] of a homogeneous slab of the given thickness [mm] (scalar coefficients)."""
+def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+    """R(r) and T(r) [mm^-2] of a homogeneous slab of the given thickness [mm] (scalar coefficients).
+
+    eta is the relative index at the top boundary, eta_bottom (default eta) at the bottom one; each
+    boundary has its own extrapolation distance z_b = 2 A D, and the period of the mirrored pairs is
+    l = d + z_b,top + z_b,bottom (Donner & Jensen 2005).
+    """
     sigma_t_prime = sigma_a + sigma_s_prime
     alpha_prime = sigma_s_prime / sigma_t_prime
     sigma_tr = np.sqrt(3.0 * sigma_a * sigma_t_prime)
     z_r = 1.0 / sigma_t_prime
     D = 1.0 / (3.0 * sigma_t_prime)
     z_b = 2.0 * A(eta) * D
-    ell = thickness + 2.0 * z_b
+    z_b_bottom = 2.0 * A(eta if eta_bottom is None else eta_bottom) * D
+    ell = thickness + z_b + z_b_bottom
     if n_pairs is None:
         # Enough mirror pairs that the farthest is many diffusion lengths away (Donner & Jensen use ~10).
         n_pairs = int(np.clip(np.ceil(10.0 * z_r / max(thickness, 1e-9)), 2, 50))
@@ -51,6 +58,38 @@ def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None):
         T += (thickness - z_ri) * _pair_terms(r, thickness - z_ri, sigma_tr) - (thickness - z_vi) * _pair_terms(
             r, thickness - z_vi, sigma_tr
         )
+    scale = alpha_prime / (4.0 * np.pi)
+    return scale * R, scale * T
+
+
+def _pair_disk(radius, z, sigma_tr):
+    """int_0^radius z (sigma_tr d + 1) e^{-sigma_tr d} / d^3 2 pi r dr, d = sqrt(r^2 + z^2), in closed form:
+    2 pi sign(z) (e^{-sigma_tr |z|} - |z| e^{-sigma_tr D} / D), D = sqrt(radius^2 + z^2)."""
+    a = np.abs(z)
+    D = np.sqrt(radius**2 + z * z)
+    return 2.0 * np.pi * np.sign(z) * (np.exp(-sigma_tr * a) - a * np.exp(-sigma_tr * D) / D)
+
+
+def slab_disk_integrals(radius, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+    """Integrals of R and T of ``slab_profiles`` over a disk of the given radius [mm] (closed form)."""
+    sigma_t_prime = sigma_a + sigma_s_prime
+    alpha_prime = sigma_s_prime / sigma_t_prime
+    sigma_tr = np.sqrt(3.0 * sigma_a * sigma_t_prime)
+    z_r = 1.0 / sigma_t_prime
+    D = 1.0 / (3.0 * sigma_t_prime)
+    z_b = 2.0 * A(eta) * D
+    z_b_bottom = 2.0 * A(eta if eta_bottom is None else eta_bottom) * D
+    ell = thickness + z_b + z_b_bottom
+    if n_pairs is None:
+        n_pairs = int(np.clip(np.ceil(10.0 * z_r / max(thickness, 1e-9)), 2, 50))
+    radius = np.asarray(radius, dtype=np.float64)
+    R = np.zeros_like(radius)
+    T = np.zeros_like(radius)
+    for i in range(-n_pairs, n_pairs + 1):
+        z_ri = 2.0 * i * ell + z_r
+        z_vi = 2.0 * i * ell - z_r - 2.0 * z_b
+        R += _pair_disk(radius, z_ri, sigma_tr) - _pair_disk(radius, z_vi, sigma_tr)
+        T += _pair_disk(radius, thickness - z_ri, sigma_tr) - _pair_disk(radius, thickness - z_vi, sigma_tr)
     scale = alpha_prime / (4.0 * np.pi)
     return scale * R, scale * T
 
@@ -83,37 +122,42 @@ def _from_fourier(spectrum, grid: Grid):
     return np.real(np.fft.fftshift(np.fft.ifft2(spectrum))) / grid.h**2
 
 
-def _cell_average(fn, grid: Grid, oversample: int = 4):
-    """Average of radial profiles over each grid cell (the peak at r = 0 is too sharp to point-sample).
-
-    fn maps radii to a tuple of profiles; the grid is symmetric, so each distinct radius is
-    evaluated once and scattered back.
-    """
-    offsets = ((np.arange(oversample) + 0.5) / oversample - 0.5) * grid.h
-    c = (np.arange(grid.n) - grid.n // 2) * grid.h
-    x = (c[:, None] + offsets[None, :]).ravel()
-    r2 = (x[:, None] ** 2 + x[None, :] ** 2).ravel()
-    unique_r2, inverse = np.unique(r2, return_inverse=True)
-    profiles = fn(np.sqrt(unique_r2))
-    shape = (grid.n, oversample, grid.n, oversample)
-    return tuple(p[inverse].reshape(shape).mean(axis=(1, 3)) for p in profiles)
+def _ring_average(cumulative, grid: Grid):
+    """Cell values of radial profiles from their disk integrals C(r): the mean over the annulus of
+    width h at each cell's radius (the centre cell: the disk of the cell's area). Conserves energy
+    where point samples of a sharp peak would not; cumulative maps radii to a tuple of C(r)."""
+    r = grid.radii()
+    h = grid.h
+    inner = np.maximum(r - 0.5 * h, 0.0)
+    outer = np.where(r > 0, r + 0.5 * h, h / np.sqrt(np.pi))
+    radii = np.unique(np.concatenate([inner.ravel(), outer.ravel()]))
+    values = cumulative(radii)
+    out = []
+    for c in values:
+        c_in = np.interp(inner, radii, c)
+        c_out = np.interp(outer, radii, c)
+        out.append((c_out - c_in) / (np.pi * (outer**2 - inner**2)))
+    return tuple(out)
 
 
 def layered_profiles(layers: list[Layer], eta: float, grid: Grid):
     """R and T of a stack of layers (top first) on a grid, by Kubelka-Munk adding in frequency space.
 
-    Returns two (n, n) arrays in mm^-2 (cell averages). Each layer's boundaries use the same
-    relative index eta (a matched stack inside one dielectric boundary).
+    Returns two (n, n) arrays in mm^-2 (cell averages). The stack sits inside one dielectric
+    boundary of relative index eta (the top of the first layer, and the bottom of the last one if
+    finite); the interfaces between layers are index-matched (eta = 1).
     """
     R_tot = T_tot = None
-    for layer in layers:
+    for k, layer in enumerate(layers):
+        top = eta if k == 0 else 1.0
+        bottom = eta if k == len(layers) - 1 else 1.0
         if np.isinf(layer.thickness):
-
-            (R_img,) = _cell_average(lambda r: (R_d(r, layer.sigma_a, layer.sigma_s_prime, eta),), grid)
+            (R_img,) = _ring_average(lambda r: (R_d_disk(r, layer.sigma_a, layer.sigma_s_prime, top),), grid)
             R2, T2 = _to_fourier(R_img, grid), 0.0
         else:
-            R_img, T_img = _cell_average(
-                lambda r: slab_profiles(r, layer.sigma_a, layer.sigma_s_prime, eta, layer.thickness), grid)
+            R_img, T_img = _ring_average(
+                lambda r: slab_disk_integrals(r, layer.sigma_a, layer.sigma_s_prime, top, layer.thickness,
+                                              eta_bottom=bottom), grid)
             R2, T2 = _to_fourier(R_img, grid), _to_fourier(T_img, grid)
         if R_tot is None:
             R_tot, T_tot = R2, T2

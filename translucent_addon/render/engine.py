@@ -53,8 +53,6 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             self.report({"ERROR"}, f"Translucent: {err}")
             return
         frame = extract.frame_inputs(depsgraph, camera)
-        for message in frame.warnings:
-            self.report({"WARNING"}, f"Translucent: {message}")
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(scene)
@@ -63,6 +61,8 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
         pipeline.coherence_frame = scene.frame_current
         pixels = render_offscreen(pipeline, frame)
+        for message in frame.warnings:  # after drawing: the passes add their own
+            self.report({"WARNING"}, f"Translucent: {message}")
         LAST_CAPTURE.clear()
         if pipeline.capture is not None:
             LAST_CAPTURE.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))

@@ -149,7 +149,12 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
         medium = None
         if method != "OFF":
             s = original.translucent
-            medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g))
+            layer = {}
+            if s.profile == "MULTIPOLE":
+                layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
+                             base_sigma_s_prime=tuple(s.base_sigma_s_prime))
+            medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
+                            **layer)
         return MeshInstance(
             key=f"{name}:{digest.hexdigest()}",
             name=name,

@@ -23,6 +23,10 @@ class Medium:
     eta: float
     mm_per_unit: float
     g: float = 0.0
+    # Optional multipole: this medium as a layer of the given thickness over a base (Shah 6.5).
+    layer_thickness_mm: float | None = None
+    base_sigma_a: tuple | None = None
+    base_sigma_s_prime: tuple | None = None
 
 
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d

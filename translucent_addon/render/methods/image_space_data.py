@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from ...physics.lut import BLUR_MIN, ImageSpaceTables, image_space_tables, partition
+from ...physics.lut import BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition, profile_tables
 from ..blocks import look_at, orthographic, shadow_projection
 from ..lights import DIRECTIONAL, Emitter
 from ..scene_data import FrameInputs, MeshInstance
@@ -98,12 +98,16 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
         return None
     meshes = [frame.meshes[k] for k in idx]
     media = [m.medium for m in meshes]
-    radii_mm = []
-    for med in media:
-        from ...physics.dipole import r_max
-
-        radii_mm.append(float(np.max(r_max(np.asarray(med.sigma_a, float), np.asarray(med.sigma_s_prime, float),
-                                           med.eta, settings.epsilon))))
+    # A layer the multipole cannot model falls back to the dipole, and the frame says so.
+    for j, (mesh, med) in enumerate(zip(meshes, media)):
+        if med.layer_thickness_mm is not None:
+            try:
+                material_tables(med, 1.0, settings.epsilon)
+            except ValueError as err:
+                frame.warnings.append(f"'{mesh.name}': {err}; drawn with the dipole")
+                media[j] = dataclasses.replace(med, layer_thickness_mm=None)
+    # Splat radius per material: r_max of its profile (rho does not change it).
+    radii_mm = [material_tables(med, 1.0, settings.epsilon).r_max for med in media]
     spacing_world = min(r / settings.overlap / med.mm_per_unit for r, med in zip(radii_mm, media))
     centre, radius = _bounds(meshes)
     scene_centre, scene_radius = frame.bounds()
@@ -133,9 +137,27 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
                 d = max(float(np.linalg.norm(np.asarray(s.emitter.position) - c_m)), 1e-6)
                 spacing = max(spacing, 2.0 * d / s.grid)
         rho_world.append(2.0 * spacing)
-    tables = [image_space_tables(med.sigma_a, med.sigma_s_prime, med.eta, rho * med.mm_per_unit, settings.epsilon,
-                                 FAR_SAMPLES, NEAR_SAMPLES) for med, rho in zip(media, rho_world)]
+    tables = [material_tables(med, rho * med.mm_per_unit, settings.epsilon) for med, rho in zip(media, rho_world)]
     return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world)
+
+
+def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
+    """The dipole tables of a medium, or the multipole ones when it is a layer over a base."""
+    if med.layer_thickness_mm is None:
+        return image_space_tables(med.sigma_a, med.sigma_s_prime, med.eta, rho_mm, epsilon, FAR_SAMPLES,
+                                  NEAR_SAMPLES)
+    from ...physics.dipole import r_max
+
+    # The grid follows the materials: cells a quarter of the layer's shortest mean free path, wide
+    # enough for the base's profile (1.5 r_max), at most 2048 cells a side.
+    z_r = min(1.0 / (a + s) for a, s in zip(med.sigma_a, med.sigma_s_prime))
+    extent = 1.5 * float(np.max(r_max(np.asarray(med.base_sigma_a, float), np.asarray(med.base_sigma_s_prime, float),
+                                      med.eta, epsilon)))
+    h = max(z_r / 4.0, extent / 1024.0)
+    radii, profile = multipole_profile(tuple(med.sigma_a), tuple(med.sigma_s_prime), float(med.layer_thickness_mm),
+                                       tuple(med.base_sigma_a), tuple(med.base_sigma_s_prime), float(med.eta),
+                                       extent_mm=round(extent, 3), h_mm=round(h, 4))
+    return profile_tables(radii, profile, med.eta, rho_mm, epsilon, FAR_SAMPLES, NEAR_SAMPLES)
 
 
 def texel_solid_angle(u, v, grid: int):
