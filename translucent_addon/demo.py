@@ -89,17 +89,18 @@ def build_scene(name: str, scene: bpy.types.Scene | None = None) -> bpy.types.Sc
     coll.objects.link(ground)
 
     k = size / 0.15  # light distances scale with the object; powers with their square
+    back = spec["key"] == "BACK"
     key = bpy.data.objects.new("Key Light", bpy.data.lights.new("Key Light", "SPOT"))
-    key.data.energy = 60.0 * k * k
+    key.data.energy = (80.0 if back else 60.0) * k * k
     key.data.spot_size = math.radians(50)
     key.data.spot_blend = 0.3
     key.data.shadow_soft_size = 0.005 * k
-    key.location = (Vector((-0.08, 0.45, 0.32)) if spec["key"] == "BACK" else Vector((-0.35, -0.4, 0.4))) * k
+    key.location = (Vector((0.0, 0.35, 0.22)) if back else Vector((-0.35, -0.4, 0.4))) * k
     _aim(key, centre)
     coll.objects.link(key)
 
     fill = bpy.data.objects.new("Fill Light", bpy.data.lights.new("Fill Light", "AREA"))
-    fill.data.energy = 2.5 * k * k
+    fill.data.energy = (0.6 if back else 2.5) * k * k  # dim when back-lit, so that light shows through
     fill.data.size = 0.3 * k
     fill.location = Vector((0.45, -0.35, 0.35)) * k
     _aim(fill, centre)

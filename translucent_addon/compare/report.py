@@ -23,6 +23,7 @@ class Entry:
     ssim: float | None = None
     median_rel_error: float | None = None  # robust to fireflies
     rel_rmse_model: float | None = None  # ours against the CPU dipole model: the discretisation error
+    median_vs_brute_force: float | None = None  # median relative error against the brute-force check
     image: str = ""
     error_image: str = ""
     cached: bool = False

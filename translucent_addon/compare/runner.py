@@ -245,10 +245,11 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
     ref_image, ref_seconds, ref_cached = cached_cycles("random_walk", settings.reference_samples)
     add("Cycles random walk (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
         ref_cached, samples=settings.reference_samples)
+    brute_image = None
     if settings.brute_force_reference_samples:
-        img, sec, hit = cached_cycles("brute_force", settings.brute_force_reference_samples)
-        add("Cycles brute force (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp", sec, img, hit,
-            samples=settings.brute_force_reference_samples)
+        brute_image, sec, hit = cached_cycles("brute_force", settings.brute_force_reference_samples)
+        add("Cycles brute force (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp", sec, brute_image,
+            hit, samples=settings.brute_force_reference_samples)
     for spp in settings.cycles_random_walk_samples:
         img, sec, hit = cached_cycles("random_walk", spp)
         add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
@@ -290,6 +291,8 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
         e.median_rel_error = median_relative_error(img, ref_image, mask)
         if model_image is not None and e.engine == "TRANSLUCENT_RT":
             e.rel_rmse_model = relative_rmse(img, model_image, mask)
+        if brute_image is not None and not e.series.startswith("Cycles brute force"):
+            e.median_vs_brute_force = median_relative_error(img, brute_image, mask)
         e.error_image = f"{slug}_error.png"
         save_error_png(out / e.error_image, img, ref_image, mask)
     meta = {
