@@ -9,13 +9,9 @@ from mathutils import Vector
 
 
 def set_world(scene, color) -> None:
-    world = bpy.data.worlds.new("World")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    bg = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
-    bg.inputs["Color"].default_value = (*color, 1.0)
-    bg.inputs["Strength"].default_value = 1.0
-    scene.world = world
+    from translucent_addon.demo import uniform_world
+
+    uniform_world(scene, tuple(color))
 
 
 def diffuse_material(name, color):

@@ -44,6 +44,19 @@ def _material(name: str, color) -> bpy.types.Material:
     return mat
 
 
+def uniform_world(scene, color, name: str = "World") -> bpy.types.World:
+    """Give the scene a new world of one uniform colour (Background node and viewport colour)."""
+    world = bpy.data.worlds.new(name)
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    bg = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value = (*color, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    world.color = color
+    scene.world = world
+    return world
+
+
 def _aim(ob, target: Vector) -> None:
     ob.rotation_euler = (target - ob.location).to_track_quat("-Z", "Y").to_euler()
 
@@ -113,14 +126,7 @@ def build_scene(name: str, scene: bpy.types.Scene | None = None) -> bpy.types.Sc
     coll.objects.link(cam)
     scene.camera = cam
 
-    world = bpy.data.worlds.new("Translucent World")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    bg = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
-    bg.inputs["Color"].default_value = (0.05, 0.055, 0.07, 1.0)
-    bg.inputs["Strength"].default_value = 1.0
-    world.color = (0.05, 0.055, 0.07)
-    scene.world = world
+    uniform_world(scene, (0.05, 0.055, 0.07), "Translucent World")
 
     scene.render.engine = "TRANSLUCENT_RT"
     scene.render.resolution_x, scene.render.resolution_y = 640, 480

@@ -9,18 +9,10 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from ..demo import uniform_world
+
 SLAB_HALF_WIDTH = 0.06  # Blender units (60 mm at 1000 mm per unit)
 SLAB_DEPTH = 0.04
-
-
-def _world_white(scene):
-    world = bpy.data.worlds.new("White")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    bg = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
-    bg.inputs["Color"].default_value = (1, 1, 1, 1)
-    bg.inputs["Strength"].default_value = 1.0
-    scene.world = world
 
 
 def build(scene, material) -> bpy.types.Object:
@@ -39,7 +31,7 @@ def build(scene, material) -> bpy.types.Object:
     cam.location = (0, 0, 0.5)
     scene.collection.objects.link(cam)
     scene.camera = cam
-    _world_white(scene)
+    uniform_world(scene, (1.0, 1.0, 1.0), "White")
     return ob
 
 

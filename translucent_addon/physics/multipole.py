@@ -30,8 +30,8 @@ def _pair_terms(r, z, sigma_tr):
     return (sigma_tr * d + 1.0) * np.exp(-sigma_tr * d) / d**3
 
 
-def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
-    """R(r) and T(r) [mm^-2] of a homogeneous slab of the given thickness [mm] (scalar coefficients).
+def _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+    """alpha', sigma_tr and the depths (z_r,i, z_v,i) of the mirrored dipole pairs of a slab.
 
     eta is the relative index at the top boundary, eta_bottom (default eta) at the bottom one; each
     boundary has its own extrapolation distance z_b = 2 A D, and the period of the mirrored pairs is
@@ -48,12 +48,17 @@ def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_b
     if n_pairs is None:
         # Enough mirror pairs that the farthest is many diffusion lengths away (Donner & Jensen use ~10).
         n_pairs = int(np.clip(np.ceil(10.0 * z_r / max(thickness, 1e-9)), 2, 50))
+    pairs = [(2.0 * i * ell + z_r, 2.0 * i * ell - z_r - 2.0 * z_b) for i in range(-n_pairs, n_pairs + 1)]
+    return alpha_prime, sigma_tr, pairs
+
+
+def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+    """R(r) and T(r) [mm^-2] of a homogeneous slab of the given thickness [mm] (scalar coefficients)."""
+    alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom)
     r = np.asarray(r, dtype=np.float64)
     R = np.zeros_like(r)
     T = np.zeros_like(r)
-    for i in range(-n_pairs, n_pairs + 1):
-        z_ri = 2.0 * i * ell + z_r
-        z_vi = 2.0 * i * ell - z_r - 2.0 * z_b
+    for z_ri, z_vi in pairs:
         R += z_ri * _pair_terms(r, z_ri, sigma_tr) - z_vi * _pair_terms(r, z_vi, sigma_tr)
         T += (thickness - z_ri) * _pair_terms(r, thickness - z_ri, sigma_tr) - (thickness - z_vi) * _pair_terms(
             r, thickness - z_vi, sigma_tr
@@ -72,22 +77,11 @@ def _pair_disk(radius, z, sigma_tr):
 
 def slab_disk_integrals(radius, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
     """Integrals of R and T of ``slab_profiles`` over a disk of the given radius [mm] (closed form)."""
-    sigma_t_prime = sigma_a + sigma_s_prime
-    alpha_prime = sigma_s_prime / sigma_t_prime
-    sigma_tr = np.sqrt(3.0 * sigma_a * sigma_t_prime)
-    z_r = 1.0 / sigma_t_prime
-    D = 1.0 / (3.0 * sigma_t_prime)
-    z_b = 2.0 * A(eta) * D
-    z_b_bottom = 2.0 * A(eta if eta_bottom is None else eta_bottom) * D
-    ell = thickness + z_b + z_b_bottom
-    if n_pairs is None:
-        n_pairs = int(np.clip(np.ceil(10.0 * z_r / max(thickness, 1e-9)), 2, 50))
+    alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom)
     radius = np.asarray(radius, dtype=np.float64)
     R = np.zeros_like(radius)
     T = np.zeros_like(radius)
-    for i in range(-n_pairs, n_pairs + 1):
-        z_ri = 2.0 * i * ell + z_r
-        z_vi = 2.0 * i * ell - z_r - 2.0 * z_b
+    for z_ri, z_vi in pairs:
         R += _pair_disk(radius, z_ri, sigma_tr) - _pair_disk(radius, z_vi, sigma_tr)
         T += _pair_disk(radius, thickness - z_ri, sigma_tr) - _pair_disk(radius, thickness - z_vi, sigma_tr)
     scale = alpha_prime / (4.0 * np.pi)
