@@ -34,10 +34,12 @@ void main()
     radiance = light.radiance.rgb;
   }
   else {
-    /* Solid angle of this texel of a 90 degree cube face; intensity without the 1/d^2. */
+    /* Solid angle of this texel of a square face of half angle atan(t) (t = 1: a cube face);
+     * intensity without the 1/d^2. */
     float texels = light.shadow.x;
+    float t = light.shadow.z;
     vec2 in_face = mod(gl_FragCoord.xy, texels) / texels * 2.0 - 1.0;
-    measure = light.shadow.y / pow(1.0 + dot(in_face, in_face), 1.5);
+    measure = light.shadow.y / pow(1.0 + t * t * dot(in_face, in_face), 1.5);
     vec3 d = light.position_kind.xyz - v_world;
     radiance *= dot(d, d);
   }

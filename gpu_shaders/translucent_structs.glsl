@@ -22,7 +22,8 @@ struct LightData {
   vec4 radiance;          /* rgb: irradiance (directional) or on-axis intensity W/sr (point) */
   vec4 cone;              /* x: cos half angle (< -1: none), y: blend width, z: cosine lobe flag */
   vec4 shadow;            /* x: texels per face, y: scene radius, z: normal offset in texels,
-                           * w: shadows on; for light-view samples x: texels, y: texel measure */
+                           * w: shadows on; for light-view samples x: texels, y: texel measure,
+                           * z: tangent of a point emitter's face half angle */
 };
 
 struct MaterialsData {

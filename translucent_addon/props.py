@@ -109,12 +109,12 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     splat_overlap: bpy.props.FloatProperty(
         name="Splat overlap",
         description="IMAGE_SPACE: light-view samples per splat radius; more is smoother and slower",
-        min=2.0, max=128.0, default=16.0,
+        min=2.0, max=128.0, default=32.0,
     )
     splat_max_grid: bpy.props.IntProperty(
         name="Max samples per side",
         description="IMAGE_SPACE: light-view samples per face side, at most",
-        min=16, max=4096, default=512,
+        min=16, max=4096, default=1024,
     )
     temporal_coherence: bpy.props.BoolProperty(
         name="Temporal coherence",

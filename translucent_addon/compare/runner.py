@@ -36,10 +36,10 @@ class CompareError(RuntimeError):
 
 
 OUR_QUALITY = (
-    {"label": "k=4", "splat_overlap": 4.0},
     {"label": "k=8", "splat_overlap": 8.0},
     {"label": "k=16", "splat_overlap": 16.0},
-    {"label": "k=32", "splat_overlap": 32.0, "splat_max_grid": 1024},
+    {"label": "k=32", "splat_overlap": 32.0},
+    {"label": "k=48", "splat_overlap": 48.0, "splat_max_grid": 2048},
 )
 
 
@@ -325,7 +325,7 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     return image, seconds, False
 
 
-def discretisation(scene, objects, output_dir, overlaps=(2.0, 4.0, 8.0, 16.0, 32.0), samples: int = 300_000,
+def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 48.0), samples: int = 200_000,
                    cache_dir=None, progress=print):
     """Our engine at several splat overlaps against the CPU dipole model: error against splat count.
 
@@ -351,7 +351,7 @@ def discretisation(scene, objects, output_dir, overlaps=(2.0, 4.0, 8.0, 16.0, 32
                                                     scene_description(depsgraph, frame, objects), cache_dir, progress)
     rows = []
     for k in overlaps:
-        grid = 4096 if k > 16 else 1024
+        grid = 2048 if k > 32 else 1024
         with engine_setup(scene, "TRANSLUCENT_RT", translucent_splat_overlap=k, translucent_splat_max_grid=grid,
                           translucent_capture_passes=True):
             progress(f"IMAGE_SPACE k={k} ...")

@@ -185,7 +185,8 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
         n = sampling.grid
         atlas_size = (3 * n, 2 * n) if sampling.n_faces == 6 else (n, n)
         light_ubo = gpu.types.GPUUniformBuf(
-            blocks.light_block(sampling.emitter, sampling.faces, sampling.origin, n, sampling.texel_measure))
+            blocks.light_block(sampling.emitter, sampling.faces, sampling.origin, n, sampling.texel_measure,
+                               normal_offset_texels=sampling.tan_half))
         samples_fb, (pos_id, flux) = _target(pipeline, "samples", atlas_size, depth=True, attachments=2)
         # Pass 1: light-view samples x_i with the power entering through each texel.
         with samples_fb.bind():

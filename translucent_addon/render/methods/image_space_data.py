@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ...physics.lut import BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition, profile_tables
-from ..blocks import look_at, orthographic, shadow_projection
+from ..blocks import look_at, orthographic, perspective, shadow_projection
 from ..lights import DIRECTIONAL, Emitter
 from ..scene_data import FrameInputs, MeshInstance
 
@@ -30,13 +30,15 @@ MAX_MATERIALS = 32
 FAR_SAMPLES = 256
 NEAR_SAMPLES = 32
 MIN_GRID = 16
+FIT_MARGIN = 1.2  # a point light farther than this many bounding radii gets a fitted frustum
+FIT_MARGIN_ANGLE = 1.05  # the fitted frustum's half angle, over the sphere's angular radius
 
 
 @dataclasses.dataclass(frozen=True)
 class SamplingSettings:
     epsilon: float = 0.01  # Shah Eq. 6.16: the share of R_d's integral beyond the splat radius
-    overlap: float = 16.0  # k: sample spacing = r_max / k at the object
-    max_grid: int = 512  # texels per light-view face side, at most
+    overlap: float = 32.0  # k: sample spacing = r_max / k at the object (bench: 5 % against the model)
+    max_grid: int = 1024  # texels per light-view face side, at most
 
 
 @dataclasses.dataclass
@@ -46,7 +48,8 @@ class EmitterSampling:
     origin: np.ndarray
     n_faces: int
     grid: int  # texels per face side
-    texel_measure: float  # directional: texel area (world units^2); point: (2 / grid)^2 at the face centre
+    texel_measure: float  # directional: texel area (world units^2); point: solid angle at the face centre
+    tan_half: float = 1.0  # point: tangent of the face's half angle (1 for cube faces)
 
     @property
     def sample_count(self) -> int:
@@ -122,20 +125,34 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
             grid = int(np.clip(math.ceil(2 * radius / spacing_world), MIN_GRID, settings.max_grid))
             samplings.append(EmitterSampling(e, faces, origin, 1, grid, (2 * radius / grid) ** 2))
         else:
-            faces, origin = shadow_projection(e, scene_centre, scene_radius)
-            d = max(float(np.linalg.norm(np.asarray(e.position) - centre)), radius)
-            grid = int(np.clip(math.ceil(2 * d / spacing_world), MIN_GRID, settings.max_grid))
-            samplings.append(EmitterSampling(e, faces, origin, 6, grid, (2.0 / grid) ** 2))
+            position = np.asarray(e.position, float)
+            d = float(np.linalg.norm(position - centre))
+            if d > FIT_MARGIN * radius:
+                # A frustum fitted to the objects' bounding sphere, as Shah fits the light view to the
+                # object (the width W of Eq. 6.18): every texel can land on the objects.
+                half = math.asin(min(radius / d, 0.99)) * FIT_MARGIN_ANGLE
+                tan_half = math.tan(half)
+                faces = np.tile(np.eye(4), (6, 1, 1))
+                far = d + 2.0 * scene_radius
+                faces[0] = perspective(2 * half, 1.0, max(far * 1e-4, 1e-5), far) @ look_at(position, centre - position,
+                                                                                             (0, 0, 1))
+                grid = int(np.clip(math.ceil(2 * d * tan_half / spacing_world), MIN_GRID, settings.max_grid))
+                samplings.append(EmitterSampling(e, faces, position, 1, grid, (2.0 * tan_half / grid) ** 2, tan_half))
+            else:
+                # The light is among the objects: all directions, a cube map.
+                faces, origin = shadow_projection(e, scene_centre, scene_radius)
+                grid = int(np.clip(math.ceil(2 * max(d, radius) / spacing_world), MIN_GRID, settings.max_grid))
+                samplings.append(EmitterSampling(e, faces, origin, 6, grid, (2.0 / grid) ** 2, 1.0))
     rho_world = []
     for m in meshes:
         c_m, r_m = _bounds([m])
         spacing = spacing_world
         for s in samplings:
-            if s.n_faces == 1:
+            if s.emitter.kind == DIRECTIONAL:
                 spacing = max(spacing, math.sqrt(s.texel_measure))
             else:
                 d = max(float(np.linalg.norm(np.asarray(s.emitter.position) - c_m)), 1e-6)
-                spacing = max(spacing, 2.0 * d / s.grid)
+                spacing = max(spacing, 2.0 * d * s.tan_half / s.grid)
         rho_world.append(2.0 * spacing)
     tables = [material_tables(med, rho * med.mm_per_unit, settings.epsilon) for med, rho in zip(media, rho_world)]
     return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world)
@@ -160,9 +177,11 @@ def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
     return profile_tables(radii, profile, med.eta, rho_mm, epsilon, FAR_SAMPLES, NEAR_SAMPLES)
 
 
-def texel_solid_angle(u, v, grid: int):
-    """Solid angle of a cube-face texel at face coordinates (u, v) in [-1, 1]: (2/n)^2 / (1 + u^2 + v^2)^1.5."""
-    return (2.0 / grid) ** 2 / (1.0 + u * u + v * v) ** 1.5
+def texel_solid_angle(u, v, grid: int, tan_half: float = 1.0):
+    """Solid angle of a texel of a square perspective face of half angle atan(tan_half), at face coordinates
+    (u, v) in [-1, 1]: (2 t / n)^2 / (1 + t^2 (u^2 + v^2))^1.5 with t = tan_half."""
+    t = tan_half
+    return (2.0 * t / grid) ** 2 / (1.0 + t * t * (u * u + v * v)) ** 1.5
 
 
 def far_lookup(table: ImageSpaceTables, s_mm):
