@@ -11,7 +11,6 @@ Cycles' 1024 bounces and the brute force is biased low.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
@@ -20,7 +19,7 @@ from translucent_addon.compare import conversion
 from translucent_addon.physics.dipole import total_diffuse_reflectance
 from translucent_addon.physics.fresnel import fresnel_dielectric
 from translucent_addon.physics.presets import load_presets
-from translucent_addon.reference.dipole_model import hemispherical_transmittance
+from translucent_addon.physics.fresnel import hemispherical_transmittance
 
 
 def test_albedo_fit_inverse_round_trips():

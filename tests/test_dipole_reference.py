@@ -8,7 +8,8 @@ import pytest
 
 from translucent_addon.physics.dipole import total_diffuse_reflectance
 from translucent_addon.physics.fresnel import fresnel_dielectric
-from translucent_addon.reference.dipole_model import Medium, hemispherical_transmittance, render_dipole
+from translucent_addon.physics.fresnel import hemispherical_transmittance
+from translucent_addon.reference.dipole_model import Medium, render_dipole
 from translucent_addon.render import blocks
 from translucent_addon.render.lights import emitters_from_light
 from translucent_addon.render.scene_data import CameraView, FrameInputs, MeshInstance

@@ -71,7 +71,7 @@ def test_exact_fresnel_known_values():
 # -- splat size and count (Shah Eq. 6.16-6.18) ------------------------------------
 from translucent_addon.physics.dipole import R_d_disk, overlap_count, r_max, splat_grid  # noqa: E402
 from translucent_addon.physics.lut import dipole_lut  # noqa: E402
-from translucent_addon.physics.multipole import Grid, Layer, layered_profiles, radial_profile, slab_profiles  # noqa: E402
+from translucent_addon.physics.multipole import Grid, Layer, layered_profiles, slab_profiles  # noqa: E402
 
 
 def test_disk_integral_closed_form_matches_quadrature_and_tends_to_the_total():

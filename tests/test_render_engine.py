@@ -7,7 +7,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from conftest import ext_module  # noqa: E402
-from blender_helpers import add_camera, add_cube, add_light, add_plane, lit_cube_scene, render, set_world  # noqa: E402
+from blender_helpers import add_camera, add_cube, lit_cube_scene, render, set_world  # noqa: E402
 
 
 def _frame_of(tr, scene, width, height):

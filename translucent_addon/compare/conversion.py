@@ -116,13 +116,11 @@ class RandomWalkInputs:
 def random_walk_inputs(sigma_a, sigma_s_prime, eta, g, mm_per_unit) -> RandomWalkInputs:
     """Principled random-walk inputs with our diffuse albedo and diffusion length (see module doc)."""
     from ..physics.dipole import dipole_parameters, total_diffuse_reflectance
-    from ..physics.fresnel import fresnel_dielectric
+    from ..physics.fresnel import hemispherical_transmittance
 
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)
-    mu = (np.arange(4096) + 0.5) / 4096
-    t_in = 2.0 * np.mean((1.0 - fresnel_dielectric(mu, eta)) * mu)  # 1 - F_dr for light entering
-    rho = np.clip(total_diffuse_reflectance(sa, ss, eta) * t_in, 0.0, 1.0)
+    rho = np.clip(total_diffuse_reflectance(sa, ss, eta) * hemispherical_transmittance(eta), 0.0, 1.0)
     A = np.clip(random_walk_base_color(rho, eta), 0.0, 1.0)
     alpha_c = cycles_single_scattering_albedo(A, g)
     _, sigma_tr, _, _ = dipole_parameters(sa, ss, eta)

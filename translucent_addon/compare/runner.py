@@ -28,7 +28,8 @@ from ..render import extract
 from . import cache, twin_materials
 from .bvh_tracer import BVHTracer
 from .metrics import median_relative_error, relative_rmse, ssim
-from .report import Entry, save_error_png, save_image_png, speed_accuracy_chart, write_report
+from .report import (Entry, error_against_samples_chart, save_error_png, save_image_png, speed_accuracy_chart,
+                     write_report)
 
 
 class CompareError(RuntimeError):
@@ -335,7 +336,6 @@ def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 4
     """
     import json
 
-    from . import report as report_mod
     from ..render import engine as engine_mod
 
     out = Path(output_dir)
@@ -361,13 +361,13 @@ def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 4
         lit = sum(int((pid[..., 3] > 0.5).sum()) for pid, _ in engine_mod.LAST_CAPTURE.get("samples", []))
         rows.append({"overlap": k, "light_view_texels": count, "object_samples": lit, "seconds": sec,
                      "rel_rmse_vs_model": relative_rmse(img, model_image, mask)})
-        report_mod.save_error_png(out / f"image_space_k{int(k)}_vs_model_error.png", img, model_image, mask)
-        report_mod.save_image_png(out / f"image_space_k{int(k)}.png", img)
-    report_mod.save_image_png(out / "dipole_model.png", model_image)
+        save_error_png(out / f"image_space_k{int(k)}_vs_model_error.png", img, model_image, mask)
+        save_image_png(out / f"image_space_k{int(k)}.png", img)
+    save_image_png(out / "dipole_model.png", model_image)
     engine_mod.LAST_CAPTURE.clear()
     (out / "discretisation.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
                                                           "model_seconds": model_seconds, "rows": rows}, indent=2))
-    report_mod.error_against_samples_chart(rows, out / "discretisation.png", f"{scene.name}: IMAGE_SPACE against the "
+    error_against_samples_chart(rows, out / "discretisation.png", f"{scene.name}: IMAGE_SPACE against the "
                                            f"dipole model ({width}x{height})")
     return rows
 

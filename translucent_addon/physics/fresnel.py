@@ -26,6 +26,12 @@ def fresnel_schlick(cos_i, eta):
     return r0 + (1.0 - r0) * (1.0 - np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)) ** 5
 
 
+def hemispherical_transmittance(eta: float, n: int = 4096) -> float:
+    """1 - F_dr for light entering: 2 int_0^1 (1 - F(mu, eta)) mu dmu (uniform diffuse illumination)."""
+    mu = (np.arange(n) + 0.5) / n
+    return float(2.0 * np.mean((1.0 - fresnel_dielectric(mu, eta)) * mu))
+
+
 def F_dr(eta):
     """Diffuse Fresnel reflectance, the polynomial fit of Jensen 2001 / Shah Eq. 6.12.
 

@@ -66,26 +66,31 @@ class ImageSpaceTables:
     hemispherical_transmittance: float  # 1 - F_dr for light entering
 
 
+def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) -> np.ndarray:
+    """near(M) = int R_d(M r) M^2 (1 - w(r)) 2 pi r dr: the part of the profile taken at E(x_o).
+
+    Up to rho it is the closed-form disk integral R_d_disk(M rho) (substitute s = M r); the blend
+    ring [rho, 2 rho] by quadrature.
+    """
+    from .dipole import R_d_disk
+
+    ring = np.linspace(rho_mm, 2 * rho_mm, 2049)[:, None]
+    f = R_d(M * ring, sigma_a, sigma_s_prime, eta) * M * M * (1.0 - partition(ring, rho_mm)) * 2 * np.pi * ring
+    return R_d_disk(M * rho_mm, sigma_a, sigma_s_prime, eta) + np.trapz(f, ring, axis=0)
+
+
 def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
-    from .dipole import R_d_disk, total_diffuse_reflectance
-    from .fresnel import fresnel_dielectric
+    from .dipole import total_diffuse_reflectance
+    from .fresnel import hemispherical_transmittance
 
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)
     radius = float(np.max(r_max(sa, ss, eta, epsilon)))
     u = np.linspace(0.0, 1.0, samples)[:, None]
     far = R_d(radius * u**2, sa, ss, eta)
-    near = np.empty((near_samples, 3))
-    ring = np.linspace(rho_mm, 2 * rho_mm, 1025)[:, None]
-    for k, M in enumerate(np.linspace(BLUR_MIN, 1.0, near_samples)):
-        # int_0^rho R_d(M r) M^2 2 pi r dr = R_d_disk(M rho) (substitute s = M r); the ring by quadrature.
-        inner = R_d_disk(M * rho_mm, sa, ss, eta)
-        f = R_d(M * ring, sa, ss, eta) * M * M * (1.0 - partition(ring, rho_mm)) * 2 * np.pi * ring
-        near[k] = inner + np.trapz(f, ring, axis=0)
-    mu = (np.arange(4096) + 0.5) / 4096
-    t_hemi = float(2.0 * np.mean((1.0 - fresnel_dielectric(mu, eta)) * mu))
+    near = np.stack([near_integral(sa, ss, eta, rho_mm, M) for M in np.linspace(BLUR_MIN, 1.0, near_samples)])
     return ImageSpaceTables(far.astype(np.float32), near.astype(np.float32), radius, float(rho_mm),
-                            total_diffuse_reflectance(sa, ss, eta), t_hemi)
+                            total_diffuse_reflectance(sa, ss, eta), hemispherical_transmittance(eta))
 
 
 def profile_tables(radii, profile, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
@@ -93,7 +98,7 @@ def profile_tables(radii, profile, eta, rho_mm, epsilon=0.01, samples=256, near_
 
     r_max from the cumulative integral of R 2 pi r dr (Eq. 6.16); the near field by quadrature.
     """
-    from .fresnel import fresnel_dielectric
+    from .fresnel import hemispherical_transmittance
 
     radii = np.asarray(radii, dtype=np.float64)
     profile = np.asarray(profile, dtype=np.float64)
@@ -113,9 +118,8 @@ def profile_tables(radii, profile, eta, rho_mm, epsilon=0.01, samples=256, near_
     for k, M in enumerate(np.linspace(BLUR_MIN, 1.0, near_samples)):
         f = R(M * r) * (M * M * (1.0 - partition(r, rho_mm)) * 2 * np.pi * r)[:, None]
         near[k] = np.trapz(f, r, axis=0)
-    mu = (np.arange(4096) + 0.5) / 4096
-    t_hemi = float(2.0 * np.mean((1.0 - fresnel_dielectric(mu, eta)) * mu))
-    return ImageSpaceTables(far.astype(np.float32), near.astype(np.float32), radius, float(rho_mm), total, t_hemi)
+    return ImageSpaceTables(far.astype(np.float32), near.astype(np.float32), radius, float(rho_mm), total,
+                            hemispherical_transmittance(eta))
 
 
 @functools.lru_cache(maxsize=16)

@@ -22,17 +22,11 @@ import numpy as np
 
 from ..geometry.camera import pixel_rays
 from ..geometry.raycast import BruteForceTracer
-from ..physics.dipole import R_d, R_d_disk, r_max
-from ..physics.fresnel import fresnel_dielectric
-from ..render.lights import DIRECTIONAL, unshadowed_irradiance
+from ..physics.dipole import R_d, r_max
+from ..physics.fresnel import fresnel_dielectric, hemispherical_transmittance
+from ..physics.lut import near_integral, partition
 from ..render.scene_data import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-exported)
-from .lambert import render_lambert, scene_triangles
-
-
-def hemispherical_transmittance(eta: float, n: int = 4096) -> float:
-    """1 - F_dr for light entering: 2 int_0^1 (1 - F(mu, eta)) mu dmu (uniform diffuse illumination)."""
-    mu = (np.arange(n) + 0.5) / n
-    return float(2.0 * np.sum((1.0 - fresnel_dielectric(mu, eta)) * mu) / n)
+from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 
 
 def _subtriangle_centroids(n: int) -> np.ndarray:
@@ -69,36 +63,13 @@ def sample_surface(mesh: MeshInstance, count: int):
     return np.concatenate(points), normals, np.concatenate(weights)
 
 
-def _smooth_partition(r, rho):
-    """w(r): 0 for r <= rho, 1 for r >= 2 rho, smoothstep between."""
-    x = np.clip((r - rho) / rho, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
-
-
-def near_field(rho: float, sigma_a, sigma_s_prime, eta) -> np.ndarray:
-    """int R_d(r) (1 - w(r)) 2 pi r dr over [0, 2 rho]: the part of the profile taken at E(x_o).
-
-    The part up to rho is the closed-form disk integral; the blend ring uses fine quadrature.
-    """
-    inner = R_d_disk(rho, sigma_a, sigma_s_prime, eta)
-    r = np.linspace(rho, 2 * rho, 2001)[:, None]
-    f = R_d(r, sigma_a, sigma_s_prime, eta) * (1.0 - _smooth_partition(r, rho)) * 2 * math.pi * r
-    return inner + np.trapz(f, r, axis=0)
-
-
 def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, tracer, scale: float) -> np.ndarray:
     """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world."""
     p_off = points + normals * 1e-4 * scale
     E = np.zeros((len(points), 3))
-    for e in frame.emitters:
-        E_e, to_light, dist = unshadowed_irradiance(e, p_off, normals)
-        lit = E_e.max(axis=1) > 0
-        if lit.any():
-            t_max = np.full(len(points), np.inf) if e.kind == DIRECTIONAL else dist
-            blocked = np.zeros(len(points), dtype=bool)
-            blocked[lit] = tracer.occluded(p_off[lit], to_light[lit], t_max[lit])
-            cos_i = np.einsum("ij,ij->i", normals, to_light)
-            E += np.where(blocked[:, None], 0.0, E_e) * (1.0 - fresnel_dielectric(cos_i, medium.eta))[:, None]
+    for E_e, to_light in shadowed_irradiance(frame.emitters, p_off, normals, tracer):
+        cos_i = np.einsum("ij,ij->i", normals, to_light)
+        E += E_e * (1.0 - fresnel_dielectric(cos_i, medium.eta))[:, None]
     E += math.pi * np.asarray(frame.world_color) * hemispherical_transmittance(medium.eta)
     return E
 
@@ -146,7 +117,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         area_mm2 = area * mm * mm
         rho = 2.0 * math.sqrt(float(area_mm2.max()))  # two sample spacings
         reach = max(float(np.max(r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
-        total = E_o * near_field(rho, sa, ss, medium.eta)
+        total = E_o * near_integral(sa, ss, medium.eta, rho)
         tree_i = cKDTree(x_i)
         # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
         neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))
@@ -157,7 +128,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             r_mm = pairs.data * mm
             far = r_mm > rho
             rows, cols = pairs.row[far], pairs.col[far]
-            weight = _smooth_partition(r_mm[far], rho) * area_mm2[cols]
+            weight = partition(r_mm[far], rho) * area_mm2[cols]
             contrib = R_d(r_mm[far, None], sa, ss, medium.eta) * (E_i[cols] * weight[:, None])
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)

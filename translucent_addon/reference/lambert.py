@@ -32,6 +32,22 @@ def scene_triangles(frame: FrameInputs):
     return tris, nors, cols
 
 
+def shadowed_irradiance(emitters, points, normals, tracer):
+    """Per emitter: (E (N, 3) with shadow rays cast by ``tracer``, unit directions to the light).
+
+    ``points`` are already offset off the surface; directional emitters are tested to infinity.
+    """
+    for e in emitters:
+        E, to_light, dist = unshadowed_irradiance(e, points, normals)
+        lit = E.max(axis=1) > 0
+        if lit.any():
+            t_max = np.full(len(points), np.inf) if e.kind == DIRECTIONAL else dist
+            blocked = np.zeros(len(points), dtype=bool)
+            blocked[lit] = tracer.occluded(points[lit], to_light[lit], t_max[lit])
+            E[blocked] = 0.0
+        yield E, to_light
+
+
 def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None) -> np.ndarray:
     """Linear RGBA image (height, width, 4) of the frame, row 0 at the bottom.
 
@@ -62,16 +78,7 @@ def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None)
     radiance = rho * frame.world_color
     scene_scale = max(float(np.ptp(tris.reshape(-1, 3), axis=0).max()), 1e-6)
     P_off = P + N * shadow_offset * scene_scale
-    for e in frame.emitters:
-        E, to_light, dist = unshadowed_irradiance(e, P_off, N)
-        lit = E.max(axis=1) > 0
-        if lit.any():
-            t_max = np.where(np.isinf(dist), np.inf, dist)
-            if e.kind == DIRECTIONAL:
-                t_max = np.full(len(P), np.inf)
-            blocked = np.zeros(len(P), dtype=bool)
-            blocked[lit] = tracer.occluded(P_off[lit], to_light[lit], t_max[lit])
-            E[blocked] = 0.0
+    for E, _ in shadowed_irradiance(frame.emitters, P_off, N, tracer):
         radiance += rho * E / math.pi
     img[hit, :3] = radiance
     img[hit, 3] = 1.0

@@ -109,12 +109,15 @@ class FrameInputs:
     film_transparent: bool = False
     shadow_resolution: int = 1024  # texels per shadow-map face
     warnings: list[str] = dataclasses.field(default_factory=list)
+    _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     def bounds(self) -> tuple[np.ndarray, float]:
-        """Centre and radius of a sphere around every mesh (for directional shadow maps)."""
-        if not self.meshes:
-            return np.zeros(3), 1.0
-        pts = np.concatenate([m.world_positions() for m in self.meshes])
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        centre = 0.5 * (lo + hi)
-        return centre, max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-4)
+        """Centre and radius of a sphere around every mesh (for directional shadow maps), computed once."""
+        if self._bounds is None:
+            if not self.meshes:
+                self._bounds = (np.zeros(3), 1.0)
+            else:
+                pts = np.concatenate([m.world_positions() for m in self.meshes])
+                lo, hi = pts.min(axis=0), pts.max(axis=0)
+                self._bounds = (0.5 * (lo + hi), max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-4))
+        return self._bounds

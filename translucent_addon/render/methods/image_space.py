@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from .. import blocks, shaders
-from .image_space_data import FAR_SAMPLES, NEAR_SAMPLES, ImageSpacePlan, SamplingSettings, plan  # noqa: F401
+from .image_space_data import ImageSpacePlan, SamplingSettings, plan  # noqa: F401  (SamplingSettings re-exported)
 
 
 # Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,

@@ -17,6 +17,7 @@ the overlap factor k instead, and measure the error against splat count.)
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -158,8 +159,12 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
     return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world)
 
 
+@functools.lru_cache(maxsize=64)
 def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
-    """The dipole tables of a medium, or the multipole ones when it is a layer over a base."""
+    """The dipole tables of a medium, or the multipole ones when it is a layer over a base.
+
+    Cached: ``plan`` asks for them (and for r_max at rho = 1) every frame.
+    """
     if med.layer_thickness_mm is None:
         return image_space_tables(med.sigma_a, med.sigma_s_prime, med.eta, rho_mm, epsilon, FAR_SAMPLES,
                                   NEAR_SAMPLES)
