@@ -20,7 +20,8 @@ PLATFORM_TAGS = {
     "linux-x64": ["manylinux2014_x86_64", "manylinux_2_17_x86_64", "manylinux1_x86_64"],
     "windows-x64": ["win_amd64"],
     "macos-arm64": ["macosx_11_0_arm64"],
-    "macos-x64": ["macosx_10_9_x86_64"],
+    # xatlas 0.0.11 has no 10.9 build for Intel macOS, only 10.14 (Blender 4.2 needs macOS 11.2+).
+    "macos-x64": ["macosx_10_9_x86_64", "macosx_10_14_x86_64"],
 }
 PYTHON_VERSION = "3.11"  # Blender 4.2 to 5.0
 

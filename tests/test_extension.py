@@ -87,6 +87,25 @@ def test_bundled_moderngl_wheel_gives_a_standalone_context(installed):
         ctx.release()
 
 
+def test_bundled_xatlas_wheel_imports(installed):
+    """xatlas (lightmap UVs) from the zip's wheels. The test environment has its own xatlas
+    earlier on sys.path, so the bundled copy is imported in a child interpreter with the
+    extensions' site-packages first, as in a Blender without that environment."""
+    import subprocess
+    import sys
+
+    sites = [p for p in sys.path if f"{os.sep}.local{os.sep}" in p and "extensions" in p and p.endswith("site-packages")]
+    assert sites, sys.path
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import numpy as np, xatlas; "
+            "v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32); "
+            "f = np.array([[0, 1, 2], [0, 2, 3]], np.uint32); "
+            "vmap, idx, uvs = xatlas.parametrize(v, f); "
+            "assert idx.shape == (2, 3) and uvs.shape[1] == 2, (idx.shape, uvs.shape); print(xatlas.__file__)")
+    out = subprocess.run([sys.executable, "-I", "-c", code, sites[0]], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().startswith(sites[0]), out.stdout
+
+
 def test_render_engine_and_properties_are_there(tr, scene):
     assert scene.render.engine == "TRANSLUCENT_RT"
     methods = ext_module(tr, "translucent_addon.render.methods")

@@ -1,0 +1,407 @@
+"""TEXTURE_SPACE precomputation (Lensch et al. 2002, Sec. 5): local kernels, global throughput, blending.
+
+Pure (NumPy, SciPy). Inputs: the proxy mesh in mm, its texel atlas (``atlas.py``) and the medium.
+The radiosity leaving a surface point is B(x_o) = int_S E(x_i) R_d(x_i, x_o) dx_i (Lensch Eq. 2),
+discretised twice (Sec. 4):
+
+* global, on the proxy's vertices (Sec. 5.2): hat functions psi_v, their duals
+  psi~_v = 3 / A_v (4 beta_v - 1) (A_v the area of the triangles around v), the vertex irradiance
+  E^g_v = sum_texels psi~_v A E (Eq. 10) and throughput F_ij = A_i / 3 R_d(v_i, v_j) (entries below
+  ``THRESHOLD`` dropped); the diagonal is set to zero (F^0, Sec. 5.4);
+* local, on texels (Sec. 5.3): a 7x7 kernel per surface texel, K_o(i) = A_i R_d(x_o, x_i). R_d
+  peaks within one texel, so the centre tap takes the closed-form integral of R_d over a disk of
+  the texel's area instead of the centre value.
+
+Blending (Sec. 5.4, Eq. 9): B = B^l + B^d + B^g0. Per surface texel i, three weights w_v(i) per
+colour channel distribute its irradiance to the direct radiosity B^d of its triangle's vertices,
+chosen by least squares so that the global response of a unit impulse at i matches the 9x9
+kernel on the ring Gamma around the 7x7 one. Then the interpolated global response
+(B^g0 + B^d of the impulse) is subtracted from the 7x7 kernel, so that inside it the sum is the
+kernel itself. Kernels are stored gathered: row o holds the weights of the 49 texels around o.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..physics.dipole import R_d, R_d_disk
+from .atlas import TexelAtlas
+
+THRESHOLD = 1e-5  # throughput factors below this are dropped (Lensch 6.2)
+LOCAL = 3  # 7x7 kernels: offsets -3..3
+RING = 4  # the 9x9 kernel's boundary Gamma: offsets with max(|dx|, |dy|) = 4
+FIT_OUTER = None  # outermost ring of the blending fit; None: from the vertex spacing
+# Tikhonov weight of the blending least squares, relative to the mean diagonal of the normal
+# matrix with a floor: where Gamma barely touches a vertex's hat, its weight is not determined.
+RIDGE = 1e-3
+RIDGE_FLOOR = 1e-2
+_CHUNK = 250_000  # texel pairs per vectorised block
+
+
+def _offsets(half: int, ring_only: bool = False) -> np.ndarray:
+    d = np.arange(-half, half + 1)
+    dx, dy = np.meshgrid(d, d, indexing="xy")
+    off = np.stack([dx.ravel(), dy.ravel()], axis=1)
+    if ring_only:
+        off = off[np.max(np.abs(off), axis=1) == half]
+    return off.astype(np.int32)
+
+
+LOCAL_OFFSETS = _offsets(LOCAL)  # (49, 2), row-major from (-3, -3); index 24 is the centre
+RING_OFFSETS = _offsets(RING, ring_only=True)  # (32, 2)
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    sigma_a: tuple
+    sigma_s_prime: tuple
+    eta: float
+
+    def R_d(self, r_mm):
+        """(n, 3) profile at distances r (n,) in mm."""
+        return R_d(np.asarray(r_mm, np.float64)[:, None], np.asarray(self.sigma_a, np.float64),
+                   np.asarray(self.sigma_s_prime, np.float64), self.eta)
+
+    def R_d_disk(self, radius_mm):
+        return R_d_disk(np.asarray(radius_mm, np.float64)[:, None], np.asarray(self.sigma_a, np.float64),
+                        np.asarray(self.sigma_s_prime, np.float64), self.eta)
+
+
+def vertex_areas(vertices_mm: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """A_v: the area of the triangles sharing each vertex (Lensch 5.2)."""
+    v = np.asarray(vertices_mm, np.float64)
+    t = np.asarray(triangles, np.int64)
+    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    A_v = np.zeros(len(v))
+    for k in range(3):
+        np.add.at(A_v, t[:, k], area)
+    return A_v
+
+
+def dual_weights(atlas: TexelAtlas, triangles: np.ndarray, A_v: np.ndarray):
+    """Per surface texel: its triangle's vertices (n, 3) and psi~_v A(u, v) (n, 3) (Lensch Eq. 10)."""
+    n = atlas.surface_count
+    verts = np.asarray(triangles, np.int64)[atlas.triangle[:n]]
+    beta = atlas.bary[:n].astype(np.float64)
+    weights = 3.0 / A_v[verts] * (4.0 * beta - 1.0) * atlas.area_mm2[:n, None]
+    return verts.astype(np.int32), weights
+
+
+def throughput_radius(material: Material, area_mm2: float, threshold: float = THRESHOLD) -> float:
+    """Distance beyond which A / 3 R_d(r) < threshold in every channel (bisection)."""
+    def f(r):
+        return float(np.max(area_mm2 / 3.0 * material.R_d(np.array([r]))))
+
+    lo, hi = 0.0, 1.0
+    while f(hi) > threshold and hi < 1e7:
+        hi *= 2.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(mid) > threshold else (lo, mid)
+    return hi
+
+
+def _subtriangle_centroids(n: int) -> np.ndarray:
+    """Barycentrics (n^2, 3) of the centroids of the n^2 equal sub-triangles of a triangle."""
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    up, down = i + j <= n - 1, i + j <= n - 2
+    u = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
+    v = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
+    return np.stack([1.0 - u - v, u, v], axis=1)
+
+
+def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material,
+               threshold: float = THRESHOLD):
+    """F^0 gathered by receiver as CSR: row j holds the sources i with F_ij (Lensch 5.2).
+
+    F_ij = A_i / 3 R_d(|v_i - v_j|), Lensch's one-point rule for int int psi_i R_d psi~_j. Integrating
+    the hat exactly looks more accurate but is not: it spreads the response of light entering
+    near v_i over the whole hat, into the 7x7 neighbourhood of v_j that the local kernels
+    already cover (measured on a plate: +14 to +32 % instead of +2 to +5 %). Returns (indptr
+    (V+1,) int32, indices (nnz,) int32, data (nnz, 3) float32); the diagonal is absent (F^0 of
+    Sec. 5.4) and entries whose largest channel is below ``threshold`` are dropped.
+    """
+    from scipy.spatial import cKDTree
+
+    v = np.asarray(vertices_mm, np.float64)
+    radius = throughput_radius(material, float(A_v.max()), threshold)
+    tree = cKDTree(v)
+    pairs = tree.query_pairs(radius, output_type="ndarray")  # i < j
+    src = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    dst = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    data = np.empty((len(src), 3), np.float32)
+    for a in range(0, len(src), _CHUNK):
+        b = min(a + _CHUNK, len(src))
+        r = np.linalg.norm(v[src[a:b]] - v[dst[a:b]], axis=1)
+        data[a:b] = A_v[src[a:b], None] / 3.0 * material.R_d(r)
+    keep = data.max(axis=1) >= threshold
+    src, dst, data = src[keep], dst[keep], data[keep]
+    order = np.lexsort((src, dst))
+    src, dst, data = src[order], dst[order], data[order]
+    indptr = np.zeros(len(v) + 1, np.int64)
+    np.add.at(indptr, dst + 1, 1)
+    return np.cumsum(indptr).astype(np.int32), src.astype(np.int32), data
+
+
+def _taps(atlas: TexelAtlas, centres: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(len(centres), len(offsets)) texel list indices of the texels at centre + offset, -1 if none."""
+    image = atlas.index_image()
+    xy = atlas.texel_xy[centres][:, None, :] + offsets[None, :, :]
+    inside = (xy[..., 0] >= 0) & (xy[..., 0] < atlas.width) & (xy[..., 1] >= 0) & (xy[..., 1] < atlas.height)
+    out = np.full(xy.shape[:2], -1, np.int32)
+    out[inside] = image[xy[..., 1][inside], xy[..., 0][inside]]
+    return out
+
+
+def _profile_pairs(atlas: TexelAtlas, material: Material, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """R_d between the geometry of texels a and b, (n, 3)."""
+    r = np.linalg.norm(atlas.position_mm[a].astype(np.float64) - atlas.position_mm[b], axis=1)
+    return material.R_d(r)
+
+
+class _GlobalResponse:
+    """Interpolated global response at texel o of a unit irradiance on surface texel s (Eq. 9-12).
+
+    B^g0(o) = sum_j beta_j(o) sum_k d_k(s) F^0_kj and phi_k(o) = sum_j beta_j(o) [v_j(o) = v_k(s)],
+    the hat of s's vertex k seen at o (what B^d of weight w_k adds there). F^0 between the six
+    vertices of a triangle pair is evaluated once per distinct pair.
+    """
+
+    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material):
+        self.atlas, self.material = atlas, material
+        self.t = np.asarray(triangles, np.int64)
+        self.v = np.asarray(vertices_mm, np.float64)
+        self.A_v = A_v
+        self.dual = dual  # (n_surface, 3)
+
+    def __call__(self, s: np.ndarray, o: np.ndarray):
+        """(B^g0 (n, 3 channels), phi (n, 3 vertices)) for pairs (surface texel s, texel o)."""
+        at = self.atlas
+        tri_s, tri_o = at.triangle[s].astype(np.int64), at.triangle[o].astype(np.int64)
+        key = tri_s * len(self.t) + tri_o
+        unique, inverse = np.unique(key, return_inverse=True)
+        us, uo = unique // len(self.t), unique % len(self.t)
+        Vs, Vo = self.t[us], self.t[uo]  # (U, 3)
+        r = np.linalg.norm(self.v[Vs][:, :, None, :] - self.v[Vo][:, None, :, :], axis=3)  # (U, 3, 3)
+        F = (self.A_v[Vs][:, :, None, None] / 3.0) * self.material.R_d(r.ravel()).reshape(len(unique), 3, 3, 3)
+        same = Vs[:, :, None] == Vo[:, None, :]
+        F[same] = 0.0  # F^0: no vertex sends to itself
+        beta_o = at.bary[o].astype(np.float64)
+        B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
+        phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
+        return B_g0, phi
+
+
+# Sub-samples per texel side for the taps next to the centre, where R_d changes within a texel.
+SUBTEXELS = {1: 4, 2: 2}
+
+
+def texel_jacobians(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T, 3, 2): the surface's change in mm per texel along the atlas axes, per triangle."""
+    P = np.asarray(vertices_mm, np.float64)[np.asarray(triangles, np.int64)]
+    uv = atlas.uv.astype(np.float64)
+    dP = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
+    dUV = np.stack([uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]], axis=2)
+    det = dUV[:, 0, 0] * dUV[:, 1, 1] - dUV[:, 0, 1] * dUV[:, 1, 0]
+    ok = np.abs(det) > 1e-12
+    inv = np.zeros_like(dUV)
+    inv[ok] = np.linalg.inv(dUV[ok])
+    return dP @ inv
+
+
+def _profile_texel(atlas, material, J, o, i, n: int) -> np.ndarray:
+    """Mean of R_d from x_o over an n x n grid on texel i's footprint (its source's tangent plane)."""
+    if n <= 1:
+        return _profile_pairs(atlas, material, o, i)
+    s = (np.arange(n) + 0.5) / n - 0.5
+    grid = np.stack(np.meshgrid(s, s, indexing="xy"), axis=-1).reshape(-1, 2)
+    points = atlas.position_mm[i].astype(np.float64)[:, None, :] + np.einsum("pdk,qk->pqd", J[atlas.triangle[i]], grid)
+    r = np.linalg.norm(points - atlas.position_mm[o].astype(np.float64)[:, None, :], axis=2)
+    return material.R_d(r.ravel()).reshape(len(o), len(grid), 3).mean(axis=1)
+
+
+def local_kernels(atlas: TexelAtlas, material: Material, J: np.ndarray):
+    """Raw 7x7 kernels K_o(i) = A_i R_d(x_o, x_i) (Lensch 5.3), gathered: (taps (n, 49), K (n, 49, 3)).
+
+    The centre tap is the closed-form integral of R_d over a disk of the texel's area, its
+    neighbours average R_d over a grid on the texel (``SUBTEXELS``): the texel-centre value of the
+    paper misses the peak of R_d when a texel is not much smaller than 1 / sigma_t'.
+    """
+    n = atlas.surface_count
+    taps = _taps(atlas, np.arange(n), LOCAL_OFFSETS)
+    K = np.zeros((n, len(LOCAL_OFFSETS), 3))
+    ring = np.max(np.abs(LOCAL_OFFSETS), axis=1)
+    o_all, k_all = np.nonzero(taps >= 0)
+    for a in range(0, len(o_all), _CHUNK):
+        o_idx, k_idx = o_all[a:a + _CHUNK], k_all[a:a + _CHUNK]
+        i_idx = taps[o_idx, k_idx]
+        for c in np.unique(ring[k_idx]):
+            sel = ring[k_idx] == c
+            K[o_idx[sel], k_idx[sel]] = atlas.area_mm2[i_idx[sel], None] * _profile_texel(
+                atlas, material, J, o_idx[sel], i_idx[sel], SUBTEXELS.get(int(c), 1))
+    centre = len(LOCAL_OFFSETS) // 2
+    K[:, centre] = material.R_d_disk(np.sqrt(atlas.area_mm2[:n] / math.pi))  # int over the texel's own disk
+    return taps, K
+
+
+def fit_offsets(outer: int) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets of the blending fit and their weights: the ring Gamma (offset 4) out to ``outer``.
+
+    Lensch fits B^d on Gamma alone. When a vertex hat is wider than the 7x7 kernel, B^d acts well
+    beyond Gamma too, so the fit covers every ring out to the hats' reach; rings from 6 on take
+    every other texel, weighted 2.
+    """
+    offsets, weights = [], []
+    for ring in range(RING, max(RING, outer) + 1):
+        off = _offsets(ring, ring_only=True)
+        weight = np.ones(len(off))
+        if ring >= 6:
+            keep = (off[:, 0] + off[:, 1]) % 2 == 0
+            off, weight = off[keep], 2.0 * weight[keep]
+        offsets.append(off)
+        weights.append(weight)
+    return np.concatenate(offsets), np.concatenate(weights)
+
+
+def blending_weights(atlas: TexelAtlas, material: Material, response: _GlobalResponse, outer: int = RING) -> np.ndarray:
+    """w (n, 3 vertices, 3 channels): least squares of the global impulse response against the
+    kernel on the rings from Gamma to ``outer`` (Lensch 5.4, Gamma only for outer = 4)."""
+    n = atlas.surface_count
+    offsets, weights = fit_offsets(outer)
+    ring = _taps(atlas, np.arange(n), offsets)
+    s_idx, k_idx = np.nonzero(ring >= 0)
+    o_idx = ring[s_idx, k_idx]
+    normal = np.zeros((n, 3, 3))
+    rhs = np.zeros((n, 3, 3))
+    for a in range(0, len(s_idx), _CHUNK):
+        s, o, wt = s_idx[a:a + _CHUNK], o_idx[a:a + _CHUNK], weights[k_idx[a:a + _CHUNK]]
+        # The correct radiosity there for unit irradiance on texel s: the wider kernel.
+        target = atlas.area_mm2[s, None] * _profile_pairs(atlas, material, s, o)
+        B_g0, phi = response(s, o)
+        residual = (target - B_g0) * wt[:, None]
+        for r in range(3):
+            for c in range(3):
+                rhs[:, r, c] += np.bincount(s, weights=phi[:, r] * residual[:, c], minlength=n)
+                normal[:, r, c] += np.bincount(s, weights=wt * phi[:, r] * phi[:, c], minlength=n)
+    scale = np.trace(normal, axis1=1, axis2=2) / 3.0
+    ridge = RIDGE * scale + RIDGE_FLOOR
+    return np.linalg.solve(normal + ridge[:, None, None] * np.eye(3), rhs)
+
+
+def corrected_kernels(atlas: TexelAtlas, taps: np.ndarray, K: np.ndarray, w: np.ndarray,
+                      response: _GlobalResponse) -> np.ndarray:
+    """K'_o(i) = K_o(i) - (B^g0 + B^d)(i -> o): the kernel minus the global response inside it (Lensch 5.4)."""
+    K = K.copy()
+    o_idx, k_idx = np.nonzero(taps >= 0)
+    i_idx = taps[o_idx, k_idx]
+    s_idx = atlas.source[i_idx]  # a gutter texel's light enters at its source
+    scale = atlas.area_mm2[i_idx].astype(np.float64) / atlas.area_mm2[s_idx]
+    for a in range(0, len(o_idx), _CHUNK):
+        sl = slice(a, a + _CHUNK)
+        B_g0, phi = response(s_idx[sl], o_idx[sl])
+        B_d = np.einsum("pk,pkc->pc", phi, w[s_idx[sl]])
+        K[o_idx[sl], k_idx[sl]] -= scale[sl, None] * (B_g0 + B_d)
+    return K
+
+
+@dataclasses.dataclass
+class LenschBake:
+    """Everything TEXTURE_SPACE draws with, besides the atlas."""
+
+    A_v: np.ndarray  # (V,) float32
+    dual_vertices: np.ndarray  # (n, 3) int32: triangle vertices of each surface texel
+    dual_weights: np.ndarray  # (n, 3) float32: psi~_v A (Eq. 10)
+    blend_weights: np.ndarray  # (n, 3, 3) float32: w_v per channel (Sec. 5.4)
+    kernel_taps: np.ndarray  # (n, 49) int32: texel list index of each tap, -1 none
+    kernels: np.ndarray  # (n, 49, 3) float32: corrected K'
+    F_indptr: np.ndarray  # (V+1,) int32
+    F_indices: np.ndarray  # (nnz,) int32
+    F_data: np.ndarray  # (nnz, 3) float32
+
+    def to_arrays(self, prefix: str = "lensch_") -> dict[str, np.ndarray]:
+        return {f"{prefix}{f.name}": getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict, prefix: str = "lensch_") -> "LenschBake":
+        return cls(**{f.name: arrays[f"{prefix}{f.name}"] for f in dataclasses.fields(cls)})
+
+
+def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray, material: Material,
+               blend: bool = True, threshold: float = THRESHOLD):
+    """Generator of the Lensch stages: yields (fraction, text), returns a LenschBake.
+
+    ``blend=False`` keeps the raw kernels and full F with no B^d (the paper's Fig. 6, middle): the
+    local and global responses then overlap near the light.
+    """
+    A_v = vertex_areas(vertices_mm, triangles)
+    dual_v, dual_w = dual_weights(atlas, triangles, A_v)
+    yield 0.05, "throughput factors F (Lensch 5.2)"
+    indptr, indices, data = throughput(vertices_mm, A_v, material, threshold)
+    yield 0.3, "7x7 kernels (Lensch 5.3)"
+    J = texel_jacobians(atlas, vertices_mm, triangles)
+    taps, K = local_kernels(atlas, material, J)
+    n = atlas.surface_count
+    if blend:
+        response = _GlobalResponse(atlas, triangles, vertices_mm, A_v, dual_w, material)
+        yield 0.45, "blending weights on the 9x9 ring (Lensch 5.4)"
+        # Reach of B^d: a vertex hat (about sqrt(A_v) across) beyond the 7x7 kernel, in texels.
+        texel = float(np.sqrt(np.median(atlas.area_mm2[:n])))
+        outer = int(np.ceil(LOCAL + np.sqrt(np.median(A_v)) / texel))
+        outer = FIT_OUTER if FIT_OUTER is not None else outer
+        w = blending_weights(atlas, material, response, outer)
+        yield 0.75, "kernel correction (Lensch 5.4)"
+        K = corrected_kernels(atlas, taps, K, w, response)
+    else:
+        w = np.zeros((n, 3, 3))
+        # Without blending the diagonal of F stays (Sec. 5.2): the vertex's own irradiance scatters back.
+        V = len(A_v)
+        diag = (A_v / 3.0)[:, None] * material.R_d(np.zeros(V))
+        indptr, indices, data = _with_diagonal(indptr, indices, data, diag)
+    return LenschBake(
+        A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w.astype(np.float32),
+        blend_weights=w.astype(np.float32), kernel_taps=taps, kernels=K.astype(np.float32),
+        F_indptr=indptr, F_indices=indices, F_data=data,
+    )
+
+
+def _with_diagonal(indptr, indices, data, diag):
+    V = len(indptr) - 1
+    rows = np.repeat(np.arange(V), np.diff(indptr))
+    rows = np.concatenate([rows, np.arange(V)])
+    cols = np.concatenate([indices, np.arange(V)])
+    vals = np.concatenate([data, diag.astype(np.float32)])
+    order = np.lexsort((cols, rows))
+    counts = np.bincount(rows, minlength=V)
+    return (np.concatenate([[0], np.cumsum(counts)]).astype(np.int32), cols[order].astype(np.int32),
+            vals[order].astype(np.float32))
+
+
+def radiosity(atlas: TexelAtlas, bake: LenschBake, E: np.ndarray, T_p_ratio: np.ndarray | None = None) -> np.ndarray:
+    """CPU twin of the run time: B (n_surface, 3) from the irradiance E (n_texels, 3) of every texel.
+
+    Eq. 10 (gather E^g), Eq. 11 with F^0 (sparse product), B^d, Eq. 12 (interpolation), Eq. 15
+    (7x7 filter), Eq. 9 (sum). ``T_p_ratio`` (n_surface,) scales the vertex part (Eq. 13-14).
+    """
+    from scipy.sparse import csr_matrix
+
+    n = atlas.surface_count
+    V = len(bake.A_v)
+    E = np.asarray(E, np.float64)
+    E_s = E[:n]
+    E_g = np.zeros((V, 3))
+    B_d = np.zeros((V, 3))
+    for k in range(3):
+        np.add.at(E_g, bake.dual_vertices[:, k], bake.dual_weights[:, k, None] * E_s)
+        np.add.at(B_d, bake.dual_vertices[:, k], bake.blend_weights[:, k, :] * E_s)
+    B_vertex = B_d
+    for c in range(3):
+        F = csr_matrix((bake.F_data[:, c], bake.F_indices, bake.F_indptr), shape=(V, V))
+        B_vertex[:, c] += F @ E_g[:, c]
+    B_global = np.einsum("nk,nkc->nc", atlas.bary[:n].astype(np.float64), B_vertex[bake.dual_vertices])
+    if T_p_ratio is not None:
+        B_global *= T_p_ratio[:, None]
+    E_taps = np.where(bake.kernel_taps[..., None] >= 0, E[np.maximum(bake.kernel_taps, 0)], 0.0)
+    B_local = np.einsum("nkc,nkc->nc", bake.kernels.astype(np.float64), E_taps)
+    return B_local + B_global
