@@ -17,32 +17,6 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
-float visibility(vec3 p, vec3 n)
-{
-  if (light.shadow.w < 0.5) {
-    return 1.0;
-  }
-  float texels = light.shadow.x;
-  bool is_point = light.position_kind.w > 0.5;
-  vec3 rel = p - light.position_kind.xyz;
-  /* World size of one shadow texel at p: 90 degree faces span 2 r, the
-   * directional map spans 2 R. */
-  float texel_world = (is_point ? 2.0 * length(rel) : 2.0 * light.shadow.y) / texels;
-  vec3 p_off = p + n * light.shadow.z * texel_world;
-  rel = p_off - light.position_kind.xyz;
-  int face = is_point ? cube_face(rel) : 0;
-  vec4 clip = light.face_view_proj[face] * vec4(p_off, 1.0);
-  vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-  if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) {
-    return 1.0; /* outside the directional map: unshadowed */
-  }
-  ivec2 tile = ivec2(face % 3, face / 3);
-  ivec2 texel = tile * int(texels) + clamp(ivec2(uv * texels), ivec2(0), ivec2(int(texels) - 1));
-  float stored = texelFetch(shadow_atlas, texel, 0).r;
-  float here = is_point ? length(rel) : dot(rel, light.direction.xyz);
-  return (here - 0.5 * texel_world <= stored) ? 1.0 : 0.0;
-}
-
 /* near(M) of a slot, linear in M over [0.25, 1] (physics/lut.py image_space_tables). */
 vec3 near_field(int slot, float M)
 {

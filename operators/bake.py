@@ -42,7 +42,7 @@ class TRANSLUCENT_OT_bake(bpy.types.Operator):
             return None
         depsgraph = context.evaluated_depsgraph_get()
         try:
-            inputs = gather(ob.evaluated_get(depsgraph))
+            inputs = gather(ob.evaluated_get(depsgraph), for_bake=True)
             for warning in registry.validate(inputs):
                 self.report({"WARNING"}, warning)
         except registry.BakeInputError as err:

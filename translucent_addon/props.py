@@ -91,6 +91,18 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         description="Millimetres per Blender unit for this object (1 m = 1000 mm); sets the scale of scattering",
         min=1e-6, soft_max=1e5, default=1000.0,
     )
+    atlas_resolution: bpy.props.IntProperty(
+        name="Atlas texels",
+        description="TEXTURE_SPACE: texels along the side of the texture atlas (Lensch used 512); the proxy "
+                    "mesh follows it at about 3.5 texels per edge. Changing it needs a new bake",
+        min=64, max=4096, soft_max=2048, default=512,
+    )
+    texture_blending: bpy.props.BoolProperty(
+        name="Blend local and global",
+        description="TEXTURE_SPACE: Lensch Sec. 5.4, fit the direct radiosity B^d and correct the kernels; off "
+                    "shows the paper's Fig. 6 artefact (light counted twice near where it enters)",
+        default=True,
+    )
 
 
 class TranslucentSceneSettings(bpy.types.PropertyGroup):
@@ -121,6 +133,13 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         description="IMAGE_SPACE: reuse the previous frame's light samples to reduce flicker in animation and "
                     "in the viewport (Shah 6.5.2)",
         default=True,
+    )
+    texture_product: bpy.props.EnumProperty(
+        name="Global product",
+        description="TEXTURE_SPACE: where the sparse vertex-to-vertex product F^0 E runs (Lensch Eq. 11)",
+        items=(("GPU", "GPU", "A fragment per vertex walks its row of the sparse matrix"),
+               ("CPU", "CPU", "scipy.sparse after reading the vertex irradiance back")),
+        default="GPU",
     )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",

@@ -7,8 +7,12 @@ from . import store
 from .registry import BakeInputError, BakeInputs, needs_bake
 
 
-def gather(ob_eval, method: str | None = None) -> BakeInputs:
-    """Inputs of a bake from an evaluated object (modifiers applied)."""
+def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> BakeInputs:
+    """Inputs of a bake from an evaluated object (modifiers applied).
+
+    ``for_bake``: also make what only the bake itself needs (TEXTURE_SPACE: the decimated proxy),
+    which the per-frame status check must not pay for.
+    """
     original = ob_eval.original
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
@@ -22,7 +26,7 @@ def gather(ob_eval, method: str | None = None) -> BakeInputs:
     finally:
         ob_eval.to_mesh_clear()
     props = original.translucent
-    return BakeInputs(
+    inputs = BakeInputs(
         name=original.name,
         method=method or props.method,
         vertices=vertices.reshape(-1, 3),
@@ -32,7 +36,55 @@ def gather(ob_eval, method: str | None = None) -> BakeInputs:
         sigma_s_prime=tuple(props.sigma_s_prime),
         eta=float(props.eta),
         g=float(props.g),
+        atlas_resolution=int(props.atlas_resolution),
+        blending=bool(props.texture_blending),
     )
+    if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):
+        from .proxy import surface_area, target_triangles
+
+        target = target_triangles(surface_area(inputs.vertices * inputs.mm_per_unit, inputs.triangles),
+                                  inputs.atlas_resolution)
+        if target < 0.8 * len(inputs.triangles):
+            inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
+    return inputs
+
+
+def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
+    """Blender's collapse decimation of a triangle mesh to about ``target`` triangles: (vertices, triangles).
+
+    Runs on a temporary object linked to the current scene (a modifier needs a depsgraph) and
+    removed afterwards.
+    """
+    import bpy
+
+    me = bpy.data.meshes.new("translucent_proxy")
+    me.vertices.add(len(vertices))
+    me.vertices.foreach_set("co", np.ascontiguousarray(vertices, np.float32).reshape(-1))
+    me.loops.add(3 * len(triangles))
+    me.loops.foreach_set("vertex_index", np.ascontiguousarray(triangles, np.int32).reshape(-1))
+    me.polygons.add(len(triangles))
+    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
+    me.update(calc_edges=True)
+    ob = bpy.data.objects.new("translucent_proxy", me)
+    scene = bpy.context.scene
+    scene.collection.objects.link(ob)
+    try:
+        mod = ob.modifiers.new("decimate", "DECIMATE")
+        mod.decimate_type = "COLLAPSE"
+        mod.ratio = float(np.clip(target / max(len(triangles), 1), 1e-4, 1.0))
+        mod.use_collapse_triangulate = True
+        ob_eval = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        mesh = ob_eval.to_mesh()
+        mesh.calc_loop_triangles()
+        v = np.empty(len(mesh.vertices) * 3, np.float32)
+        mesh.vertices.foreach_get("co", v)
+        t = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+        mesh.loop_triangles.foreach_get("vertices", t)
+        ob_eval.to_mesh_clear()
+    finally:
+        bpy.data.objects.remove(ob)
+        bpy.data.meshes.remove(me)
+    return v.reshape(-1, 3), t.reshape(-1, 3)
 
 
 def bake_status(ob_eval, method: str | None = None) -> str:

@@ -20,7 +20,7 @@ from .surface import surface_samples
 METHOD_STAGES = {
     "OFF": (),
     "IMAGE_SPACE": (),
-    "TEXTURE_SPACE": ("surface",),
+    "TEXTURE_SPACE": ("texture_space",),
     "QUADGRAPH": ("surface",),
     "GEOCUBE": ("surface",),
 }
@@ -49,8 +49,16 @@ class BakeInputs:
     sigma_s_prime: tuple
     eta: float
     g: float
+    atlas_resolution: int = 512  # TEXTURE_SPACE
+    blending: bool = True  # TEXTURE_SPACE
+    # TEXTURE_SPACE: a decimated proxy made by Blender (object space), or None to derive it here.
+    proxy_vertices: np.ndarray | None = None
+    proxy_triangles: np.ndarray | None = None
 
     def hash(self) -> str:
+        extra = {}
+        if self.method == "TEXTURE_SPACE":
+            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending)}
         return store.inputs_hash(
             {"vertices": self.vertices, "triangles": self.triangles},
             {
@@ -61,6 +69,7 @@ class BakeInputs:
                 "sigma_s_prime": list(self.sigma_s_prime),
                 "eta": self.eta,
                 "g": self.g,
+                **extra,
             },
         )
 
@@ -104,13 +113,27 @@ def run(inputs: BakeInputs):
     """Generator: yields (fraction, text); returns (arrays, meta)."""
     stages = METHOD_STAGES[inputs.method]
     arrays: dict[str, np.ndarray] = {}
+    meta_extra: dict = {}
     for i, stage in enumerate(stages):
         yield i / len(stages), f"{inputs.method}: {stage}"
-        if stage == "surface":
+        if stage == "texture_space":
+            from .texture_space import bake as texture_space_bake
+
+            job = texture_space_bake(inputs)
+            try:
+                while True:
+                    fraction, text = next(job)
+                    yield (i + fraction) / len(stages), text
+            except StopIteration as done:
+                stage_arrays, stage_meta = done.value
+            arrays.update(stage_arrays)
+            meta_extra.update(stage_meta)
+        elif stage == "surface":
             arrays.update({f"surface_{k}": v for k, v in
                            surface_samples(inputs.vertices, inputs.triangles, inputs.mm_per_unit).items()})
         else:  # pragma: no cover - a stage name without an implementation is a programming error
             raise KeyError(stage)
     yield 1.0, f"{inputs.method}: done"
-    meta = {"stages": list(stages), "vertices": int(len(inputs.vertices)), "triangles": int(len(inputs.triangles))}
+    meta = {"stages": list(stages), "vertices": int(len(inputs.vertices)), "triangles": int(len(inputs.triangles)),
+            **meta_extra}
     return arrays, meta

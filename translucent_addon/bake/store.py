@@ -17,8 +17,10 @@ import numpy as np
 
 BAKE_KEY = "translucent_bake"
 FORMAT_VERSION = 1
-# ID-property arrays hold float32 ('f'), float64 ('d') and int32 ('i').
+# ID-property arrays hold float32 ('f'), float64 ('d') and int32 ('i'); float16 arrays (large kernel
+# tables) are stored two to an int32.
 _STORABLE = {np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.int32)}
+_HALF = np.dtype(np.float16)
 
 
 def inputs_hash(arrays: dict[str, np.ndarray], params: dict) -> str:
@@ -46,9 +48,13 @@ def write(idblock, method: str, digest: str, arrays: dict[str, np.ndarray], meta
     group = {"arrays": {}, "shapes": {}, "dtypes": {}}
     for name, a in arrays.items():
         a = np.ascontiguousarray(a)
-        if a.dtype not in _STORABLE:
-            raise TypeError(f"bake array '{name}' has dtype {a.dtype}; store float32, float64 or int32")
-        group["arrays"][name] = a.reshape(-1) if a.size else np.zeros(0, a.dtype)
+        if a.dtype == _HALF:
+            flat = np.concatenate([a.reshape(-1), np.zeros(a.size % 2, np.float16)])
+            group["arrays"][name] = flat.view(np.int32) if flat.size else np.zeros(0, np.int32)
+        elif a.dtype not in _STORABLE:
+            raise TypeError(f"bake array '{name}' has dtype {a.dtype}; store float16, float32, float64 or int32")
+        else:
+            group["arrays"][name] = a.reshape(-1) if a.size else np.zeros(0, a.dtype)
         group["shapes"][name] = list(a.shape)
         group["dtypes"][name] = a.dtype.str
     group["inputs_hash"] = digest
@@ -60,11 +66,15 @@ def write(idblock, method: str, digest: str, arrays: dict[str, np.ndarray], meta
         idblock[BAKE_KEY] = {method: group}
 
 
-def _as_array(value, dtype: str) -> np.ndarray:
+def _as_array(value, dtype: str, shape) -> np.ndarray:
+    stored = np.dtype(np.int32) if np.dtype(dtype) == _HALF else np.dtype(dtype)
     try:
-        return np.frombuffer(value, dtype=np.dtype(dtype)).copy()
+        a = np.frombuffer(value, dtype=stored).copy()
     except TypeError:  # a plain list (dict-backed tests, empty arrays)
-        return np.asarray(value, dtype=np.dtype(dtype))
+        a = np.asarray(value, dtype=stored)
+    if np.dtype(dtype) == _HALF:
+        a = a.view(np.float16)[:int(np.prod(shape))]
+    return a.reshape(tuple(shape))
 
 
 def read(idblock, method: str) -> BakeRecord | None:
@@ -74,7 +84,7 @@ def read(idblock, method: str) -> BakeRecord | None:
     if int(g.get("format", 0)) != FORMAT_VERSION:
         return None
     arrays = {
-        name: _as_array(g["arrays"][name], g["dtypes"][name]).reshape(tuple(g["shapes"][name]))
+        name: _as_array(g["arrays"][name], g["dtypes"][name], g["shapes"][name])
         for name in g["arrays"].keys()
     }
     return BakeRecord(method, str(g["inputs_hash"]), json.loads(g["meta"]), arrays)

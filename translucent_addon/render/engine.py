@@ -56,6 +56,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(scene)
+        pipeline.texture_product = scene.translucent.texture_product
         pipeline.capture = {} if scene.translucent.capture_passes else None
         # Coherent with the previous F12 only when it drew the previous frame of the same scene.
         pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
@@ -86,6 +87,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(depsgraph.scene)
+        pipeline.texture_product = depsgraph.scene.translucent.texture_product
         pipeline.coherence_key = "viewport" if depsgraph.scene.translucent.temporal_coherence else None
         pipeline.coherence_frame += 1
         pipeline.forget({m.key for m in frame.meshes})

@@ -10,11 +10,12 @@ import hashlib
 import numpy as np
 
 from ..bake import registry as bake_registry
+from ..bake import store as bake_store
 from ..bake.inputs import bake_status
 from . import methods
 from .lights import emitters_from_light
 from ..physics.lut import BLUR_MIN
-from .scene_data import CameraView, FrameInputs, Medium, MeshInstance
+from .scene_data import BakeHandle, CameraView, FrameInputs, Medium, MeshInstance
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -135,6 +136,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
         original = ob.original
         method = original.translucent.method
         name = original.name
+        handle = None
         if method != "OFF":
             if bake_registry.needs_bake(method):
                 status = bake_status(ob, method)
@@ -142,6 +144,9 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
                     frame_warnings.append(
                         f"'{name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake"
                     )
+                else:
+                    handle = BakeHandle(f"{name}#{bake_store.stored_hash(original, method)}",
+                                        lambda o=original, m=method: bake_store.read(o, m).arrays)
             if not methods.has_passes(method):
                 frame_warnings.append(
                     f"'{name}': method {method} is not available in this version; drawn with its base colour"
@@ -166,6 +171,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             medium=medium,
             paint=paint,
             tint=tint,
+            bake=handle,
         )
     finally:
         ob.to_mesh_clear()

@@ -9,7 +9,9 @@ into the bound framebuffer). Passes:
    then rho / pi * E * V added (``base_lighting``, additive blending);
 3. method passes: IMAGE_SPACE (``methods/image_space.py``) adds the near field of the profile in
    the lighting pass above (objects with a subsurface slot) and splats the far field after it;
-   an object whose method draws nothing yet keeps the base.
+   TEXTURE_SPACE (``methods/texture_space.py``) lights its illumination maps in the world pass
+   and in each emitter's pass (reusing its shadow atlas), then filters, gathers and draws its
+   objects over the base; an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ import time
 import numpy as np
 
 from . import blocks, shaders
-from .methods import image_space
+from .methods import image_space, texture_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
 
@@ -49,6 +51,7 @@ class Pipeline:
         # off) and the frame number; samples of frame f - 1 are reused in frame f.
         self.coherence_key = None
         self.coherence_frame = 0
+        self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
 
     def free(self) -> None:
         self._batches.clear()
@@ -112,6 +115,7 @@ class Pipeline:
         base_shader = shaders.get("base_lighting")
         batches = [self._batch(m) for m in frame.meshes]
         subsurface = image_space.prepare(frame, self.sampling)
+        textured = texture_space.prepare(frame)
         slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
@@ -132,6 +136,8 @@ class Pipeline:
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
         base_inputs = (batches, objects, frame_ubo, subsurface.materials, subsurface.near_lut, atlas[1])
         self._draw_base(base_shader, *base_inputs, placeholder, mode=0)
+        if textured:
+            texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
         t_shadow = t_light = 0.0
@@ -149,6 +155,8 @@ class Pipeline:
                 self._draw_base(base_shader, *base_inputs, light_ubo, mode=1)
                 gpu.state.blend_set("NONE")
                 gpu.state.depth_mask_set(True)
+            if textured:
+                texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1)
             t_shadow += t2 - t1
             t_light += time.perf_counter() - t2
         timings["shadow_maps"] = t_shadow
@@ -157,6 +165,10 @@ class Pipeline:
             t1 = time.perf_counter()
             image_space.draw(subsurface, frame, batches, objects, frame_ubo, fb, self)
             timings["IMAGE_SPACE"] = time.perf_counter() - t1
+        if textured:
+            t1 = time.perf_counter()
+            timings.update(texture_space.finish(textured, frame, frame_ubo, objects, fb, self, self.texture_product))
+            timings["TEXTURE_SPACE"] = time.perf_counter() - t1
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         timings["total"] = time.perf_counter() - t0

@@ -34,6 +34,15 @@ class Medium:
 NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
 
 
+class BakeHandle:
+    """An up-to-date bake of a drawn object: ``key`` names it (object and inputs hash), ``load()``
+    reads its arrays (only when the GPU data of that key is not cached yet)."""
+
+    def __init__(self, key: str, load):
+        self.key = key
+        self.load = load
+
+
 @dataclasses.dataclass
 class MeshInstance:
     """One drawn mesh: triangle corners in object space and a model matrix."""
@@ -48,6 +57,7 @@ class MeshInstance:
     medium: Medium | None = None
     paint: np.ndarray | None = None  # (3T, 4) float32: mask, M_d, glow, 0
     tint: np.ndarray | None = None  # (3T, 3) float32
+    bake: object = None  # BakeHandle of an up-to-date bake (methods that bake), else None
 
     def __post_init__(self):
         n = len(self.positions)

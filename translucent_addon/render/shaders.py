@@ -31,6 +31,7 @@ class ShaderSpec:
 
 
 _LIGHT_LIBS = ("translucent_common.glsl", "translucent_light.glsl")
+_SHADOW_LIBS = _LIGHT_LIBS + ("translucent_shadow.glsl",)
 _SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint"), ("VEC3", "tint"))
 
 SPECS = {
@@ -44,7 +45,7 @@ SPECS = {
     ),
     "base_lighting": ShaderSpec(
         source="base_lighting.glsl",
-        libraries=_LIGHT_LIBS,
+        libraries=_SHADOW_LIBS,
         vertex_in=_SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
                   ("smooth", "VEC4", "v_paint"), ("smooth", "VEC3", "v_tint")),
@@ -96,6 +97,51 @@ SPECS = {
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),
         samplers=((0, "FLOAT_2D", "scatter"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+    "ts_illumination": ShaderSpec(
+        source="ts_illumination.glsl",
+        libraries=_SHADOW_LIBS,
+        vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"),),
+        push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("FLOAT", "world_transmittance"), ("VEC2", "atlas_size")),
+        fragment_out=((0, "VEC4", "out_irradiance"),),
+    ),
+    "ts_gather": ShaderSpec(
+        source="ts_gather.glsl",
+        vertex_in=(("VEC2", "texel"), ("FLOAT", "target"), ("FLOAT", "dual"), ("VEC3", "blend")),
+        varyings=(("flat", "VEC3", "v_eg"), ("flat", "VEC3", "v_bd")),
+        samplers=((0, "FLOAT_2D", "irradiance"),),
+        push_constants=(("INT", "vertex_width"), ("VEC2", "vertex_size")),
+        fragment_out=((0, "VEC4", "out_eg"), (1, "VEC4", "out_bd")),
+    ),
+    "ts_product": ShaderSpec(
+        source="ts_product.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "F_indptr"), (1, "FLOAT_2D", "F_indices"), (2, "FLOAT_2D", "F_data"),
+                  (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex")),
+        push_constants=(("INT", "vertex_width"), ("INT", "vertex_count")),
+        fragment_out=((0, "VEC4", "out_vertex"),),
+    ),
+    "ts_filter": ShaderSpec(
+        source="ts_filter.glsl",
+        vertex_in=(("VEC2", "texel"), ("VEC2", "source"), ("FLOAT", "row"), ("VEC3", "bary"), ("VEC3", "verts")),
+        varyings=(("flat", "VEC2", "v_source"), ("flat", "FLOAT", "v_row"), ("flat", "VEC3", "v_bary"),
+                  ("flat", "VEC3", "v_verts")),
+        samplers=((0, "FLOAT_2D", "irradiance"), (1, "FLOAT_2D", "kernels"), (2, "FLOAT_2D", "B_vertex")),
+        push_constants=(("INT", "vertex_width"), ("VEC2", "atlas_size")),
+        fragment_out=((0, "VEC4", "out_local"), (1, "VEC4", "out_global")),
+    ),
+    "ts_display": ShaderSpec(
+        source="ts_display.glsl",
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC2", "uv")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
+                  ("smooth", "VEC2", "v_uv")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
+        samplers=((0, "FLOAT_2D", "local_map"), (1, "FLOAT_2D", "global_map")),
+        push_constants=(("FLOAT", "eta"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
 }

@@ -1,8 +1,8 @@
 """Translucency methods: one module per method, each adding its own passes.
 
-A method module holds its GPU passes (``image_space.py``) and its pure maths
-(``image_space_data.py``); the pipeline calls it after the base pass. The method
-issues (TEXTURE_SPACE, QUADGRAPH, GEOCUBE) each add their module here. A mesh whose
+A method module holds its GPU passes (``image_space.py``, ``texture_space.py``) and its pure
+maths (``*_data.py``); the pipeline calls it around the base pass. The method issues
+(QUADGRAPH, GEOCUBE) each add their module here. A mesh whose
 method has no module yet is drawn by the base pass and the frame carries a warning.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ METHOD_DESCRIPTIONS = {
 }
 
 # The methods whose passes exist (render/methods/<method>.py); the others draw as the base.
-AVAILABLE = frozenset({"OFF", "IMAGE_SPACE"})
+AVAILABLE = frozenset({"OFF", "IMAGE_SPACE", "TEXTURE_SPACE"})
 
 
 def has_passes(method: str) -> bool:

@@ -1,0 +1,45 @@
+/* TEXTURE_SPACE display (Lensch Eq. 1, 14): the displayed mesh with its atlas coordinates reads
+ * the local and the global radiosity (bilinear, weighted by texel coverage) and leaves
+ * L = F_t(w_o) / pi (B^l + T_p B^g) + F_r(w_o) L_world. */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  vec4 world = object.model * vec4(pos, 1.0);
+  v_world = world.xyz;
+  v_normal = mat3(object.normal_matrix) * nor;
+  v_color = col;
+  v_uv = uv;
+  gl_Position = frame.view_proj * world;
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+/* Bilinear read at texel coordinates p (texel centres at +0.5); texels carry alpha = coverage. */
+vec4 bilinear(sampler2D map, vec2 p)
+{
+  ivec2 size = textureSize(map, 0);
+  vec2 q = p - 0.5;
+  ivec2 i = ivec2(floor(q));
+  vec2 f = q - floor(q);
+  ivec2 i1 = clamp(i + 1, ivec2(0), size - 1);
+  i = clamp(i, ivec2(0), size - 1);
+  vec4 a = mix(texelFetch(map, i, 0), texelFetch(map, ivec2(i1.x, i.y), 0), f.x);
+  vec4 b = mix(texelFetch(map, ivec2(i.x, i1.y), 0), texelFetch(map, i1, 0), f.x);
+  return mix(a, b, f.y);
+}
+
+void main()
+{
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) {
+    n = -n;
+  }
+  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
+                                                  normalize(frame.camera_position.xyz - v_world);
+  float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
+  vec4 l = bilinear(local_map, v_uv);
+  vec4 g = bilinear(global_map, v_uv);
+  vec3 B = (l.a > 0.0 ? l.rgb / l.a : vec3(0.0)) + v_color * (g.a > 0.0 ? g.rgb / g.a : vec3(0.0));
+  out_color = vec4((1.0 - F_r) / PI * B + F_r * frame.world_color.rgb, 1.0);
+}
+#endif

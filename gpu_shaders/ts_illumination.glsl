@@ -1,0 +1,30 @@
+/* TEXTURE_SPACE illumination map (Lensch Sec. 6.1, Eq. 3): one point per texel of the atlas,
+ * lit at the texel's surface point x_c with its normal. mode 0: the uniform world,
+ * E = pi L_w (1 - F_dr,in); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
+ * Border texels carry their source's point, so they take the irradiance across the seam. */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  v_world = (object.model * vec4(pos, 1.0)).xyz;
+  v_normal = normalize(mat3(object.normal_matrix) * nor);
+  gl_Position = vec4((texel + 0.5) / atlas_size * 2.0 - 1.0, 0.0, 1.0);
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+void main()
+{
+  if (mode == 0) {
+    out_irradiance = vec4(PI * frame.world_color.rgb * world_transmittance, 1.0);
+    return;
+  }
+  vec3 to_light;
+  vec3 radiance = emitter_irradiance(v_world, to_light);
+  float cos_i = dot(v_normal, to_light);
+  if (cos_i <= 0.0) {
+    discard;
+  }
+  vec3 E = radiance * cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);
+  out_irradiance = vec4(E, 0.0);
+}
+#endif

@@ -1,0 +1,38 @@
+/* TEXTURE_SPACE global response at the vertices (Lensch Eq. 9, 11, 13): for vertex j,
+ * B_j = B^d_j + sum_i F^0_ij E^g_i over row j of the sparse matrix (CSR in integer textures),
+ * divided by the surface texture at the vertex, T_p(v_j). One fragment per vertex. Indices are
+ * stored as exact floats (below 2^24). */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  gl_Position = vec4(corner, 0.0, 1.0);
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+ivec2 entry(int e, int width)
+{
+  return ivec2(e % width, e / width);
+}
+
+void main()
+{
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  int j = p.y * vertex_width + p.x;
+  if (j >= vertex_count) {
+    out_vertex = vec4(0.0);
+    return;
+  }
+  int width = textureSize(F_indices, 0).x;
+  int begin = int(texelFetch(F_indptr, entry(j, textureSize(F_indptr, 0).x), 0).r + 0.5);
+  int end = int(texelFetch(F_indptr, entry(j + 1, textureSize(F_indptr, 0).x), 0).r + 0.5);
+  vec3 B = texelFetch(B_direct, p, 0).rgb;
+  for (int e = begin; e < end; e++) {
+    ivec2 at = entry(e, width);
+    int i = int(texelFetch(F_indices, at, 0).r + 0.5);
+    B += texelFetch(F_data, at, 0).rgb * texelFetch(E_vertex, ivec2(i % vertex_width, i / vertex_width), 0).rgb;
+  }
+  vec3 T_p = max(texelFetch(T_p_vertex, p, 0).rgb, vec3(1e-4));
+  out_vertex = vec4(B / T_p, 1.0);
+}
+#endif

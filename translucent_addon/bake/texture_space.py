@@ -1,0 +1,68 @@
+"""The TEXTURE_SPACE bake (Lensch 2002): proxy, atlas, Lensch tables, display mapping.
+
+Pure. A generator like every bake: yields (fraction, text), returns (arrays, meta). The arrays
+are what ``render/methods/texture_space.py`` draws with; kernels are stored as float16 (three
+significant digits, the same as the GPU reads them).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import lensch, proxy
+from .atlas import build_atlas
+
+
+def bake(inputs):
+    t0 = time.perf_counter()
+    mm = float(inputs.mm_per_unit)
+    display_v = np.asarray(inputs.vertices, np.float64) * mm
+    display_t = np.asarray(inputs.triangles, np.int64)
+    area = proxy.surface_area(display_v, display_t)
+    target = proxy.target_triangles(area, inputs.atlas_resolution)
+    yield 0.02, f"TEXTURE_SPACE: proxy mesh (about {target:,} triangles)"
+    if inputs.proxy_vertices is not None:
+        proxy_v = np.asarray(inputs.proxy_vertices, np.float64) * mm
+        proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
+    else:
+        proxy_v, proxy_t = proxy.refine(display_v, display_t, target)
+    yield 0.05, f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
+    t_atlas = time.perf_counter()
+    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution)
+    t_atlas = time.perf_counter() - t_atlas
+    material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta))
+    job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)
+    try:
+        while True:
+            fraction, text = next(job)
+            yield 0.1 + 0.85 * fraction, f"TEXTURE_SPACE: {text}"
+    except StopIteration as done:
+        tables = done.value
+    yield 0.96, "TEXTURE_SPACE: display mapping"
+    tri, bary = proxy.display_mapping(display_v, display_t, proxy_v, proxy_t)
+    display_uv = np.einsum("nk,nkd->nd", bary.astype(np.float64), atlas.uv[tri].astype(np.float64))
+    # T_p at each proxy vertex (Lensch Eq. 13): the base colour of the nearest display corner.
+    from scipy.spatial import cKDTree
+
+    _, vertex_corner = cKDTree(display_v[display_t].reshape(-1, 3)).query(proxy_v)
+    arrays = {
+        "proxy_vertices_mm": proxy_v.astype(np.float32),
+        "proxy_triangles": proxy_t.astype(np.int32),
+        "display_uv": display_uv.astype(np.float32),
+        "vertex_corner": vertex_corner.astype(np.int32),
+        **atlas.to_arrays(),
+        **tables.to_arrays(),
+    }
+    arrays["lensch_kernels"] = tables.kernels.astype(np.float16)
+    del arrays["lensch_kernel_taps"]  # recomputed from the atlas when loaded
+    meta = {
+        "proxy_vertices": int(len(proxy_v)), "proxy_triangles": int(len(proxy_t)),
+        "atlas": [atlas.width, atlas.height], "surface_texels": int(atlas.surface_count),
+        "border_texels": int(atlas.count - atlas.surface_count), "form_factors": int(len(tables.F_indices)),
+        "texel_mm": float(np.sqrt(np.median(atlas.area_mm2[:atlas.surface_count]))),
+        "atlas_seconds": round(t_atlas, 3), "seconds": round(time.perf_counter() - t0, 3),
+        "bytes": int(sum(a.nbytes for a in arrays.values())),
+    }
+    yield 1.0, "TEXTURE_SPACE: done"
+    return arrays, meta

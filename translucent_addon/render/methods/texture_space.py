@@ -1,0 +1,263 @@
+"""TEXTURE_SPACE: Lensch 2002 at run time, every step on the GPU (Blender-facing).
+
+Per frame, for each mesh with an up-to-date bake (Lensch Fig. 3):
+1. illumination map: one point per atlas texel, lit at its surface point with Fresnel and
+   shadows; the world term first, then one additive pass per emitter, inside the pipeline's
+   emitter loop so that each reuses that emitter's shadow atlas (``ts_illumination``);
+2. vertex gather (Eq. 10) and direct radiosity B^d (Sec. 5.4): three points per surface texel,
+   additive into per-vertex textures (``ts_gather``);
+3. global response F^0 E^g + B^d per vertex, divided by T_p (Eq. 11, 13): a fragment per vertex
+   walking its row of the sparse matrix (``ts_product``), or scipy.sparse on the CPU
+   (``Scene.translucent.texture_product``);
+4. local response, the 7x7 filter (Eq. 15), and the interpolated global response (Eq. 12): a
+   point per texel (``ts_filter``);
+5. display (Eq. 1, 14): the displayed mesh reads both maps through its atlas coordinates
+   (``ts_display``), over the base pass.
+The maths and layouts are in ``texture_space_data.py``, the GLSL in ``gpu_shaders/ts_*.glsl``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from ...physics.fresnel import hemispherical_transmittance
+from .. import shaders
+from . import texture_space_data as tsd
+
+# GPU data of each bake, by bake key (object name and inputs hash): built on first use.
+_resources: dict = {}
+
+
+def clear_cache() -> None:
+    _resources.clear()
+
+
+def _texture(image: np.ndarray, fmt: str):
+    """A GPUTexture from an (h, w, c) array. Blender fills textures from FLOAT buffers only, so
+    integer tables travel as R32F (exact below 2^24, checked by ``texture_space_data``)."""
+    import gpu
+
+    h, w, c = image.shape
+    flat = np.ascontiguousarray(image, np.float32).reshape(-1)
+    return gpu.types.GPUTexture((w, h), format=fmt, data=gpu.types.Buffer("FLOAT", flat.size, flat))
+
+
+def _target(size, attachments: int = 1):
+    import gpu
+
+    colors = [gpu.types.GPUTexture(size, format="RGBA32F") for _ in range(attachments)]
+    fb = gpu.types.GPUFrameBuffer(color_slots=colors if attachments > 1 else colors[0])
+    return fb, colors
+
+
+class Resources:
+    """Textures, point batches and render targets of one bake."""
+
+    def __init__(self, tables: tsd.GpuTables, arrays: dict):
+        from gpu_extras.batch import batch_for_shader
+
+        self.tables = t = tables
+        self.arrays = arrays  # for the CPU product and the tests' twin
+        self.kernels = _texture(t.kernels, "RGBA16F")
+        self.F_indptr = _texture(t.F_indptr, "R32F")
+        self.F_indices = _texture(t.F_indices, "R32F")
+        self.F_data = _texture(t.F_data, "RGBA32F")
+        self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
+            "texel": t.texel, "pos": t.position, "nor": t.normal})
+        self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
+            "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
+        self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
+            "texel": t.texel, "source": t.source_texel, "row": t.row, "bary": t.bary, "verts": t.verts})
+        self.irradiance = _target(t.atlas_size)
+        self.maps = _target(t.atlas_size, attachments=2)  # local, global
+        self.vertex_in = _target(t.vertex_size, attachments=2)  # E^g, B^d
+        self.vertex_out = _target(t.vertex_size)
+        self.display = {}  # display batch by mesh key
+        self._sparse = None
+
+    def display_batch(self, mesh):
+        batch = self.display.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.display.clear()
+            batch = self.display[mesh.key] = batch_for_shader(shaders.get("ts_display"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32),
+                "col": np.ascontiguousarray(mesh.colors, np.float32),
+                "uv": self.tables.display_uv})
+        return batch
+
+    def sparse(self):
+        """F^0 per channel as scipy CSR matrices (the CPU product)."""
+        if self._sparse is None:
+            from scipy.sparse import csr_matrix
+
+            _, lensch = tsd.load(self.arrays)
+            V = len(lensch.A_v)
+            self._sparse = [csr_matrix((lensch.F_data[:, c], lensch.F_indices, lensch.F_indptr), shape=(V, V))
+                            for c in range(3)]
+        return self._sparse
+
+
+@dataclasses.dataclass
+class Active:
+    index: int  # mesh index in the frame
+    mesh: object
+    resources: Resources
+
+
+def prepare(frame) -> list[Active]:
+    """The TEXTURE_SPACE meshes of a frame whose bake is loaded (on first use) and current."""
+    active = []
+    for k, mesh in enumerate(frame.meshes):
+        handle = getattr(mesh, "bake", None)
+        if mesh.method != "TEXTURE_SPACE" or handle is None or mesh.medium is None:
+            continue
+        res = _resources.get(handle.key)
+        if res is None:
+            arrays = handle.load()
+            for key in [k2 for k2 in _resources if k2.split("#")[0] == handle.key.split("#")[0]]:
+                del _resources[key]  # the object's previous bake
+            res = _resources[handle.key] = Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays)
+        if len(res.tables.display_uv) != len(mesh.positions):
+            frame.warnings.append(f"'{mesh.name}': TEXTURE_SPACE bake does not match the mesh; press Bake")
+            continue
+        active.append(Active(k, mesh, res))
+    return active
+
+
+
+
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
+    """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
+    import gpu
+
+    from ..pipeline import clear_target
+
+    shader = shaders.get("ts_illumination")
+    for a in actives:
+        fb, _ = a.resources.irradiance
+        with fb.bind():
+            if mode == 0:
+                clear_target(fb, depth=None)
+            gpu.state.depth_test_set("NONE")
+            gpu.state.depth_mask_set(False)
+            gpu.state.blend_set("ADDITIVE_PREMULT")
+            gpu.state.point_size_set(1.0)
+            shader.bind()
+            shader.uniform_block("frame", frame_ubo)
+            shader.uniform_block("object", objects[a.index])
+            shader.uniform_block("light", light_ubo)
+            shader.uniform_sampler("shadow_atlas", shadow_atlas)
+            shader.uniform_int("mode", mode)
+            shader.uniform_float("eta", float(a.mesh.medium.eta))
+            shader.uniform_float("world_transmittance", float(hemispherical_transmittance(a.mesh.medium.eta)))
+            shader.uniform_float("atlas_size", tuple(float(x) for x in a.resources.tables.atlas_size))
+            a.resources.illumination_points.draw(shader)
+            gpu.state.blend_set("NONE")
+
+
+def _quad(pipeline):
+    batch = pipeline.targets.get("ts_quad")
+    if batch is None:
+        from gpu_extras.batch import batch_for_shader
+
+        corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32)
+        batch = pipeline.targets["ts_quad"] = batch_for_shader(shaders.get("ts_product"), "TRIS", {"corner": corners})
+    return batch
+
+
+def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
+    """Gather, product, filter and display; returns seconds per step (summed over meshes)."""
+    import gpu
+
+    from ..pipeline import clear_target, read_pixels
+
+    timings = {"ts_gather": 0.0, "ts_product": 0.0, "ts_filter": 0.0, "ts_display": 0.0}
+    for a in actives:
+        res, t = a.resources, a.resources.tables
+        t0 = time.perf_counter()
+        (irr_fb, (irradiance,)) = res.irradiance
+        vin_fb, (E_vertex, B_direct) = res.vertex_in
+        with vin_fb.bind():
+            clear_target(vin_fb, depth=None)
+            gpu.state.depth_test_set("NONE")
+            gpu.state.blend_set("ADDITIVE_PREMULT")
+            shader = shaders.get("ts_gather")
+            shader.bind()
+            shader.uniform_sampler("irradiance", irradiance)
+            shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+            shader.uniform_float("vertex_size", tuple(float(x) for x in t.vertex_size))
+            res.gather_points.draw(shader)
+            gpu.state.blend_set("NONE")
+            if product == "CPU":
+                E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
+                B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
+        t1 = time.perf_counter()
+        T_p = np.asarray(a.mesh.colors, np.float32)[t.vertex_corner]
+        vout_fb, (B_vertex,) = res.vertex_out
+        if product == "CPU":
+            B = B_d.astype(np.float64)
+            for c, F in enumerate(res.sparse()):
+                B[:, c] += F @ E_g[:, c].astype(np.float64)
+            B /= np.maximum(T_p, 1e-4)
+            B_vertex = _texture(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
+            res.cpu_vertex = B_vertex  # referenced until drawn
+        else:
+            T_p_texture = _texture(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
+            with vout_fb.bind():
+                gpu.state.blend_set("NONE")
+                shader = shaders.get("ts_product")
+                shader.bind()
+                shader.uniform_sampler("F_indptr", res.F_indptr)
+                shader.uniform_sampler("F_indices", res.F_indices)
+                shader.uniform_sampler("F_data", res.F_data)
+                shader.uniform_sampler("E_vertex", E_vertex)
+                shader.uniform_sampler("B_direct", B_direct)
+                shader.uniform_sampler("T_p_vertex", T_p_texture)
+                shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+                shader.uniform_int("vertex_count", t.vertex_count)
+                _quad(pipeline).draw(shader)
+        t2 = time.perf_counter()
+        maps_fb, (local_map, global_map) = res.maps
+        with maps_fb.bind():
+            clear_target(maps_fb, depth=None)
+            gpu.state.blend_set("NONE")
+            shader = shaders.get("ts_filter")
+            shader.bind()
+            shader.uniform_sampler("irradiance", irradiance)
+            shader.uniform_sampler("kernels", res.kernels)
+            shader.uniform_sampler("B_vertex", B_vertex)
+            shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+            shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
+            res.filter_points.draw(shader)
+            if pipeline.capture is not None:
+                w, h = t.atlas_size
+                pipeline.capture.setdefault("texture_space", []).append({
+                    "name": a.mesh.name, "irradiance": None, "local": read_pixels(maps_fb, w, h, slot=0),
+                    "global": read_pixels(maps_fb, w, h, slot=1), "T_p_vertex": T_p, "arrays": res.arrays})
+        if pipeline.capture is not None:
+            with irr_fb.bind():
+                w, h = t.atlas_size
+                pipeline.capture["texture_space"][-1]["irradiance"] = read_pixels(irr_fb, w, h)
+        t3 = time.perf_counter()
+        with target_fb.bind():
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(False)
+            gpu.state.blend_set("NONE")
+            shader = shaders.get("ts_display")
+            shader.bind()
+            shader.uniform_block("frame", frame_ubo)
+            shader.uniform_block("object", objects[a.index])
+            shader.uniform_sampler("local_map", local_map)
+            shader.uniform_sampler("global_map", global_map)
+            shader.uniform_float("eta", float(a.mesh.medium.eta))
+            res.display_batch(a.mesh).draw(shader)
+            gpu.state.depth_mask_set(True)
+        t4 = time.perf_counter()
+        for key, dt in zip(timings, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+            timings[key] += dt
+    return timings

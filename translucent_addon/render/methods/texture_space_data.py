@@ -1,0 +1,143 @@
+"""TEXTURE_SPACE: the bake's arrays laid out for the GPU passes, and the CPU twin of a frame (pure).
+
+The passes (``texture_space.py``) draw points: one per texel for the illumination map and the
+filter, three per surface texel for the vertex gather. Tables that are longer than a texture row
+(kernels, the sparse throughput matrix) are wrapped into images ``TABLE_WIDTH`` texels wide;
+entry e sits at (e % width, e // width). Vertex quantities live in images ``VERTEX_WIDTH`` wide.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...bake.atlas import TexelAtlas
+from ...bake.lensch import LenschBake, radiosity
+
+TABLE_WIDTH = 4096
+VERTEX_WIDTH = 256
+
+
+def wrap(table: np.ndarray, width: int = TABLE_WIDTH, channels: int = 4) -> np.ndarray:
+    """A flat table (n,) or (n, c) as an image (rows, width, channels), zero padded."""
+    table = np.asarray(table)
+    if table.ndim == 1:
+        table = table[:, None]
+    rows = max(1, -(-len(table) // width))
+    image = np.zeros((rows * width, channels), table.dtype)
+    image[:len(table), :table.shape[1]] = table
+    return image.reshape(rows, width, channels)
+
+
+@dataclasses.dataclass
+class GpuTables:
+    atlas_size: tuple
+    texel_count: int
+    surface_count: int
+    vertex_count: int
+    # Illumination points (every texel): atlas texel, surface point (object units), normal.
+    texel: np.ndarray
+    position: np.ndarray
+    normal: np.ndarray
+    # Filter points (every texel): the source's texel, kernel row, barycentrics and vertices.
+    source_texel: np.ndarray
+    row: np.ndarray
+    bary: np.ndarray
+    verts: np.ndarray
+    # Gather points (three per surface texel).
+    gather_texel: np.ndarray
+    gather_target: np.ndarray
+    gather_dual: np.ndarray
+    gather_blend: np.ndarray
+    kernels: np.ndarray  # (rows, TABLE_WIDTH, 4) float16
+    F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
+    F_indices: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
+    F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
+    display_uv: np.ndarray  # (3T, 2) float32, texel units
+    vertex_corner: np.ndarray  # (V,) int32
+
+    @property
+    def vertex_size(self) -> tuple:
+        return VERTEX_WIDTH, max(1, -(-self.vertex_count // VERTEX_WIDTH))
+
+
+def load(arrays: dict) -> tuple[TexelAtlas, LenschBake]:
+    """The atlas and Lensch tables of a stored bake (kernel taps are recomputed, not stored)."""
+    from ...bake.lensch import LOCAL_OFFSETS, _taps
+
+    atlas = TexelAtlas.from_arrays(arrays)
+    fields = {f.name: arrays.get(f"lensch_{f.name}") for f in dataclasses.fields(LenschBake)}
+    fields["kernels"] = np.asarray(fields["kernels"], np.float32)
+    if fields["kernel_taps"] is None:
+        fields["kernel_taps"] = _taps(atlas, np.arange(atlas.surface_count), LOCAL_OFFSETS)
+    return atlas, LenschBake(**fields)
+
+
+def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
+    atlas, lensch = load(arrays)
+    if len(lensch.F_indices) >= 1 << 24:
+        raise ValueError(f"{len(lensch.F_indices):,} form factors: more than the GPU tables index exactly (2^24); "
+                         "lower the atlas resolution")
+    n, N = atlas.surface_count, atlas.count
+    tri = np.asarray(arrays["proxy_triangles"], np.int64)
+    verts = tri[atlas.triangle]
+    src = atlas.source
+    rows = np.asarray(arrays["lensch_kernels"], np.float16).reshape(n * 49, 3)
+    return GpuTables(
+        atlas_size=(atlas.width, atlas.height), texel_count=N, surface_count=n, vertex_count=len(lensch.A_v),
+        texel=atlas.texel_xy.astype(np.float32),
+        position=(atlas.position_mm / np.float32(mm_per_unit)).astype(np.float32),
+        normal=atlas.normal.astype(np.float32),
+        source_texel=atlas.texel_xy[src].astype(np.float32),
+        row=src.astype(np.float32),
+        bary=atlas.bary.astype(np.float32),
+        verts=verts.astype(np.float32),
+        gather_texel=np.repeat(atlas.texel_xy[:n], 3, axis=0).astype(np.float32),
+        gather_target=lensch.dual_vertices.reshape(-1).astype(np.float32),
+        gather_dual=lensch.dual_weights.reshape(-1).astype(np.float32),
+        gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
+        kernels=wrap(rows),
+        F_indptr=wrap(lensch.F_indptr.astype(np.int32), channels=1),
+        F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1),
+        F_data=wrap(np.asarray(lensch.F_data, np.float32)),
+        display_uv=np.asarray(arrays["display_uv"], np.float32),
+        vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
+    )
+
+
+def vertex_image(values: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(V, 3) per-vertex values as an RGBA image VERTEX_WIDTH wide."""
+    return wrap(np.concatenate([values, np.ones((len(values), 1), values.dtype)], axis=1), VERTEX_WIDTH)
+
+
+def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None = None,
+                    T_p_texel: np.ndarray | None = None):
+    """CPU twin of the GPU passes: (B^l (N, 3), B^g / T_p interpolated (N, 3)) at every texel.
+
+    ``E`` (N, 3) is the illumination map at every texel (border texels hold their source's).
+    """
+    from scipy.sparse import csr_matrix
+
+    atlas, lensch = load(arrays)
+    n = atlas.surface_count
+    V = len(lensch.A_v)
+    E = np.asarray(E, np.float64)
+    E_s = E[:n]
+    E_g = np.zeros((V, 3))
+    B_vertex = np.zeros((V, 3))
+    for k in range(3):
+        np.add.at(E_g, lensch.dual_vertices[:, k], lensch.dual_weights[:, k, None] * E_s)
+        np.add.at(B_vertex, lensch.dual_vertices[:, k], lensch.blend_weights[:, k, :] * E_s)
+    for c in range(3):
+        F = csr_matrix((lensch.F_data[:, c], lensch.F_indices, lensch.F_indptr), shape=(V, V))
+        B_vertex[:, c] += F @ E_g[:, c]
+    if T_p_vertex is not None:
+        B_vertex /= np.maximum(T_p_vertex, 1e-4)
+    verts = np.asarray(arrays["proxy_triangles"], np.int64)[atlas.triangle]
+    B_global = np.einsum("nk,nkc->nc", atlas.bary.astype(np.float64), B_vertex[verts])
+    E_taps = np.where(lensch.kernel_taps[..., None] >= 0, E[np.maximum(lensch.kernel_taps, 0)], 0.0)
+    B_local = np.einsum("nkc,nkc->nc", lensch.kernels.astype(np.float64), E_taps)
+    return B_local[atlas.source], B_global
+
+
+__all__ = ["GpuTables", "gpu_tables", "frame_radiosity", "load", "wrap", "vertex_image", "radiosity"]
