@@ -8,7 +8,8 @@ and a dense one decimated (by Blender, ``inputs.py``) to about ``SPACING_TEXELS`
 at most ``MAX_TRIANGLES`` (the paper: under 20k). The displayed mesh keeps its own triangles:
 each display triangle takes the proxy triangle nearest its centroid and its corners are
 projected onto that triangle's plane, so its atlas coordinates stay inside one chart (the chart's
-border texels carry the radiosity across the seam).
+border texels carry the radiosity across the seam). A subdivided proxy needs no mapping: it is
+drawn in place of the display, its triangles the display's own cut in four (``subdivide_corners``).
 """
 from __future__ import annotations
 
@@ -48,12 +49,30 @@ def subdivide(vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, 
     return v2, f2
 
 
-def refine(vertices: np.ndarray, triangles: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:
-    """Subdivide while that brings the triangle count nearer the target."""
+def refine(vertices: np.ndarray, triangles: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Subdivide while that brings the triangle count nearer the target: (vertices, triangles, levels)."""
     v, f = np.asarray(vertices, np.float64), np.asarray(triangles, np.int64)
+    levels = 0
     while abs(np.log(4 * len(f) / target)) < abs(np.log(len(f) / target)):
         v, f = subdivide(v, f)
-    return v, f
+        levels += 1
+    return v, f, levels
+
+
+def subdivide_corners(corners: np.ndarray, levels: int) -> np.ndarray:
+    """Per-corner attributes (3T, c) of a triangle list subdivided like ``subdivide`` (same order).
+
+    A subdivided proxy is drawn as the display: its triangles are the display's cut in four,
+    each display corner attribute (position, split normal, colour) interpolated linearly.
+    """
+    a = np.asarray(corners)
+    for _ in range(levels):
+        t = a.reshape(-1, 3, a.shape[-1])
+        p0, p1, p2 = t[:, 0], t[:, 1], t[:, 2]
+        m01, m12, m20 = 0.5 * (p0 + p1), 0.5 * (p1 + p2), 0.5 * (p2 + p0)
+        groups = [(p0, m01, m20), (m01, p1, m12), (m20, m12, p2), (m01, m12, m20)]
+        a = np.concatenate([np.stack(g, axis=1) for g in groups]).reshape(-1, a.shape[-1]).astype(a.dtype)
+    return a
 
 
 def display_mapping(display_vertices: np.ndarray, display_triangles: np.ndarray, proxy_vertices: np.ndarray,

@@ -14,6 +14,22 @@ from . import lensch, proxy
 from .atlas import build_atlas
 
 
+# A display corner may lie off its proxy triangle (the two meshes differ); its atlas position is
+# extrapolated at most this many texels past the triangle, into the chart's border.
+MAX_EXTRAPOLATION_TEXELS = 3.0
+
+
+def _display_uv(atlas, tri, bary) -> np.ndarray:
+    uv = atlas.uv[tri].astype(np.float64)
+    bary = bary.astype(np.float64)
+    inside = np.clip(bary, 0.0, None)
+    inside /= np.maximum(inside.sum(axis=1, keepdims=True), 1e-12)
+    p_in = np.einsum("nk,nkd->nd", inside, uv)
+    step = np.einsum("nk,nkd->nd", bary, uv) - p_in
+    length = np.linalg.norm(step, axis=1, keepdims=True)
+    return p_in + step * np.minimum(1.0, MAX_EXTRAPOLATION_TEXELS / np.maximum(length, 1e-12))
+
+
 def bake(inputs):
     t0 = time.perf_counter()
     mm = float(inputs.mm_per_unit)
@@ -22,11 +38,12 @@ def bake(inputs):
     area = proxy.surface_area(display_v, display_t)
     target = proxy.target_triangles(area, inputs.atlas_resolution)
     yield 0.02, f"TEXTURE_SPACE: proxy mesh (about {target:,} triangles)"
+    levels = 0
     if inputs.proxy_vertices is not None:
         proxy_v = np.asarray(inputs.proxy_vertices, np.float64) * mm
         proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
     else:
-        proxy_v, proxy_t = proxy.refine(display_v, display_t, target)
+        proxy_v, proxy_t, levels = proxy.refine(display_v, display_t, target)
     yield 0.05, f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
     t_atlas = time.perf_counter()
     atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution)
@@ -40,17 +57,22 @@ def bake(inputs):
     except StopIteration as done:
         tables = done.value
     yield 0.96, "TEXTURE_SPACE: display mapping"
-    tri, bary = proxy.display_mapping(display_v, display_t, proxy_v, proxy_t)
-    display_uv = np.einsum("nk,nkd->nd", bary.astype(np.float64), atlas.uv[tri].astype(np.float64))
+    if levels:  # the display, subdivided like the proxy, is drawn with the proxy's own coordinates
+        display_uv = atlas.uv.reshape(-1, 2).astype(np.float64)
+    else:
+        tri, bary = proxy.display_mapping(display_v, display_t, proxy_v, proxy_t)
+        display_uv = _display_uv(atlas, tri, bary)
     # T_p at each proxy vertex (Lensch Eq. 13): the base colour of the nearest display corner.
     from scipy.spatial import cKDTree
 
-    _, vertex_corner = cKDTree(display_v[display_t].reshape(-1, 3)).query(proxy_v)
+    corners = proxy.subdivide_corners(display_v[display_t].reshape(-1, 3), levels)
+    _, vertex_corner = cKDTree(corners).query(proxy_v)
     arrays = {
         "proxy_vertices_mm": proxy_v.astype(np.float32),
         "proxy_triangles": proxy_t.astype(np.int32),
         "display_uv": display_uv.astype(np.float32),
         "vertex_corner": vertex_corner.astype(np.int32),
+        "display_subdivisions": np.array([levels], np.int32),
         **atlas.to_arrays(),
         **tables.to_arrays(),
     }

@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from ...bake.proxy import subdivide_corners
 from ...physics.fresnel import hemispherical_transmittance
 from .. import shaders
 from . import texture_space_data as tsd
@@ -83,10 +84,11 @@ class Resources:
             from gpu_extras.batch import batch_for_shader
 
             self.display.clear()
+            k = self.tables.display_subdivisions
             batch = self.display[mesh.key] = batch_for_shader(shaders.get("ts_display"), "TRIS", {
-                "pos": np.ascontiguousarray(mesh.positions, np.float32),
-                "nor": np.ascontiguousarray(mesh.normals, np.float32),
-                "col": np.ascontiguousarray(mesh.colors, np.float32),
+                "pos": np.ascontiguousarray(subdivide_corners(mesh.positions, k), np.float32),
+                "nor": np.ascontiguousarray(subdivide_corners(mesh.normals, k), np.float32),
+                "col": np.ascontiguousarray(subdivide_corners(mesh.colors, k), np.float32),
                 "uv": self.tables.display_uv})
         return batch
 
@@ -122,7 +124,7 @@ def prepare(frame) -> list[Active]:
             for key in [k2 for k2 in _resources if k2.split("#")[0] == handle.key.split("#")[0]]:
                 del _resources[key]  # the object's previous bake
             res = _resources[handle.key] = Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays)
-        if len(res.tables.display_uv) != len(mesh.positions):
+        if len(res.tables.display_uv) != len(mesh.positions) * 4 ** res.tables.display_subdivisions:
             frame.warnings.append(f"'{mesh.name}': TEXTURE_SPACE bake does not match the mesh; press Bake")
             continue
         active.append(Active(k, mesh, res))
@@ -197,7 +199,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
         t1 = time.perf_counter()
-        T_p = np.asarray(a.mesh.colors, np.float32)[t.vertex_corner]
+        T_p = subdivide_corners(np.asarray(a.mesh.colors, np.float32), t.display_subdivisions)[t.vertex_corner]
         vout_fb, (B_vertex,) = res.vertex_out
         if product == "CPU":
             B = B_d.astype(np.float64)

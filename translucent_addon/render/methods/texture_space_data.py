@@ -53,8 +53,9 @@ class GpuTables:
     F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
     F_indices: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
     F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
-    display_uv: np.ndarray  # (3T, 2) float32, texel units
-    vertex_corner: np.ndarray  # (V,) int32
+    display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the (subdivided) display
+    vertex_corner: np.ndarray  # (V,) int32: display corner (after subdivision) nearest each proxy vertex
+    display_subdivisions: int
 
     @property
     def vertex_size(self) -> tuple:
@@ -102,6 +103,7 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         F_data=wrap(np.asarray(lensch.F_data, np.float32)),
         display_uv=np.asarray(arrays["display_uv"], np.float32),
         vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
+        display_subdivisions=int(np.asarray(arrays.get("display_subdivisions", [0])).ravel()[0]),
     )
 
 

@@ -1,0 +1,115 @@
+"""TEXTURE_SPACE (Lensch 2002) on the GPU against its CPU twin and the dipole model reference."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import add_camera, add_light, render, set_world  # noqa: E402
+from conftest import ext_module  # noqa: E402
+
+import os
+RESOLUTION = int(os.environ.get("TS_RES", "192"))  # atlas texels: a 5 cm ball bakes in a few seconds
+
+
+def _baked_ball(scene, tr, location=(0, 0, 0.05), preset="skin1"):
+    set_world(scene, (0.02, 0.02, 0.025))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.05, location=location)
+    ob = bpy.context.active_object
+    ob.name = "Ball"
+    bpy.ops.object.shade_smooth()
+    ob.translucent.preset = preset
+    ob.translucent.method = "TEXTURE_SPACE"
+    ob.translucent.atlas_resolution = RESOLUTION
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    add_light(scene, "POINT", (0.1, 0.3, 0.25), (0, 0, 0.05), energy=20.0)
+    add_camera(scene, (0.0, -0.35, 0.12), (0, 0, 0.05), lens=50)
+    scene.translucent.capture_passes = True
+    return ob
+
+
+def _capture(tr):
+    return ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE
+
+
+def _maps(tr):
+    (ts,) = _capture(tr)["texture_space"]
+    return ts
+
+
+def test_gpu_passes_equal_the_cpu_twin_of_the_same_irradiance(tr, scene):
+    """Filter (Eq. 15), gather (Eq. 10), sparse product (Eq. 11) and interpolation (Eq. 12) on the GPU
+    equal texture_space_data.frame_radiosity on the captured illumination map: 1e-3 relative."""
+    _baked_ball(scene, tr)
+    render(scene, 64, 48)
+    ts = _maps(tr)
+    data = ext_module(tr, "translucent_addon.render.methods.texture_space_data")
+    atlas, _ = data.load(ts["arrays"])
+    x, y = atlas.texel_xy[:, 0], atlas.texel_xy[:, 1]
+    E = ts["irradiance"][y, x, :3]
+    assert E.max() > 1.0 and np.isfinite(E).all(), "the light reaches the ball"
+    local, glob = data.frame_radiosity(ts["arrays"], E, T_p_vertex=ts["T_p_vertex"])
+    gpu_local, gpu_global = ts["local"][y, x, :3], ts["global"][y, x, :3]
+    assert np.all(ts["local"][y, x, 3] == 1.0)
+    for gpu_values, cpu in ((gpu_local, local), (gpu_global, glob)):
+        assert cpu.max() > 0
+        np.testing.assert_allclose(gpu_values, cpu, rtol=1e-3, atol=1e-4 * cpu.max())
+
+
+def test_cpu_product_draws_the_same_image_as_the_gpu_product(tr, scene):
+    _baked_ball(scene, tr)
+    gpu_image = render(scene, 64, 48)
+    scene.translucent.texture_product = "CPU"
+    cpu_image = render(scene, 64, 48)
+    assert gpu_image[..., :3].max() > 0.01
+    np.testing.assert_allclose(cpu_image, gpu_image, rtol=1e-4, atol=1e-6)
+
+
+def test_moving_the_light_re_renders_without_a_new_bake(tr, scene):
+    ob = _baked_ball(scene, tr)
+    store = ext_module(tr, "translucent_addon.bake.store")
+    digest = store.stored_hash(ob, "TEXTURE_SPACE")
+    before = render(scene, 64, 48)
+    light = bpy.data.objects["POINT light"]
+    light.location = (-0.3, -0.1, 0.2)
+    after = render(scene, 64, 48)
+    assert store.stored_hash(ob, "TEXTURE_SPACE") == digest
+    assert not _capture(tr)["frame"].warnings
+    ball = after[..., 3] > 0
+    assert np.abs(after - before)[..., :3].max() > 0.05, "the lighting moved"
+    assert np.isfinite(after).all() and ball.any()
+
+
+def test_a_stale_bake_is_not_drawn_silently(tr, scene):
+    ob = _baked_ball(scene, tr)
+    ob.translucent.sigma_a = (0.1, 0.2, 0.3)
+    render(scene, 32, 24)
+    warnings = _capture(tr)["frame"].warnings
+    assert any("TEXTURE_SPACE bake is stale" in w for w in warnings), warnings
+    assert "texture_space" not in _capture(tr)
+
+
+def test_discretisation_error_against_the_dipole_model_is_below_5_percent(tr, scene):
+    _baked_ball(scene, tr)
+    w, h = 96, 72
+    img = render(scene, w, h)
+    extract = ext_module(tr, "translucent_addon.render.extract")
+    model = ext_module(tr, "translucent_addon.reference.dipole_model")
+    runner = ext_module(tr, "translucent_addon.compare.runner")
+    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    lambert = ext_module(tr, "translucent_addon.reference.lambert")
+    tracer_mod = ext_module(tr, "translucent_addon.compare.bvh_tracer")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
+    tracer = tracer_mod.BVHTracer(lambert.scene_triangles(frame)[0])
+    ref = model.render_dipole(frame, {"Ball": frame.meshes[0].medium}, samples=60_000, tracer=tracer)
+    mask = runner.interior(runner._mask(frame, tracer, {"Ball"}))
+    err = metrics.relative_rmse(img, ref, mask)
+    print(f"TEXTURE_SPACE vs dipole model: relative RMSE {err:.4f}", "mean ratio", img[mask][:, :3].sum(0) / ref[mask][:, :3].sum(0))
+    if os.environ.get("TS_DUMP"):
+        np.savez(os.environ["TS_DUMP"], img=img, ref=ref, mask=mask)
+    assert np.isfinite(img).all() and img[mask][:, :3].max() > 0.01
+    assert err < 0.05

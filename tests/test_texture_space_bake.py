@@ -1,0 +1,189 @@
+"""TEXTURE_SPACE precomputation (Lensch 2002), pure: atlas, proxy, kernels, throughput, blending."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from translucent_addon.bake import lensch, proxy, store
+from translucent_addon.bake.atlas import build_atlas, rasterize
+from translucent_addon.physics.dipole import total_diffuse_reflectance
+from translucent_addon.physics.presets import load_presets
+from translucent_addon.render.methods import texture_space_data as tsd
+
+SKIN = load_presets()["skin1"]
+MATERIAL = lensch.Material(tuple(SKIN.sigma_a), tuple(SKIN.sigma_s_prime), SKIN.eta)
+
+
+def plate(n: int, size_mm: float = 100.0):
+    x = np.linspace(-size_mm / 2, size_mm / 2, n + 1)
+    X, Y = np.meshgrid(x, x)
+    v = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], axis=1)
+    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    return v, np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+
+def sphere(radius_mm: float = 40.0, rings: int = 16, segments: int = 32):
+    theta = np.linspace(0, np.pi, rings + 1)[1:-1]
+    phi = np.linspace(0, 2 * np.pi, segments, endpoint=False)
+    T, P = np.meshgrid(theta, phi, indexing="ij")
+    v = np.concatenate([[[0, 0, radius_mm]], np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)],
+                                                        -1).reshape(-1, 3) * radius_mm, [[0, 0, -radius_mm]]])
+    f = []
+    ring = lambda i, j: 1 + i * segments + j % segments  # noqa: E731
+    for j in range(segments):
+        f.append((0, ring(0, j), ring(0, j + 1)))
+        f.append((len(v) - 1, ring(rings - 2, j + 1), ring(rings - 2, j)))
+        for i in range(rings - 2):
+            f += [(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)), (ring(i, j), ring(i + 1, j + 1), ring(i, j + 1))]
+    return v, np.array(f)
+
+
+def baked(v, f, resolution, blend=True, material=MATERIAL):
+    atlas = build_atlas(v, f, resolution)
+    job = lensch.precompute(atlas, v, f, material, blend=blend)
+    try:
+        while True:
+            next(job)
+    except StopIteration as done:
+        return atlas, done.value
+
+
+@pytest.fixture(scope="module")
+def plate_bake():
+    v, f = plate(50)  # 2 mm edges, texels of about 0.55 mm: Lensch's ratio
+    return (v, f) + baked(v, f, 256)
+
+
+def test_rasterize_covers_each_texel_centre_once_and_inside_its_triangle():
+    uv = np.array([[[0.2, 0.3], [9.7, 0.4], [0.3, 9.6]], [[9.7, 0.4], [9.8, 9.9], [0.3, 9.6]]], np.float32)
+    xy, tri, bary = rasterize(uv, 10, 10)
+    assert len(np.unique(xy[:, 1] * 10 + xy[:, 0])) == len(xy)
+    centre = xy + 0.5
+    back = np.einsum("nk,nkd->nd", bary, uv[tri].astype(np.float64))
+    np.testing.assert_allclose(back, centre, atol=1e-5)
+    assert 80 <= len(xy) <= 100  # the square [0.3, 9.7]^2 holds the centres 0.5 .. 9.5 (minus a rim)
+
+
+def test_atlas_texels_lie_on_the_surface_and_their_areas_add_up():
+    v, f = sphere()
+    atlas = build_atlas(v, f, 256)
+    n = atlas.surface_count
+    radius = np.linalg.norm(atlas.position_mm[:n], axis=1)
+    assert radius.max() <= 40.0 + 1e-3 and radius.min() > 40.0 * np.cos(np.pi / 16) - 1e-3  # on the facets
+    area = proxy.surface_area(v, f)
+    assert abs(atlas.area_mm2[:n].sum() / area - 1.0) < 0.02
+    # Border texels: a closed sphere has surface across every seam, so most find a source nearby.
+    border = atlas.count - n
+    assert border > 0.5 * 4 * np.sqrt(n)
+    assert np.all(atlas.source[n:] < n)
+
+
+def test_gather_conserves_the_irradiance_integral(plate_bake):
+    """sum_v E^g_v A_v / 3 = sum_texels A E exactly: sum_v (4 beta_v - 1) = 1 (Lensch Eq. 10)."""
+    v, f, atlas, bake = plate_bake
+    n = atlas.surface_count
+    E = np.random.default_rng(3).uniform(0.0, 2.0, n)
+    E_g = np.bincount(bake.dual_vertices.ravel(), weights=(bake.dual_weights * E[:, None]).ravel(),
+                      minlength=len(bake.A_v))
+    np.testing.assert_allclose((E_g * bake.A_v / 3.0).sum(), (atlas.area_mm2[:n] * E).sum(), rtol=1e-5)
+
+
+def test_sparse_throughput_equals_the_dense_matrix_above_the_threshold():
+    v, f = plate(12, 30.0)
+    A_v = lensch.vertex_areas(v, f)
+    indptr, indices, data = lensch.throughput(v, A_v, MATERIAL)
+    r = np.linalg.norm(v[:, None] - v[None], axis=2)
+    dense = (A_v[:, None, None] / 3.0) * MATERIAL.R_d_exact(r.ravel()).reshape(len(v), len(v), 3)  # [i, j]
+    np.fill_diagonal(dense[..., 0], 0), np.fill_diagonal(dense[..., 1], 0), np.fill_diagonal(dense[..., 2], 0)
+    dense[dense.max(axis=2) < lensch.THRESHOLD] = 0.0
+    from scipy.sparse import csr_matrix
+
+    E = np.random.default_rng(1).uniform(size=(len(v), 3))
+    for c in range(3):
+        sparse = csr_matrix((data[:, c], indices, indptr), shape=(len(v), len(v)))
+        np.testing.assert_allclose(sparse @ E[:, c], dense[..., c].T @ E[:, c], rtol=1e-4)
+    assert len(indices) < len(v) ** 2 - len(v)  # something was dropped
+
+
+def test_inside_the_kernel_local_plus_global_is_the_kernel(plate_bake):
+    """After the correction of Sec. 5.4, an impulse's response in its 7x7 window is exactly A R_d."""
+    v, f, atlas, bake = plate_bake
+    n = atlas.surface_count
+    centre = np.argmin(np.linalg.norm(atlas.position_mm[:n], axis=1))
+    E = np.zeros((atlas.count, 3))
+    E[centre] = 1.0
+    E[n:] = E[atlas.source[n:]]
+    B = lensch.radiosity(atlas, bake, E)
+    window = lensch._taps(atlas, np.array([centre]), lensch.LOCAL_OFFSETS)[0]
+    assert (window >= 0).all() and (window < n).all()
+    J = lensch.texel_jacobians(atlas, v, f)
+    for k, o in enumerate(window):
+        if o == centre:
+            continue
+        ring = int(np.max(np.abs(lensch.LOCAL_OFFSETS[k])))
+        exact = atlas.area_mm2[centre] * lensch._profile_texel(atlas, MATERIAL, J, np.array([o]), np.array([centre]),
+                                                               lensch.SUBTEXELS.get(ring, 1))[0]
+        np.testing.assert_allclose(B[o], exact, rtol=2e-3, atol=1e-6 * exact.max())
+
+
+def test_uniform_light_on_a_plate_gives_the_total_diffuse_reflectance(plate_bake):
+    """B = R_dt (Jensen Eq. 6) far from the edges; measured +2..5 %: the hats overshoot the convex R_d."""
+    v, f, atlas, bake = plate_bake
+    B = lensch.radiosity(atlas, bake, np.ones((atlas.count, 3)))
+    centre = np.linalg.norm(atlas.position_mm[:atlas.surface_count, :2], axis=1) < 25.0
+    ratio = np.median(B[centre], axis=0) / total_diffuse_reflectance(
+        np.array(SKIN.sigma_a), np.array(SKIN.sigma_s_prime), SKIN.eta)
+    assert np.all(np.abs(ratio - 1.0) < 0.06), ratio
+
+
+def test_without_blending_light_is_counted_twice():
+    """Lensch Fig. 6 (middle): local kernels plus the full F add up to far more than R_dt."""
+    v, f = plate(30, 60.0)
+    atlas, bake = baked(v, f, 160, blend=False)
+    B = lensch.radiosity(atlas, bake, np.ones((atlas.count, 3)))
+    centre = np.linalg.norm(atlas.position_mm[:atlas.surface_count, :2], axis=1) < 15.0
+    ratio = np.median(B[centre], axis=0) / total_diffuse_reflectance(
+        np.array(SKIN.sigma_a), np.array(SKIN.sigma_s_prime), SKIN.eta)
+    assert np.all(ratio > 1.4), ratio
+
+
+def test_proxy_follows_the_atlas_resolution_and_subdivides_coarse_meshes():
+    v, f = sphere()
+    area = proxy.surface_area(v, f)
+    target = proxy.target_triangles(area, 512)
+    v2, f2 = proxy.refine(v, f, target)
+    assert len(f2) == 4 ** round(np.log(len(f2) / len(f)) / np.log(4)) * len(f)
+    assert abs(np.log(len(f2) / target)) <= np.log(2.0) + 1e-9
+    assert abs(proxy.surface_area(v2, f2) - area) < 1e-9 * area  # midpoints stay on the facets
+    assert proxy.target_triangles(area, 4096) == proxy.MAX_TRIANGLES
+
+
+def test_display_mapping_of_the_proxy_itself_is_the_identity():
+    v, f = sphere()
+    tri, bary = proxy.display_mapping(v, f, v, f)
+    np.testing.assert_array_equal(tri, np.repeat(np.arange(len(f)), 3))
+    np.testing.assert_allclose(bary, np.tile(np.eye(3), (len(f), 1)), atol=1e-6)
+
+
+def test_float16_tables_survive_the_store():
+    a = np.random.default_rng(0).normal(size=(7, 49, 3)).astype(np.float16)
+    idblock = {}
+    store.write(idblock, "TEXTURE_SPACE", "h", {"k": a, "odd": a[:1, :1, :1]})
+    rec = store.read(idblock, "TEXTURE_SPACE")
+    np.testing.assert_array_equal(rec.arrays["k"], a)
+    assert rec.arrays["odd"].shape == (1, 1, 1) and rec.arrays["odd"].dtype == np.float16
+
+
+def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):
+    v, f, atlas, bake = plate_bake
+    arrays = {**atlas.to_arrays(), **bake.to_arrays(), "proxy_triangles": f.astype(np.int32),
+              "display_uv": np.zeros((3 * len(f), 2), np.float32), "vertex_corner": np.zeros(len(v), np.int32)}
+    arrays["lensch_kernels"] = bake.kernels.astype(np.float16)
+    t = tsd.gpu_tables(arrays, 1000.0)
+    e = 123 * 49 + 17
+    np.testing.assert_array_equal(t.kernels[e // tsd.TABLE_WIDTH, e % tsd.TABLE_WIDTH, :3],
+                                  bake.kernels[123, 17].astype(np.float16))
+    j = 77
+    assert t.F_indptr[j // tsd.TABLE_WIDTH, j % tsd.TABLE_WIDTH, 0] == bake.F_indptr[j]
+    assert t.vertex_size[0] * t.vertex_size[1] >= len(v)
