@@ -32,6 +32,12 @@ def main() -> int:
                         help="square size of the IMAGE_SPACE-against-dipole-model phase (0: skip)")
     parser.add_argument("--discretisation-scenes", nargs="*", default=["bunny_backlit", "bunny_frontlit", "cow_backlit"],
                         help="scenes of that phase (the acceptance set of the IMAGE_SPACE issue)")
+    parser.add_argument("--texture-space-atlas", nargs="*", type=int, default=[256, 512],
+                        help="TEXTURE_SPACE atlas resolutions of the discretisation phase")
+    parser.add_argument("--bake-curve", nargs="*", type=int, default=[128, 192, 256, 384, 512, 640],
+                        help="atlas resolutions of the TEXTURE_SPACE bake-time curve (bunny; none: skip)")
+    parser.add_argument("--only-texture-space", action="store_true",
+                        help="run only the TEXTURE_SPACE phases (bake curve, blending, discretisation)")
     args = parser.parse_args()
 
     package = blender_env.start()
@@ -43,9 +49,14 @@ def main() -> int:
     runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    rows, disc_rows = [], []
+    rows, disc_rows, ts_rows = [], [], []
     t_start = time.perf_counter()
-    for name in args.scenes or list(demo.SCENES):
+    ts_out = out / "texture_space"
+    if args.bake_curve and not args.quick:
+        bake_curve(demo, runner, bpy, args.bake_curve, ts_out)
+    if not args.quick:
+        blending_phase(demo, runner, bpy, ts_out, args.cache)
+    for name in [] if args.only_texture_space else (args.scenes or list(demo.SCENES)):
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = demo.build_scene(name, bpy.context.scene)
         scene.render.resolution_x, scene.render.resolution_y = args.width, args.height
@@ -62,11 +73,27 @@ def main() -> int:
             disc = runner.discretisation(scene, [subject], out / name / "discretisation", cache_dir=args.cache,
                                          progress=lambda text, n=name: print(f"[{n}] {text}", flush=True))
             disc_rows.extend((name, r) for r in disc)
+    for name in args.discretisation_scenes if args.discretisation_size and not args.quick else []:
+        if name not in {"bunny_backlit", "cow_backlit"}:
+            continue  # the acceptance set of the TEXTURE_SPACE issue
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = demo.build_scene(name, bpy.context.scene)
+        scene.render.resolution_x = scene.render.resolution_y = args.discretisation_size
+        subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
+        ts = runner.texture_space_discretisation(scene, [subject], ts_out / name, args.texture_space_atlas,
+                                                 cache_dir=args.cache,
+                                                 progress=lambda text, n=name: print(f"[{n}] {text}", flush=True))
+        ts_rows.extend((name, r) for r in ts)
     machine = {**runner.machine_description(), "blender": bpy.app.version_string,
                "gpu_for_our_engine": "see report: Mesa llvmpipe (software OpenGL) unless a GPU is present",
                "total_seconds": round(time.perf_counter() - t_start, 1), "size": [args.width, args.height]}
+    if args.only_texture_space:
+        (ts_out / "discretisation.json").write_text(json.dumps([{"scene": n, **r} for n, r in ts_rows], indent=2))
+        print(texture_space_table(ts_rows, args))
+        return 0
     (out / "machine.json").write_text(json.dumps(machine, indent=2))
-    (out / "summary.md").write_text(summary_table(rows, machine) + discretisation_table(disc_rows, args))
+    (out / "summary.md").write_text(summary_table(rows, machine) + discretisation_table(disc_rows, args)
+                                    + texture_space_table(ts_rows, args) + texture_space_extras(ts_out))
     print(f"wrote {out / 'summary.md'}")
     return 0
 
@@ -111,6 +138,145 @@ def discretisation_table(rows, args) -> str:
         lines.append(f"| {name} | {r['overlap']:g} | {r['light_view_texels']} | {r['object_samples']} | "
                      f"{r['seconds']:.2f} | {r['rel_rmse_vs_model']:.4f} |")
     return "\n".join(lines) + "\n"
+
+
+def texture_space_table(rows, args) -> str:
+    if not rows:
+        return ""
+    size = args.discretisation_size
+    lines = ["", f"## TEXTURE_SPACE against the dipole model ({size}x{size})", "",
+             "Lensch's method at several atlas resolutions (the proxy follows at about 3.5 texels per edge, at most "
+             "20k triangles). Target: at most 5 %.", "",
+             "| scene | atlas | proxy vertices | texel (mm) | form factors | bake s | frame s | rel. RMSE vs dipole model "
+             "| mean ratio (RGB) |", "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for name, r in rows:
+        lines.append(f"| {name} | {r['atlas']} | {r['proxy_vertices']} | {r['texel_mm']:.3f} | {r['form_factors']:,} | "
+                     f"{r['bake_seconds']:.1f} | {r['seconds']:.2f} | {r['rel_rmse_vs_model']:.4f} | "
+                     f"{', '.join(f'{x:.3f}' for x in r['mean_ratio_rgb'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def texture_space_extras(ts_out: Path) -> str:
+    """The bake-time curve and the blending (Fig. 6) numbers, as written by their phases."""
+    lines = []
+    curve = ts_out / "bake_time.json"
+    if curve.exists():
+        data = json.loads(curve.read_text())
+        lines += ["", "## TEXTURE_SPACE bake time against proxy size (bunny, marble)", "",
+                  "Target: a 10k-vertex proxy in at most 60 s on this machine. Chart: texture_space/bake_time.png.", "",
+                  "| atlas | proxy vertices | form factors | seconds |", "|---:|---:|---:|---:|"]
+        lines += [f"| {r['atlas']} | {r['proxy_vertices']} | {r['form_factors']:,} | {r['seconds']:.1f} |"
+                  for r in data["rows"]]
+    blend = ts_out / "blending.json"
+    if blend.exists():
+        data = json.loads(blend.read_text())
+        lines += ["", "## TEXTURE_SPACE blending (Lensch Sec. 5.4, Fig. 6): a checkerboard of light", "",
+                  f"{data['description']} Image: texture_space/checker_blending.png (off, on, dipole model).", "",
+                  "| blending | rel. RMSE vs dipole model | mean ratio (RGB) |", "|---|---:|---|"]
+        lines += [f"| {'on' if r['blending'] else 'off'} | {r['rel_rmse_vs_model']:.4f} | "
+                  f"{', '.join(f'{x:.3f}' for x in r['mean_ratio_rgb'])} |" for r in data["rows"]]
+    return "\n".join(lines) + ("\n" if lines else "")
+
+
+def bake_curve(demo, runner, bpy, resolutions, out: Path) -> None:
+    """Bake the back-lit bunny at several atlas resolutions: seconds against proxy vertices."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from_store = None
+    rows = []
+    for res in resolutions:
+        bpy.ops.wm.read_homefile(use_empty=True)
+        demo.build_scene("bunny_backlit", bpy.context.scene)
+        ob = bpy.data.objects["Bunny"]
+        ob.translucent.method = "TEXTURE_SPACE"
+        ob.translucent.atlas_resolution = res
+        seconds = runner.bake_objects([ob], "TEXTURE_SPACE", progress=lambda t: print(f"[bake curve] {t}", flush=True))
+        from_store = from_store or __import__(runner.__name__.rsplit(".", 2)[0] + ".bake.store", fromlist=["read"])
+        meta = from_store.read(ob, "TEXTURE_SPACE").meta
+        rows.append({"atlas": res, "proxy_vertices": meta["proxy_vertices"], "proxy_triangles": meta["proxy_triangles"],
+                     "surface_texels": meta["surface_texels"], "form_factors": meta["form_factors"],
+                     "seconds": round(seconds, 2), "bytes": meta["bytes"]})
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bake_time.json").write_text(json.dumps({"mesh": "bunny (69k triangles), marble, 15 cm", "rows": rows},
+                                                   indent=2))
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot([r["proxy_vertices"] for r in rows], [r["seconds"] for r in rows], "o-")
+    for r in rows:
+        ax.annotate(f"{r['atlas']}", (r["proxy_vertices"], r["seconds"]), textcoords="offset points", xytext=(4, -10))
+    ax.axhline(60, color="grey", ls="--", lw=1)
+    ax.axvline(10_000, color="grey", ls=":", lw=1)
+    ax.set_xlabel("proxy vertices (label: atlas texels per side)")
+    ax.set_ylabel("bake seconds (2-core machine)")
+    ax.set_title("TEXTURE_SPACE bake time, bunny")
+    fig.tight_layout()
+    fig.savefig(out / "bake_time.png", dpi=110)
+    plt.close(fig)
+
+
+def checker_occluder(bpy, scene, light, target, squares: int = 12, square_mm: float = 6.0):
+    """A checkerboard of opaque squares across the light's beam, halfway to the target."""
+    import numpy as np
+    from mathutils import Vector
+
+    pos, aim = Vector(light.location), Vector(target)
+    mid = pos.lerp(aim, 0.5)
+    axis = (aim - pos).normalized()
+    u = axis.orthogonal().normalized()
+    v = axis.cross(u)
+    s = square_mm / 1000.0
+    verts, faces = [], []
+    for i in range(squares):
+        for j in range(squares):
+            if (i + j) % 2:
+                continue
+            o = mid + u * (i - squares / 2) * s + v * (j - squares / 2) * s
+            k = len(verts)
+            verts += [o, o + u * s, o + u * s + v * s, o + v * s]
+            faces.append((k, k + 1, k + 2, k + 3))
+    me = bpy.data.meshes.new("Checker")
+    me.from_pydata([tuple(p) for p in verts], [], faces)
+    ob = bpy.data.objects.new("Checker", me)
+    scene.collection.objects.link(ob)
+    return ob
+
+
+def blending_phase(demo, runner, bpy, out: Path, cache, size: int = 256) -> None:
+    """Lensch Fig. 6: a checkerboard of light on the bunny, blending off and on, against the dipole model."""
+    import numpy as np
+
+    from mathutils import Vector
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = demo.build_scene("bunny_frontlit", bpy.context.scene)
+    ob = bpy.data.objects["Bunny"]
+    key = bpy.data.objects["Key Light"]
+    key.data.shadow_soft_size = 0.0
+    checker_occluder(bpy, scene, key, Vector((0.0, 0.0, 0.06)))
+    scene.render.resolution_x = scene.render.resolution_y = size
+    rows, images = [], []
+    out.mkdir(parents=True, exist_ok=True)
+    model = None
+    for blend in (False, True):
+        ob.translucent.texture_blending = blend
+        got = runner.texture_space_discretisation(scene, [ob], out / "blending", (512,), cache_dir=cache,
+                                                  progress=lambda t: print(f"[blending] {t}", flush=True),
+                                                  name=f"blending_{'on' if blend else 'off'}")
+        rows.append({"blending": blend, **got[0]})
+    ob.translucent.texture_blending = True
+    description = ("The front-lit bunny with a checkerboard occluder halfway to the key light (6 mm squares, about "
+                   "12 mm of light and shadow on the bunny), atlas 512, %dx%d px." % (size, size))
+    (out / "blending.json").write_text(json.dumps({"description": description, "rows": rows}, indent=2))
+    # Side by side: blending off, on, the dipole model (same exposure).
+    import matplotlib.image as mpimg
+
+    off = mpimg.imread(out / "blending" / "blending_off_512.png")
+    on = mpimg.imread(out / "blending" / "blending_on_512.png")
+    ref = sorted((out / "blending").glob("dipole_model*.png"))
+    panels = [off, on] + ([mpimg.imread(ref[0])] if ref else [])
+    mpimg.imsave(out / "checker_blending.png", np.concatenate([p[..., :3] for p in panels], axis=1))
 
 
 if __name__ == "__main__":

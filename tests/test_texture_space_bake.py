@@ -152,7 +152,8 @@ def test_proxy_follows_the_atlas_resolution_and_subdivides_coarse_meshes():
     v, f = sphere()
     area = proxy.surface_area(v, f)
     target = proxy.target_triangles(area, 512)
-    v2, f2 = proxy.refine(v, f, target)
+    v2, f2, levels = proxy.refine(v, f, target)
+    assert len(f2) == 4 ** levels * len(f)
     assert len(f2) == 4 ** round(np.log(len(f2) / len(f)) / np.log(4)) * len(f)
     assert abs(np.log(len(f2) / target)) <= np.log(2.0) + 1e-9
     assert abs(proxy.surface_area(v2, f2) - area) < 1e-9 * area  # midpoints stay on the facets

@@ -55,13 +55,15 @@ class CompareSettings:
     model_reference_samples: int = 200_000  # CPU dipole model (0: off)
     cycles_bounces: int = 1024
     cache_dir: str = ""  # default: <output_dir>/cache
+    # TEXTURE_SPACE series: atlas resolutions baked and drawn (the objects' method is restored after).
+    texture_space_atlas: tuple = (256, 512)
 
     @classmethod
     def quick(cls) -> "CompareSettings":
         """Minutes-not-hours settings for tests and a first look."""
         return cls(our_quality=OUR_QUALITY[:2], cycles_random_walk_samples=(4, 16),
                    cycles_brute_force_samples=(16,), eevee_samples=(1, 4), reference_samples=64,
-                   brute_force_reference_samples=64, model_reference_samples=20_000)
+                   brute_force_reference_samples=64, model_reference_samples=20_000, texture_space_atlas=())
 
 
 def translucent_objects(scene) -> list:
@@ -270,6 +272,10 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
             img, sec = render_pixels(scene, width, height)
         add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
             methods=methods, **{k: v for k, v in quality.items() if k != "label"})
+    for res, product, bake_seconds, img, sec in texture_space_series(scene, objects, settings.texture_space_atlas,
+                                                                   width, height, progress):
+        add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", f"{res} texels, {product} product", sec, img,
+            methods=["TEXTURE_SPACE"], atlas_resolution=res, product=product, bake_seconds=bake_seconds)
     model_image = None
     if settings.model_reference_samples:
         model_image, sec, hit = model_reference(frame, objects, tracer, settings.model_reference_samples, description,
@@ -307,6 +313,53 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
                                                       f"reference {ref_name}")
     progress(f"wrote {out / 'report.json'} and {out / 'chart.png'}")
     return entries, meta
+
+
+def bake_objects(objects, method: str, progress=print) -> float:
+    """Bake each object with the given method (blocking, as in batch mode); returns the seconds."""
+    from ..bake import registry, store
+    from ..bake.inputs import gather
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    t0 = time.perf_counter()
+    for ob in objects:
+        inputs = gather(ob.evaluated_get(depsgraph), method, for_bake=True)
+        registry.validate(inputs)
+        job = registry.run(inputs)
+        try:
+            while True:
+                next(job)
+        except StopIteration as done:
+            arrays, meta = done.value
+        store.write(ob, method, inputs.hash(), arrays, meta)
+        progress(f"baked {ob.name} ({method}): {meta.get('proxy_vertices', '?')} proxy vertices, "
+                 f"{time.perf_counter() - t0:.1f} s")
+    return time.perf_counter() - t0
+
+
+def texture_space_series(scene, objects, resolutions, width: int, height: int, progress=print):
+    """TEXTURE_SPACE at each atlas resolution: yields (resolution, product, bake seconds, image, seconds).
+
+    Every resolution is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
+    The objects' method and resolution are restored afterwards.
+    """
+    saved = [(ob, ob.translucent.method, ob.translucent.atlas_resolution) for ob in objects]
+    try:
+        for i, res in enumerate(resolutions):
+            for ob in objects:
+                ob.translucent.method = "TEXTURE_SPACE"
+                ob.translucent.atlas_resolution = int(res)
+            bake_seconds = bake_objects(objects, "TEXTURE_SPACE", progress)
+            for product in ("GPU", "CPU") if i == 0 else ("GPU",):
+                with engine_setup(scene, "TRANSLUCENT_RT", translucent_texture_product=product):
+                    progress(f"Translucent (TEXTURE_SPACE) {res} texels, {product} product ...")
+                    render_pixels(scene, width, height)  # first frame uploads the bake to the GPU
+                    img, sec = render_pixels(scene, width, height)
+                yield res, product, bake_seconds, img, sec
+    finally:
+        for ob, method, res in saved:
+            ob.translucent.method = method
+            ob.translucent.atlas_resolution = res
 
 
 def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
@@ -369,6 +422,48 @@ def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 4
                                                           "model_seconds": model_seconds, "rows": rows}, indent=2))
     error_against_samples_chart(rows, out / "discretisation.png", f"{scene.name}: IMAGE_SPACE against the "
                                            f"dipole model ({width}x{height})")
+    return rows
+
+
+def texture_space_discretisation(scene, objects, output_dir, resolutions=(256, 512), samples: int = 200_000,
+                                 cache_dir=None, progress=print, name: str = "texture_space"):
+    """TEXTURE_SPACE at several atlas resolutions against the CPU dipole model (its discretisation error).
+
+    Returns rows (atlas, proxy vertices, bake seconds, frame seconds, rel. RMSE, mean ratio) and writes
+    <name>.json and the images into output_dir.
+    """
+    import json
+
+    from ..bake import store
+
+    out = Path(output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cache_dir = Path(cache_dir) if cache_dir else out / "cache"
+    scale = scene.render.resolution_percentage / 100
+    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tracer = BVHTracer(scene_triangles(frame)[0])
+    mask = interior(_mask(frame, tracer, {ob.name for ob in objects}))
+    model_image, model_seconds, _ = model_reference(frame, objects, tracer, samples,
+                                                    scene_description(depsgraph, frame, objects), cache_dir, progress)
+    rows = []
+    for res, product, bake_seconds, img, sec in texture_space_series(scene, objects, resolutions, width, height,
+                                                                       progress):
+        if product != "GPU":
+            continue
+        meta = (store.read(objects[0], "TEXTURE_SPACE") or store.BakeRecord("", "", {}, {})).meta
+        ratio = img[mask][:, :3].sum(axis=0) / np.maximum(model_image[mask][:, :3].sum(axis=0), 1e-30)
+        rows.append({"atlas": res, "proxy_vertices": meta.get("proxy_vertices"), "texel_mm": meta.get("texel_mm"),
+                     "form_factors": meta.get("form_factors"), "bake_seconds": round(bake_seconds, 2),
+                     "seconds": sec, "rel_rmse_vs_model": relative_rmse(img, model_image, mask),
+                     "mean_ratio_rgb": [round(float(x), 4) for x in ratio]})
+        save_error_png(out / f"{name}_{res}_vs_model_error.png", img, model_image, mask)
+        save_image_png(out / f"{name}_{res}.png", img)
+        progress(f"TEXTURE_SPACE {res}: rel. RMSE against the dipole model {rows[-1]['rel_rmse_vs_model']:.4f}")
+    save_image_png(out / "dipole_model.png", model_image)
+    (out / f"{name}.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
+                                                  "model_seconds": model_seconds, "rows": rows}, indent=2))
     return rows
 
 
