@@ -38,6 +38,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         g=float(props.g),
         atlas_resolution=int(props.atlas_resolution),
         blending=bool(props.texture_blending),
+        stretch=stretch_of(np.array(ob_eval.matrix_world)[:3, :3]),
     )
     if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):
         from .proxy import surface_area, target_triangles
@@ -47,6 +48,12 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         if target < 0.8 * len(inputs.triangles):
             inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
     return inputs
+
+
+def stretch_of(linear: np.ndarray) -> np.ndarray:
+    """The symmetric factor S of the polar decomposition L = R S: the object's scale, rotation removed."""
+    _, sing, vt = np.linalg.svd(np.asarray(linear, np.float64))
+    return vt.T @ np.diag(sing) @ vt
 
 
 def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):

@@ -146,14 +146,50 @@ def _subtriangle_centroids(n: int) -> np.ndarray:
     return np.stack([1.0 - u - v, u, v], axis=1)
 
 
-def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material,
-               threshold: float = THRESHOLD):
+HAT_QUADRATURE = 3  # sub-triangles per edge when integrating a hat against R_d
+# Across a thin part (normals at more than 90 degrees) within this many sqrt(A_i) the hat is
+# integrated: no local kernel covers that light, and R_d changes across one hat there.
+ACROSS_REACH = 3.0
+
+
+def hat_integrals(vertices, triangles, src, dst, material, quadrature: int = HAT_QUADRATURE):
+    """int psi_i(x) R_d(|x - v_j|) dx over the triangles around i (sub-triangle centroids), (n, 3)."""
+    v = np.asarray(vertices, np.float64)
+    t = np.asarray(triangles, np.int64)
+    inc_vertex = t.ravel()
+    order = np.argsort(inc_vertex, kind="stable")
+    inc_tri, inc_k = order // 3, order % 3
+    degree = np.bincount(inc_vertex, minlength=len(v))
+    start = np.concatenate([[0], np.cumsum(degree)])
+    bary = _subtriangle_centroids(quadrature)
+    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    out = np.zeros((len(src), 3))
+    step = max(1, _CHUNK // (8 * len(bary)))
+    for a in range(0, len(src), step):
+        i, j = src[a:a + step], dst[a:a + step]
+        pair = np.repeat(np.arange(len(i)), degree[i])
+        local = np.arange(len(pair)) - np.repeat(np.cumsum(degree[i]) - degree[i], degree[i])
+        inc = start[i][pair] + local
+        tri, k = inc_tri[inc], inc_k[inc]
+        points = np.einsum("qc,pcd->pqd", bary, v[t[tri]])
+        r = np.linalg.norm(points - v[j[pair]][:, None, :], axis=2)
+        weight = (area[tri] / len(bary))[:, None] * bary[:, k].T  # beta_i at each point
+        sums = (material.R_d(r.ravel()).reshape(len(pair), len(bary), 3) * weight[..., None]).sum(axis=1)
+        for c in range(3):
+            out[a:a + step, c] = np.bincount(pair, weights=sums[:, c], minlength=len(i))
+    return out
+
+
+def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, threshold: float = THRESHOLD,
+               triangles: np.ndarray | None = None):
     """F^0 gathered by receiver as CSR: row j holds the sources i with F_ij (Lensch 5.2).
 
     F_ij = A_i / 3 R_d(|v_i - v_j|), Lensch's one-point rule for int int psi_i R_d psi~_j. Integrating
     the hat exactly looks more accurate but is not: it spreads the response of light entering
     near v_i over the whole hat, into the 7x7 neighbourhood of v_j that the local kernels
-    already cover (measured on a plate: +14 to +32 % instead of +2 to +5 %). Returns (indptr
+    already cover (measured on a plate: +14 to +32 % instead of +2 to +5 %). Across a thin part
+    (given ``triangles``: vertex normals more than 90 degrees apart, closer than ``ACROSS_REACH``
+    sqrt(A_i)) no kernel covers the light, and there the hat is integrated. Returns (indptr
     (V+1,) int32, indices (nnz,) int32, data (nnz, 3) float32); the diagonal is absent (F^0 of
     Sec. 5.4) and entries whose largest channel is below ``threshold`` are dropped.
     """
@@ -170,6 +206,14 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material,
         b = min(a + _CHUNK, len(src))
         r = np.linalg.norm(v[src[a:b]] - v[dst[a:b]], axis=1)
         data[a:b] = A_v[src[a:b], None] / 3.0 * material.R_d(r)
+    if triangles is not None:
+        from .atlas import vertex_normals
+
+        n = vertex_normals(v, np.asarray(triangles, np.int64))
+        r = np.linalg.norm(v[src] - v[dst], axis=1)
+        across = np.flatnonzero((np.einsum("ij,ij->i", n[src], n[dst]) < 0.0)
+                                & (r < ACROSS_REACH * np.sqrt(A_v[src])))
+        data[across] = hat_integrals(v, triangles, src[across], dst[across], material)
     keep = data.max(axis=1) >= threshold
     src, dst, data = src[keep], dst[keep], data[keep]
     order = np.lexsort((src, dst))
@@ -203,8 +247,9 @@ class _GlobalResponse:
     vertices of a triangle pair is evaluated once per distinct pair.
     """
 
-    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material):
+    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material, gain=None):
         self.atlas, self.material = atlas, material
+        self.gain = gain  # (V, 3): the uniform-light calibration of each receiving vertex, or None
         self.t = np.asarray(triangles, np.int64)
         self.v = np.asarray(vertices_mm, np.float64)
         self.A_v = A_v
@@ -223,8 +268,14 @@ class _GlobalResponse:
         same = Vs[:, :, None] == Vo[:, None, :]
         F[same] = 0.0  # F^0: no vertex sends to itself
         beta_o = at.bary[o].astype(np.float64)
+        if self.gain is None:
+            B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
+            phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
+            return B_g0, phi
+        g = self.gain[Vo]  # (U, 3 receivers, 3 channels)
+        F *= g[:, None, :, :]
         B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
-        phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
+        phi = np.einsum("pkjc,pj->pkc", (same[:, :, :, None] * g[:, None, :, :])[inverse], beta_o)
         return B_g0, phi
 
 
@@ -335,7 +386,7 @@ def corrected_kernels(atlas: TexelAtlas, taps: np.ndarray, K: np.ndarray, w: np.
     for a in range(0, len(o_idx), _CHUNK):
         sl = slice(a, a + _CHUNK)
         B_g0, phi = response(s_idx[sl], o_idx[sl])
-        B_d = np.einsum("pk,pkc->pc", phi, w[s_idx[sl]])
+        B_d = np.einsum("pk,pkc->pc" if phi.ndim == 2 else "pkc,pkc->pc", phi, w[s_idx[sl]])
         K[o_idx[sl], k_idx[sl]] -= scale[sl, None] * (B_g0 + B_d)
     return K
 
@@ -363,7 +414,7 @@ class LenschBake:
 
 
 def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray, material: Material,
-               blend: bool = True, threshold: float = THRESHOLD):
+               blend: bool = True, threshold: float = THRESHOLD, calibrate: bool = True):
     """Generator of the Lensch stages: yields (fraction, text), returns a LenschBake.
 
     ``blend=False`` keeps the raw kernels and full F with no B^d (the paper's Fig. 6, middle): the
@@ -372,7 +423,7 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
     A_v = vertex_areas(vertices_mm, triangles)
     dual_v, dual_w = dual_weights(atlas, triangles, A_v)
     yield 0.05, "throughput factors F (Lensch 5.2)"
-    indptr, indices, data = throughput(vertices_mm, A_v, material, threshold)
+    indptr, indices, data = throughput(vertices_mm, A_v, material, threshold, triangles)
     yield 0.3, "7x7 kernels (Lensch 5.3)"
     J = texel_jacobians(atlas, vertices_mm, triangles)
     taps, K = local_kernels(atlas, material, J)
@@ -386,8 +437,18 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
         outer = int(np.ceil(LOCAL + edge / texel))
         outer = FIT_OUTER if FIT_OUTER is not None else outer
         w = blending_weights(atlas, material, response, outer)
-        yield 0.75, "kernel correction (Lensch 5.4)"
-        K = corrected_kernels(atlas, taps, K, w, response)
+        yield 0.7, "kernel correction (Lensch 5.4)"
+        K_corrected = corrected_kernels(atlas, taps, K, w, response)
+        if calibrate:
+            yield 0.8, "uniform-light calibration of the global response"
+            first = LenschBake(A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w, blend_weights=w,
+                               kernel_taps=taps, kernels=K_corrected, F_indptr=indptr, F_indices=indices, F_data=data)
+            gain = uniform_gain(atlas, first, vertices_mm, triangles, material)
+            response.gain = gain
+            K_corrected = corrected_kernels(atlas, taps, K, w, response)
+            scaled = apply_gain(first, gain)
+            w, data = scaled.blend_weights, scaled.F_data
+        K = K_corrected
     else:
         w = np.zeros((n, 3, 3))
         # Without blending the diagonal of F stays (Sec. 5.2): the vertex's own irradiance scatters back.
@@ -399,6 +460,63 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
         blend_weights=w.astype(np.float32), kernel_taps=taps, kernels=K.astype(np.float32),
         F_indptr=indptr, F_indices=indices, F_data=data,
     )
+
+
+GAIN_LIMITS = (0.5, 2.0)
+
+
+def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, material: Material) -> np.ndarray:
+    """Per-vertex calibration of the global response (V, 3), so that uniform light is exact.
+
+    Under a uniform irradiance the exact radiosity at v_j is int_S R_d(|x - v_j|) dx = sum_i int psi_i
+    R_d(x, v_j) dx: the hat integrals (near pairs and the vertex's own hat) plus the point-rule
+    throughput beyond. Ours is the local plus the interpolated global response, averaged over the
+    texels of v_j's hat with weights beta_j^2. The hats make the global part overshoot a convex
+    R_d (+2..10 % measured); the gain scales vertex j's global response to remove that.
+    """
+    v = np.asarray(vertices_mm, np.float64)
+    t = np.asarray(triangles, np.int64)
+    V, n = len(v), atlas.surface_count
+    A_v = bake.A_v.astype(np.float64)
+    rows = np.repeat(np.arange(V), np.diff(bake.F_indptr))
+    exact = np.zeros((V, 3))
+    for c in range(3):
+        exact[:, c] = np.bincount(rows, weights=bake.F_data[:, c], minlength=V)
+    # Near pairs on the same side: the hat integral instead of the point rule.
+    r = np.linalg.norm(v[bake.F_indices] - v[rows], axis=1)
+    near = np.flatnonzero(r < ACROSS_REACH * np.sqrt(A_v[bake.F_indices]))
+    delta = hat_integrals(v, t, bake.F_indices[near], rows[near], material) - bake.F_data[near]
+    for c in range(3):
+        exact[:, c] += np.bincount(rows[near], weights=delta[:, c], minlength=V)
+    own = np.arange(V)
+    exact += hat_integrals(v, t, own, own, material, quadrature=12)
+    E = np.ones((atlas.count, 3))
+    zero = dataclasses.replace(bake, kernels=np.zeros_like(bake.kernels))
+    B_global = radiosity(atlas, zero, E)
+    B_local = radiosity(atlas, bake, E) - B_global
+    weight = atlas.bary[:n].astype(np.float64) ** 2
+    verts = bake.dual_vertices.astype(np.int64)
+    W = np.bincount(verts.ravel(), weights=weight.ravel(), minlength=V)
+    mean_l, mean_g = np.zeros((V, 3)), np.zeros((V, 3))
+    for c in range(3):
+        mean_l[:, c] = np.bincount(verts.ravel(), weights=(weight * B_local[:, c, None]).ravel(), minlength=V)
+        mean_g[:, c] = np.bincount(verts.ravel(), weights=(weight * B_global[:, c, None]).ravel(), minlength=V)
+    ok = W > 0
+    mean_l[ok] /= W[ok, None]
+    mean_g[ok] /= W[ok, None]
+    gain = np.ones((V, 3))
+    good = ok[:, None] & (mean_g > 1e-6 * np.maximum(exact, 1e-30))
+    gain[good] = ((exact - mean_l) / np.where(good, mean_g, 1.0))[good]
+    return np.clip(gain, *GAIN_LIMITS)
+
+
+def apply_gain(bake: "LenschBake", gain: np.ndarray) -> "LenschBake":
+    """Scale each receiving vertex's global response: its row of F^0 and the B^d weights landing on it."""
+    V = len(bake.A_v)
+    rows = np.repeat(np.arange(V), np.diff(bake.F_indptr))
+    w = bake.blend_weights * gain[bake.dual_vertices.astype(np.int64)]
+    return dataclasses.replace(bake, F_data=(bake.F_data * gain[rows]).astype(np.float32),
+                               blend_weights=w.astype(np.float32))
 
 
 def _with_diagonal(indptr, indices, data, diag):

@@ -54,11 +54,18 @@ class BakeInputs:
     # TEXTURE_SPACE: a decimated proxy made by Blender (object space), or None to derive it here.
     proxy_vertices: np.ndarray | None = None
     proxy_triangles: np.ndarray | None = None
+    # The object's stretch (scale without rotation, 3x3, the symmetric factor of the polar
+    # decomposition of its world matrix): the physical size is stretch @ vertex * mm_per_unit.
+    stretch: np.ndarray | None = None
+
+    def stretch_matrix(self) -> np.ndarray:
+        return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
 
     def hash(self) -> str:
         extra = {}
         if self.method == "TEXTURE_SPACE":
-            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending)}
+            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
+                     "stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
         return store.inputs_hash(
             {"vertices": self.vertices, "triangles": self.triangles},
             {

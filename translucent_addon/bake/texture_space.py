@@ -33,14 +33,15 @@ def _display_uv(atlas, tri, bary) -> np.ndarray:
 def bake(inputs):
     t0 = time.perf_counter()
     mm = float(inputs.mm_per_unit)
-    display_v = np.asarray(inputs.vertices, np.float64) * mm
+    S = inputs.stretch_matrix()  # physical mm = S @ object-space vertex * mm per unit
+    display_v = np.asarray(inputs.vertices, np.float64) @ S.T * mm
     display_t = np.asarray(inputs.triangles, np.int64)
     area = proxy.surface_area(display_v, display_t)
     target = proxy.target_triangles(area, inputs.atlas_resolution)
     yield 0.02, f"TEXTURE_SPACE: proxy mesh (about {target:,} triangles)"
     levels = 0
     if inputs.proxy_vertices is not None:
-        proxy_v = np.asarray(inputs.proxy_vertices, np.float64) * mm
+        proxy_v = np.asarray(inputs.proxy_vertices, np.float64) @ S.T * mm
         proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
     else:
         proxy_v, proxy_t, levels = proxy.refine(display_v, display_t, target)
@@ -73,6 +74,7 @@ def bake(inputs):
         "display_uv": display_uv.astype(np.float32),
         "vertex_corner": vertex_corner.astype(np.int32),
         "display_subdivisions": np.array([levels], np.int32),
+        "stretch": S.astype(np.float64),
         **atlas.to_arrays(),
         **tables.to_arrays(),
     }

@@ -80,6 +80,11 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         raise ValueError(f"{len(lensch.F_indices):,} form factors: more than the GPU tables index exactly (2^24); "
                          "lower the atlas resolution")
     n, N = atlas.surface_count, atlas.count
+    # Back to object space: p = S^-1 x / mm, and normals n_o ~ S^T n (their transform is S^-T).
+    S = np.asarray(arrays.get("stretch", np.eye(3)), np.float64).reshape(3, 3)
+    position = atlas.position_mm.astype(np.float64) @ np.linalg.inv(S).T / float(mm_per_unit)
+    normal = atlas.normal.astype(np.float64) @ S
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
     tri = np.asarray(arrays["proxy_triangles"], np.int64)
     verts = tri[atlas.triangle]
     src = atlas.source
@@ -87,8 +92,8 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
     return GpuTables(
         atlas_size=(atlas.width, atlas.height), texel_count=N, surface_count=n, vertex_count=len(lensch.A_v),
         texel=atlas.texel_xy.astype(np.float32),
-        position=(atlas.position_mm / np.float32(mm_per_unit)).astype(np.float32),
-        normal=atlas.normal.astype(np.float32),
+        position=position.astype(np.float32),
+        normal=normal.astype(np.float32),
         source_texel=atlas.texel_xy[src].astype(np.float32),
         row=src.astype(np.float32),
         bary=atlas.bary.astype(np.float32),
