@@ -128,13 +128,14 @@ def test_inside_the_kernel_local_plus_global_is_the_kernel(plate_bake):
 
 
 def test_uniform_light_on_a_plate_gives_the_total_diffuse_reflectance(plate_bake):
-    """B = R_dt (Jensen Eq. 6) far from the edges; measured +2..5 %: the hats overshoot the convex R_d."""
+    """B = R_dt (Jensen Eq. 6) far from the edges: +1..2 % after the uniform-light calibration
+    (+2..5 % before it: the hats overshoot the convex R_d)."""
     v, f, atlas, bake = plate_bake
     B = lensch.radiosity(atlas, bake, np.ones((atlas.count, 3)))
     centre = np.linalg.norm(atlas.position_mm[:atlas.surface_count, :2], axis=1) < 25.0
     ratio = np.median(B[centre], axis=0) / total_diffuse_reflectance(
         np.array(SKIN.sigma_a), np.array(SKIN.sigma_s_prime), SKIN.eta)
-    assert np.all(np.abs(ratio - 1.0) < 0.06), ratio
+    assert np.all(np.abs(ratio - 1.0) < 0.04), ratio
 
 
 def test_without_blending_light_is_counted_twice():
