@@ -34,7 +34,7 @@ def main() -> int:
                         help="scenes of that phase (the acceptance set of the IMAGE_SPACE issue)")
     parser.add_argument("--texture-space-atlas", nargs="*", type=int, default=[256, 512],
                         help="TEXTURE_SPACE atlas resolutions of the discretisation phase")
-    parser.add_argument("--bake-curve", nargs="*", type=int, default=[128, 192, 256, 384, 512, 640],
+    parser.add_argument("--bake-curve", nargs="*", type=int, default=[128, 192, 256, 384, 512],
                         help="atlas resolutions of the TEXTURE_SPACE bake-time curve (bunny; none: skip)")
     parser.add_argument("--only-texture-space", action="store_true",
                         help="run only the TEXTURE_SPACE phases (bake curve, blending, discretisation)")
