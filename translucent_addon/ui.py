@@ -44,8 +44,14 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 col.prop(s, "layer_thickness")
                 col.prop(s, "base_sigma_a")
                 col.prop(s, "base_sigma_s_prime")
+        if s.method == "TEXTURE_SPACE":
+            col = layout.column(align=True)
+            col.prop(s, "atlas_resolution")
+            col.prop(s, "texture_blending")
         status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
         layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
+        if status in {"OK", "STALE"} and s.method == "TEXTURE_SPACE":
+            _bake_statistics(layout, ob, s.method)
         row = layout.row(align=True)
         row.operator("translucent.bake", icon="RENDER_STILL")
         row.operator("translucent.clear_bake", icon="TRASH")
@@ -57,6 +63,25 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                                  ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
                 op = grid.operator("translucent.add_paint_layer", text=label)
                 op.layer = layer
+
+
+def _bake_statistics(layout, ob, method) -> None:
+    """What the bake holds, from its metadata (read without loading the arrays)."""
+    import json
+
+    from .bake import store
+
+    try:
+        meta = json.loads(ob[store.BAKE_KEY][method]["meta"])
+    except (KeyError, ValueError):
+        return
+    col = layout.column(align=True)
+    col.scale_y = 0.8
+    col.label(text=f"Proxy: {meta.get('proxy_vertices', 0):,} vertices, atlas {meta.get('atlas', ['?', '?'])[0]}"
+                   f" x {meta.get('atlas', ['?', '?'])[1]}")
+    col.label(text=f"Texels: {meta.get('surface_texels', 0):,} ({meta.get('texel_mm', 0.0):.2f} mm), "
+                   f"form factors: {meta.get('form_factors', 0):,}")
+    col.label(text=f"Stored: {meta.get('bytes', 0) / 2**20:.0f} MB, baked in {meta.get('seconds', 0.0):.1f} s")
 
 
 class VIEW3D_PT_translucent_scene(bpy.types.Panel):
@@ -77,6 +102,7 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.prop(s, "splat_overlap")
         col.prop(s, "splat_max_grid")
         col.prop(s, "temporal_coherence")
+        layout.prop(s, "texture_product")
         layout.prop(s, "overlay_other_engines")
         layout.operator("translucent.add_demo_scene", icon="SCENE_DATA")
 
