@@ -36,6 +36,7 @@ def main() -> int:
                         help="TEXTURE_SPACE atlas resolutions of the discretisation phase")
     parser.add_argument("--bake-curve", nargs="*", type=int, default=[128, 192, 256, 384, 512],
                         help="atlas resolutions of the TEXTURE_SPACE bake-time curve (bunny; none: skip)")
+    parser.add_argument("--no-blending", action="store_true", help="skip the TEXTURE_SPACE checkerboard phase")
     parser.add_argument("--only-texture-space", action="store_true",
                         help="run only the TEXTURE_SPACE phases (bake curve, blending, discretisation)")
     args = parser.parse_args()
@@ -54,7 +55,7 @@ def main() -> int:
     ts_out = out / "texture_space"
     if args.bake_curve and not args.quick:
         bake_curve(demo, runner, bpy, args.bake_curve, ts_out)
-    if not args.quick:
+    if not args.quick and not args.no_blending:
         blending_phase(demo, runner, bpy, ts_out, args.cache)
     for name in [] if args.only_texture_space else (args.scenes or list(demo.SCENES)):
         bpy.ops.wm.read_homefile(use_empty=True)

@@ -91,7 +91,10 @@ def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
     finally:
         bpy.data.objects.remove(ob)
         bpy.data.meshes.remove(me)
-    return v.reshape(-1, 3), t.reshape(-1, 3)
+    # Collapsing leaves vertices that no triangle uses: drop them.
+    t = t.reshape(-1, 3)
+    used, t = np.unique(t, return_inverse=True)
+    return v.reshape(-1, 3)[used], t.reshape(-1, 3).astype(np.int32)
 
 
 def bake_status(ob_eval, method: str | None = None) -> str:

@@ -62,9 +62,10 @@ class Resources:
         self.tables = t = tables
         self.arrays = arrays  # for the CPU product and the tests' twin
         self.kernels = _texture(t.kernels, "RGBA16F")
-        self.F_indptr = _texture(t.F_indptr, "R32F")
-        self.F_indices = _texture(t.F_indices, "R32F")
-        self.F_data = _texture(t.F_data, "RGBA32F")
+        if t.gpu_product:
+            self.F_indptr = _texture(t.F_indptr, "R32F")
+            self.F_indices = _texture(t.F_indices, "R32F")
+            self.F_data = _texture(t.F_data, "RGBA32F")
         self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
             "texel": t.texel, "pos": t.position, "nor": t.normal})
         self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
@@ -181,6 +182,10 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
     timings = {"ts_gather": 0.0, "ts_product": 0.0, "ts_filter": 0.0, "ts_display": 0.0}
     for a in actives:
         res, t = a.resources, a.resources.tables
+        product_here = product if t.gpu_product else "CPU"
+        if product_here != product:
+            frame.warnings.append(f"'{a.mesh.name}': {t.form_factors:,} form factors are more than the GPU product "
+                                  "indexes; F^0 E runs on the CPU (a smaller atlas makes fewer)")
         t0 = time.perf_counter()
         (irr_fb, (irradiance,)) = res.irradiance
         vin_fb, (E_vertex, B_direct) = res.vertex_in
@@ -195,13 +200,13 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_float("vertex_size", tuple(float(x) for x in t.vertex_size))
             res.gather_points.draw(shader)
             gpu.state.blend_set("NONE")
-            if product == "CPU":
+            if product_here == "CPU":
                 E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
         t1 = time.perf_counter()
         T_p = subdivide_corners(np.asarray(a.mesh.colors, np.float32), t.display_subdivisions)[t.vertex_corner]
         vout_fb, (B_vertex,) = res.vertex_out
-        if product == "CPU":
+        if product_here == "CPU":
             B = B_d.astype(np.float64)
             for c, F in enumerate(res.sparse()):
                 B[:, c] += F @ E_g[:, c].astype(np.float64)

@@ -15,6 +15,7 @@ from ...bake.atlas import TexelAtlas
 from ...bake.lensch import LenschBake, radiosity
 
 TABLE_WIDTH = 4096
+GPU_PRODUCT_LIMIT = 1 << 24  # form factors the GPU product can index (float texels hold integers exactly)
 VERTEX_WIDTH = 256
 
 
@@ -56,6 +57,11 @@ class GpuTables:
     display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the (subdivided) display
     vertex_corner: np.ndarray  # (V,) int32: display corner (after subdivision) nearest each proxy vertex
     display_subdivisions: int
+    form_factors: int
+
+    @property
+    def gpu_product(self) -> bool:
+        return self.F_indices is not None
 
     @property
     def vertex_size(self) -> tuple:
@@ -76,9 +82,8 @@ def load(arrays: dict) -> tuple[TexelAtlas, LenschBake]:
 
 def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
     atlas, lensch = load(arrays)
-    if len(lensch.F_indices) >= 1 << 24:
-        raise ValueError(f"{len(lensch.F_indices):,} form factors: more than the GPU tables index exactly (2^24); "
-                         "lower the atlas resolution")
+    # Indices travel as exact floats: beyond 2^24 form factors the product runs on the CPU.
+    gpu_product = len(lensch.F_indices) < GPU_PRODUCT_LIMIT
     n, N = atlas.surface_count, atlas.count
     # Back to object space: p = S^-1 x / mm, and normals n_o ~ S^T n (their transform is S^-T).
     S = np.asarray(arrays.get("stretch", np.eye(3)), np.float64).reshape(3, 3)
@@ -103,9 +108,10 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         gather_dual=lensch.dual_weights.reshape(-1).astype(np.float32),
         gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
         kernels=wrap(rows),
-        F_indptr=wrap(lensch.F_indptr.astype(np.int32), channels=1),
-        F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1),
-        F_data=wrap(np.asarray(lensch.F_data, np.float32)),
+        F_indptr=wrap(lensch.F_indptr.astype(np.int32), channels=1) if gpu_product else None,
+        F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1) if gpu_product else None,
+        F_data=wrap(np.asarray(lensch.F_data, np.float32)) if gpu_product else None,
+        form_factors=int(len(lensch.F_indices)),
         display_uv=np.asarray(arrays["display_uv"], np.float32),
         vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
         display_subdivisions=int(np.asarray(arrays.get("display_subdivisions", [0])).ravel()[0]),
