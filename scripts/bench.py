@@ -186,7 +186,6 @@ def bake_curve(demo, runner, bpy, resolutions, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from_store = None
     rows = []
     for res in resolutions:
         bpy.ops.wm.read_homefile(use_empty=True)
@@ -194,9 +193,8 @@ def bake_curve(demo, runner, bpy, resolutions, out: Path) -> None:
         ob = bpy.data.objects["Bunny"]
         ob.translucent.method = "TEXTURE_SPACE"
         ob.translucent.atlas_resolution = res
-        seconds = runner.bake_objects([ob], "TEXTURE_SPACE", progress=lambda t: print(f"[bake curve] {t}", flush=True))
-        from_store = from_store or __import__(runner.__name__.rsplit(".", 2)[0] + ".bake.store", fromlist=["read"])
-        meta = from_store.read(ob, "TEXTURE_SPACE").meta
+        seconds, (meta,) = runner.bake_objects([ob], "TEXTURE_SPACE",
+                                               progress=lambda t: print(f"[bake curve] {t}", flush=True))
         rows.append({"atlas": res, "proxy_vertices": meta["proxy_vertices"], "proxy_triangles": meta["proxy_triangles"],
                      "surface_texels": meta["surface_texels"], "form_factors": meta["form_factors"],
                      "seconds": round(seconds, 2), "bytes": meta["bytes"]})

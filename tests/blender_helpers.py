@@ -90,3 +90,21 @@ def lit_cube_scene(scene):
     add_light(scene, "SPOT", (1.5, 2.5, 3.0), energy=400.0, spot_size=math.radians(60), spot_blend=0.2)
     add_camera(scene, (4.0, -5.0, 4.0), (0, 0, 0.3))
     return scene
+
+
+def dipole_model_reference(tr, name: str, width: int, height: int, samples: int = 60_000):
+    """The CPU dipole model of the current scene with object ``name`` translucent, and the mask of
+    that object's interior pixels: (image, mask)."""
+    from conftest import ext_module
+
+    extract = ext_module(tr, "translucent_addon.render.extract")
+    model = ext_module(tr, "translucent_addon.reference.dipole_model")
+    runner = ext_module(tr, "translucent_addon.compare.runner")
+    lambert = ext_module(tr, "translucent_addon.reference.lambert")
+    tracer_mod = ext_module(tr, "translucent_addon.compare.bvh_tracer")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tracer = tracer_mod.BVHTracer(lambert.scene_triangles(frame)[0])
+    medium = next(m.medium for m in frame.meshes if m.name == name)
+    ref = model.render_dipole(frame, {name: medium}, samples=samples, tracer=tracer)
+    return ref, runner.interior(runner._mask(frame, tracer, {name}))

@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_helpers import add_camera, add_light, render, set_world  # noqa: E402
+from blender_helpers import add_camera, add_light, dipole_model_reference, render, set_world  # noqa: E402
 from conftest import ext_module  # noqa: E402
 
 
@@ -75,17 +75,8 @@ def test_discretisation_error_against_the_dipole_model_is_below_5_percent(tr, sc
     _back_lit_ball(scene)
     w, h = 96, 72
     img = render(scene, w, h)
-    extract = ext_module(tr, "translucent_addon.render.extract")
-    model = ext_module(tr, "translucent_addon.reference.dipole_model")
-    runner = ext_module(tr, "translucent_addon.compare.runner")
     metrics = ext_module(tr, "translucent_addon.compare.metrics")
-    lambert = ext_module(tr, "translucent_addon.reference.lambert")
-    tracer_mod = ext_module(tr, "translucent_addon.compare.bvh_tracer")
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
-    tracer = tracer_mod.BVHTracer(lambert.scene_triangles(frame)[0])
-    ref = model.render_dipole(frame, {"Ball": frame.meshes[0].medium}, samples=60_000, tracer=tracer)
-    mask = runner.interior(runner._mask(frame, tracer, {"Ball"}))
+    ref, mask = dipole_model_reference(tr, "Ball", w, h)
     err = metrics.relative_rmse(img, ref, mask)
     print(f"IMAGE_SPACE vs dipole model: relative RMSE {err:.4f}")
     assert np.isfinite(img).all() and img[mask][:, :3].max() > 0.01

@@ -6,6 +6,7 @@ import pytest
 
 from translucent_addon.bake import lensch, proxy, store
 from translucent_addon.bake.atlas import build_atlas, rasterize
+from translucent_addon.geometry.mesh_measures import vertex_areas
 from translucent_addon.physics.dipole import total_diffuse_reflectance
 from translucent_addon.physics.presets import load_presets
 from translucent_addon.render.methods import texture_space_data as tsd
@@ -91,7 +92,7 @@ def test_gather_conserves_the_irradiance_integral(plate_bake):
 
 def test_sparse_throughput_equals_the_dense_matrix_above_the_threshold():
     v, f = plate(12, 30.0)
-    A_v = lensch.vertex_areas(v, f)
+    A_v = vertex_areas(v, f)
     indptr, indices, data = lensch.throughput(v, A_v, MATERIAL)
     r = np.linalg.norm(v[:, None] - v[None], axis=2)
     dense = (A_v[:, None, None] / 3.0) * MATERIAL.R_d_exact(r.ravel()).reshape(len(v), len(v), 3)  # [i, j]
@@ -175,6 +176,7 @@ def test_float16_tables_survive_the_store():
     rec = store.read(idblock, "TEXTURE_SPACE")
     np.testing.assert_array_equal(rec.arrays["k"], a)
     assert rec.arrays["odd"].shape == (1, 1, 1) and rec.arrays["odd"].dtype == np.float16
+    assert store.read_meta(idblock, "TEXTURE_SPACE") == {} and store.read_meta(idblock, "QUADGRAPH") is None
 
 
 def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):

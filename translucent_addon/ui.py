@@ -67,13 +67,10 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
 
 def _bake_statistics(layout, ob, method) -> None:
     """What the bake holds, from its metadata (read without loading the arrays)."""
-    import json
-
     from .bake import store
 
-    try:
-        meta = json.loads(ob[store.BAKE_KEY][method]["meta"])
-    except (KeyError, ValueError):
+    meta = store.read_meta(ob, method)
+    if meta is None:
         return
     col = layout.column(align=True)
     col.scale_y = 0.8

@@ -22,6 +22,9 @@ import dataclasses
 
 import numpy as np
 
+from ..geometry.mesh_checks import triangle_areas
+from ..geometry.mesh_measures import vertex_normals
+
 # Texels of border around each chart: the half-width of the 9x9 blending kernels (Lensch 5.4).
 BORDER = 4
 
@@ -66,24 +69,13 @@ class TexelAtlas:
         return cls(width=width, height=height, surface_count=surface, **{n: arrays[f"{prefix}{n}"] for n in names})
 
 
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals."""
-    v = np.asarray(vertices, np.float64)
-    face_n = np.cross(v[triangles[:, 1]] - v[triangles[:, 0]], v[triangles[:, 2]] - v[triangles[:, 0]])
-    n = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(n, triangles[:, k], face_n)
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-
-
 def parametrize(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int, padding: int = 2 * BORDER):
     """xatlas charts packed at about ``resolution`` texels a side: (uv (T,3,2) texel units, chart (T,), w, h)."""
     import xatlas
 
     v = np.ascontiguousarray(vertices_mm, np.float32)
     t = np.ascontiguousarray(triangles, np.uint32)
-    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1).sum()
+    area = triangle_areas(v, t).sum()
     atlas = xatlas.Atlas()
     atlas.add_mesh(v, t)
     pack = xatlas.PackOptions()
@@ -150,7 +142,7 @@ def build_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int 
     xy, tri, bary = rasterize(uv, width, height)
     normals = vertex_normals(v, t)
     corners = v[t]  # (T, 3, 3)
-    area_3d = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    area_3d = triangle_areas(v, t)
     e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
     area_uv = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).astype(np.float64)
     texel_area = np.divide(area_3d, area_uv, out=np.zeros_like(area_3d), where=area_uv > 0)  # mm^2 per texel^2

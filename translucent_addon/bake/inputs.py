@@ -64,14 +64,9 @@ def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
     """
     import bpy
 
-    me = bpy.data.meshes.new("translucent_proxy")
-    me.vertices.add(len(vertices))
-    me.vertices.foreach_set("co", np.ascontiguousarray(vertices, np.float32).reshape(-1))
-    me.loops.add(3 * len(triangles))
-    me.loops.foreach_set("vertex_index", np.ascontiguousarray(triangles, np.int32).reshape(-1))
-    me.polygons.add(len(triangles))
-    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
-    me.update(calc_edges=True)
+    from ..demo import mesh_from_arrays
+
+    me = mesh_from_arrays("translucent_proxy", vertices, triangles)
     ob = bpy.data.objects.new("translucent_proxy", me)
     scene = bpy.context.scene
     scene.collection.objects.link(ob)

@@ -27,6 +27,8 @@ import math
 
 import numpy as np
 
+from ..geometry.mesh_checks import triangle_areas
+from ..geometry.mesh_measures import subtriangle_centroids, vertex_areas, vertex_normals
 from ..physics.dipole import R_d, R_d_disk
 from .atlas import TexelAtlas
 
@@ -103,17 +105,6 @@ def _profile_table(material: Material):
     return root, material.R_d_exact(r)
 
 
-def vertex_areas(vertices_mm: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """A_v: the area of the triangles sharing each vertex (Lensch 5.2)."""
-    v = np.asarray(vertices_mm, np.float64)
-    t = np.asarray(triangles, np.int64)
-    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
-    A_v = np.zeros(len(v))
-    for k in range(3):
-        np.add.at(A_v, t[:, k], area)
-    return A_v
-
-
 def dual_weights(atlas: TexelAtlas, triangles: np.ndarray, A_v: np.ndarray):
     """Per surface texel: its triangle's vertices (n, 3) and psi~_v A(u, v) (n, 3) (Lensch Eq. 10)."""
     n = atlas.surface_count
@@ -137,15 +128,6 @@ def throughput_radius(material: Material, area_mm2: float, threshold: float = TH
     return hi
 
 
-def _subtriangle_centroids(n: int) -> np.ndarray:
-    """Barycentrics (n^2, 3) of the centroids of the n^2 equal sub-triangles of a triangle."""
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    up, down = i + j <= n - 1, i + j <= n - 2
-    u = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
-    v = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
-    return np.stack([1.0 - u - v, u, v], axis=1)
-
-
 HAT_QUADRATURE = 3  # sub-triangles per edge when integrating a hat against R_d
 # Across a thin part (normals at more than 90 degrees) within this many sqrt(A_i) the hat is
 # integrated: no local kernel covers that light, and R_d changes across one hat there.
@@ -161,8 +143,9 @@ def hat_integrals(vertices, triangles, src, dst, material, quadrature: int = HAT
     inc_tri, inc_k = order // 3, order % 3
     degree = np.bincount(inc_vertex, minlength=len(v))
     start = np.concatenate([[0], np.cumsum(degree)])
-    bary = _subtriangle_centroids(quadrature)
-    area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    uv = subtriangle_centroids(quadrature)
+    bary = np.stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]], axis=1)
+    area = triangle_areas(v, t)
     out = np.zeros((len(src), 3))
     step = max(1, _CHUNK // (8 * len(bary)))
     for a in range(0, len(src), step):
@@ -207,8 +190,6 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
         r = np.linalg.norm(v[src[a:b]] - v[dst[a:b]], axis=1)
         data[a:b] = A_v[src[a:b], None] / 3.0 * material.R_d(r)
     if triangles is not None:
-        from .atlas import vertex_normals
-
         n = vertex_normals(v, np.asarray(triangles, np.int64))
         r = np.linalg.norm(v[src] - v[dst], axis=1)
         across = np.flatnonzero((np.einsum("ij,ij->i", n[src], n[dst]) < 0.0)
@@ -490,10 +471,7 @@ def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, 
         exact[:, c] += np.bincount(rows[near], weights=delta[:, c], minlength=V)
     own = np.arange(V)
     exact += hat_integrals(v, t, own, own, material, quadrature=12)
-    E = np.ones((atlas.count, 3))
-    zero = dataclasses.replace(bake, kernels=np.zeros_like(bake.kernels))
-    B_global = radiosity(atlas, zero, E)
-    B_local = radiosity(atlas, bake, E) - B_global
+    B_local, B_global = radiosity_parts(atlas, bake, np.ones((atlas.count, 3)))
     weight = atlas.bary[:n].astype(np.float64) ** 2
     verts = bake.dual_vertices.astype(np.int64)
     W = np.bincount(verts.ravel(), weights=weight.ravel(), minlength=V)
@@ -531,30 +509,56 @@ def _with_diagonal(indptr, indices, data, diag):
             vals[order].astype(np.float32))
 
 
-def radiosity(atlas: TexelAtlas, bake: LenschBake, E: np.ndarray, T_p_ratio: np.ndarray | None = None) -> np.ndarray:
-    """CPU twin of the run time: B (n_surface, 3) from the irradiance E (n_texels, 3) of every texel.
-
-    Eq. 10 (gather E^g), Eq. 11 with F^0 (sparse product), B^d, Eq. 12 (interpolation), Eq. 15
-    (7x7 filter), Eq. 9 (sum). ``T_p_ratio`` (n_surface,) scales the vertex part (Eq. 13-14).
-    """
+def throughput_matrices(F_indptr, F_indices, F_data) -> list:
+    """F^0 as one scipy CSR matrix per colour channel (rows: receivers)."""
     from scipy.sparse import csr_matrix
 
-    n = atlas.surface_count
+    V = len(F_indptr) - 1
+    return [csr_matrix((F_data[:, c], F_indices, F_indptr), shape=(V, V)) for c in range(3)]
+
+
+def global_product(matrices: list, E_g: np.ndarray, B_d: np.ndarray) -> np.ndarray:
+    """B_j = B^d_j + sum_i F^0_ij E^g_i per channel (Lensch Eq. 9, 11): (V, 3)."""
+    B = np.array(B_d, np.float64)
+    for c, F in enumerate(matrices):
+        B[:, c] += F @ np.asarray(E_g[:, c], np.float64)
+    return B
+
+
+def vertex_radiosity(bake: LenschBake, E_surface: np.ndarray) -> np.ndarray:
+    """The global response at the vertices, (V, 3), from the irradiance of the surface texels:
+    the gather of Eq. 10 into E^g, the direct radiosity B^d (Sec. 5.4) and the product of Eq. 11."""
     V = len(bake.A_v)
-    E = np.asarray(E, np.float64)
-    E_s = E[:n]
+    E_s = np.asarray(E_surface, np.float64)
     E_g = np.zeros((V, 3))
     B_d = np.zeros((V, 3))
     for k in range(3):
         np.add.at(E_g, bake.dual_vertices[:, k], bake.dual_weights[:, k, None] * E_s)
         np.add.at(B_d, bake.dual_vertices[:, k], bake.blend_weights[:, k, :] * E_s)
-    B_vertex = B_d
-    for c in range(3):
-        F = csr_matrix((bake.F_data[:, c], bake.F_indices, bake.F_indptr), shape=(V, V))
-        B_vertex[:, c] += F @ E_g[:, c]
-    B_global = np.einsum("nk,nkc->nc", atlas.bary[:n].astype(np.float64), B_vertex[bake.dual_vertices])
-    if T_p_ratio is not None:
-        B_global *= T_p_ratio[:, None]
+    return global_product(throughput_matrices(bake.F_indptr, bake.F_indices, bake.F_data), E_g, B_d)
+
+
+def local_radiosity(bake: LenschBake, E: np.ndarray) -> np.ndarray:
+    """B^l (n_surface, 3): each surface texel's 7x7 kernel over the irradiance of every texel (Eq. 15)."""
+    E = np.asarray(E, np.float64)
     E_taps = np.where(bake.kernel_taps[..., None] >= 0, E[np.maximum(bake.kernel_taps, 0)], 0.0)
-    B_local = np.einsum("nkc,nkc->nc", bake.kernels.astype(np.float64), E_taps)
+    return np.einsum("nkc,nkc->nc", bake.kernels.astype(np.float64), E_taps)
+
+
+def radiosity_parts(atlas: TexelAtlas, bake: LenschBake, E: np.ndarray):
+    """CPU twin of the run time on the surface texels: (B^l (n, 3), B^d + B^g0 interpolated (n, 3)).
+
+    ``E`` (n_texels, 3) is the irradiance of every texel (border texels hold their source's):
+    Eq. 15 (7x7 filter) and Eq. 10-12 (gather, product, interpolation); their sum is Eq. 9.
+    """
+    n = atlas.surface_count
+    E = np.asarray(E, np.float64)
+    B_vertex = vertex_radiosity(bake, E[:n])
+    B_global = np.einsum("nk,nkc->nc", atlas.bary[:n].astype(np.float64), B_vertex[bake.dual_vertices])
+    return local_radiosity(bake, E), B_global
+
+
+def radiosity(atlas: TexelAtlas, bake: LenschBake, E: np.ndarray) -> np.ndarray:
+    """B (n_surface, 3) = B^l + B^d + B^g0 (Lensch Eq. 9) from the irradiance E of every texel."""
+    B_local, B_global = radiosity_parts(atlas, bake, E)
     return B_local + B_global

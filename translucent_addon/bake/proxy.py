@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.mesh_checks import triangle_areas
+
 SPACING_TEXELS = 3.5
 MAX_TRIANGLES = 20_000
 # Charts fill about this fraction of the atlas once the 8-texel gutters are counted.
@@ -24,7 +26,7 @@ ATLAS_FILL = 0.37
 def surface_area(vertices: np.ndarray, triangles: np.ndarray) -> float:
     v = np.asarray(vertices, np.float64)
     t = np.asarray(triangles, np.int64)
-    return float(0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1).sum())
+    return float(triangle_areas(v, t).sum())
 
 
 def target_triangles(area_mm2: float, resolution: int, max_triangles: int = MAX_TRIANGLES) -> int:

@@ -90,6 +90,14 @@ def read(idblock, method: str) -> BakeRecord | None:
     return BakeRecord(method, str(g["inputs_hash"]), json.loads(g["meta"]), arrays)
 
 
+def read_meta(idblock, method: str) -> dict | None:
+    """A bake's metadata without reading its arrays (None when there is no bake of this format)."""
+    if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
+        return None
+    g = idblock[BAKE_KEY][method]
+    return json.loads(g["meta"]) if int(g.get("format", 0)) == FORMAT_VERSION else None
+
+
 def stored_hash(idblock, method: str) -> str | None:
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None

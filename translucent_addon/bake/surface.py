@@ -9,26 +9,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.mesh_checks import triangle_areas
+from ..geometry.mesh_measures import vertex_areas, vertex_normals
 
 
 def surface_samples(vertices: np.ndarray, triangles: np.ndarray, mm_per_unit: float) -> dict[str, np.ndarray]:
     """positions_mm (V,3), normals (V,3), areas_mm2 (V,), triangles (T,3) int32."""
     v = np.asarray(vertices, dtype=np.float64) * float(mm_per_unit)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    face_n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # length = 2 * area
-    normals = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(normals, t[:, k], face_n)
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
-    areas = np.zeros(len(v))
-    a3 = triangle_areas(v, t) / 3.0
-    for k in range(3):
-        np.add.at(areas, t[:, k], a3)
     return {
         "positions_mm": v.astype(np.float32),
-        "normals": normals.astype(np.float32),
-        "areas_mm2": areas.astype(np.float32),
+        "normals": vertex_normals(v, t).astype(np.float32),
+        "areas_mm2": (vertex_areas(v, t) / 3.0).astype(np.float32),
         "triangles": t.astype(np.int32),
     }

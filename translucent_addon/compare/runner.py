@@ -272,8 +272,8 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
             img, sec = render_pixels(scene, width, height)
         add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
             methods=methods, **{k: v for k, v in quality.items() if k != "label"})
-    for res, product, bake_seconds, img, sec in texture_space_series(scene, objects, settings.texture_space_atlas,
-                                                                   width, height, progress):
+    for res, product, bake_seconds, _, img, sec in texture_space_series(scene, objects, settings.texture_space_atlas,
+                                                                      width, height, progress):
         add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", f"{res} texels, {product} product", sec, img,
             methods=["TEXTURE_SPACE"], atlas_resolution=res, product=product, bake_seconds=bake_seconds)
     model_image = None
@@ -315,13 +315,14 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
     return entries, meta
 
 
-def bake_objects(objects, method: str, progress=print) -> float:
-    """Bake each object with the given method (blocking, as in batch mode); returns the seconds."""
+def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict]]:
+    """Bake each object with the given method (blocking, as in batch mode): (seconds, each bake's meta)."""
     from ..bake import registry, store
     from ..bake.inputs import gather
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     t0 = time.perf_counter()
+    metas = []
     for ob in objects:
         inputs = gather(ob.evaluated_get(depsgraph), method, for_bake=True)
         registry.validate(inputs)
@@ -332,13 +333,15 @@ def bake_objects(objects, method: str, progress=print) -> float:
         except StopIteration as done:
             arrays, meta = done.value
         store.write(ob, method, inputs.hash(), arrays, meta)
+        metas.append(meta)
         progress(f"baked {ob.name} ({method}): {meta.get('proxy_vertices', '?')} proxy vertices, "
                  f"{time.perf_counter() - t0:.1f} s")
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, metas
 
 
 def texture_space_series(scene, objects, resolutions, width: int, height: int, progress=print):
-    """TEXTURE_SPACE at each atlas resolution: yields (resolution, product, bake seconds, image, seconds).
+    """TEXTURE_SPACE at each atlas resolution: yields (resolution, product, bake seconds, bake metas, image,
+    seconds).
 
     Every resolution is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
     The objects' method and resolution are restored afterwards.
@@ -349,13 +352,13 @@ def texture_space_series(scene, objects, resolutions, width: int, height: int, p
             for ob in objects:
                 ob.translucent.method = "TEXTURE_SPACE"
                 ob.translucent.atlas_resolution = int(res)
-            bake_seconds = bake_objects(objects, "TEXTURE_SPACE", progress)
+            bake_seconds, metas = bake_objects(objects, "TEXTURE_SPACE", progress)
             for product in ("GPU", "CPU") if i == 0 else ("GPU",):
                 with engine_setup(scene, "TRANSLUCENT_RT", translucent_texture_product=product):
                     progress(f"Translucent (TEXTURE_SPACE) {res} texels, {product} product ...")
                     render_pixels(scene, width, height)  # first frame uploads the bake to the GPU
                     img, sec = render_pixels(scene, width, height)
-                yield res, product, bake_seconds, img, sec
+                yield res, product, bake_seconds, metas, img, sec
     finally:
         for ob, method, res in saved:
             ob.translucent.method = method
@@ -379,6 +382,21 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     return image, seconds, False
 
 
+def _model_setup(scene, objects, samples: int, cache_dir, progress):
+    """The scene's size, the objects' interior mask and the CPU dipole model image (cached):
+    (width, height, mask, model image, model seconds)."""
+    scale = scene.render.resolution_percentage / 100
+    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tracer = BVHTracer(scene_triangles(frame)[0])
+    mask = interior(_mask(frame, tracer, {ob.name for ob in objects}))
+    model_image, model_seconds, _ = model_reference(frame, objects, tracer, samples,
+                                                    scene_description(depsgraph, frame, objects), Path(cache_dir),
+                                                    progress)
+    return width, height, mask, model_image, model_seconds
+
+
 def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 48.0), samples: int = 200_000,
                    cache_dir=None, progress=print):
     """Our engine at several splat overlaps against the CPU dipole model: error against splat count.
@@ -393,15 +411,8 @@ def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 4
 
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    cache_dir = Path(cache_dir) if cache_dir else out / "cache"
-    scale = scene.render.resolution_percentage / 100
-    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
-    tracer = BVHTracer(scene_triangles(frame)[0])
-    mask = interior(_mask(frame, tracer, {ob.name for ob in objects}))
-    model_image, model_seconds, _ = model_reference(frame, objects, tracer, samples,
-                                                    scene_description(depsgraph, frame, objects), cache_dir, progress)
+    width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
+                                                                   progress)
     rows = []
     for k in overlaps:
         grid = 2048 if k > 32 else 1024
@@ -434,25 +445,16 @@ def texture_space_discretisation(scene, objects, output_dir, resolutions=(256, 5
     """
     import json
 
-    from ..bake import store
-
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    cache_dir = Path(cache_dir) if cache_dir else out / "cache"
-    scale = scene.render.resolution_percentage / 100
-    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
-    tracer = BVHTracer(scene_triangles(frame)[0])
-    mask = interior(_mask(frame, tracer, {ob.name for ob in objects}))
-    model_image, model_seconds, _ = model_reference(frame, objects, tracer, samples,
-                                                    scene_description(depsgraph, frame, objects), cache_dir, progress)
+    width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
+                                                                   progress)
     rows = []
-    for res, product, bake_seconds, img, sec in texture_space_series(scene, objects, resolutions, width, height,
-                                                                       progress):
+    for res, product, bake_seconds, metas, img, sec in texture_space_series(scene, objects, resolutions, width,
+                                                                              height, progress):
         if product != "GPU":
             continue
-        meta = (store.read(objects[0], "TEXTURE_SPACE") or store.BakeRecord("", "", {}, {})).meta
+        meta = metas[0]
         ratio = img[mask][:, :3].sum(axis=0) / np.maximum(model_image[mask][:, :3].sum(axis=0), 1e-30)
         rows.append({"atlas": res, "proxy_vertices": meta.get("proxy_vertices"), "texel_mm": meta.get("texel_mm"),
                      "form_factors": meta.get("form_factors"), "bake_seconds": round(bake_seconds, 2),

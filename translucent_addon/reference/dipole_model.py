@@ -21,22 +21,13 @@ import math
 import numpy as np
 
 from ..geometry.camera import pixel_rays
+from ..geometry.mesh_measures import subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
 from ..physics.dipole import R_d, r_max
 from ..physics.fresnel import fresnel_dielectric, hemispherical_transmittance
 from ..physics.lut import near_integral, partition
 from ..render.scene_data import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-exported)
 from .lambert import render_lambert, scene_triangles, shadowed_irradiance
-
-
-def _subtriangle_centroids(n: int) -> np.ndarray:
-    """Barycentric (u, v) of the centroids of the n^2 equal sub-triangles of a triangle."""
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    up = i + j <= n - 1
-    down = i + j <= n - 2
-    cu = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
-    cv = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
-    return np.stack([cu, cv], axis=1)
 
 
 def sample_surface(mesh: MeshInstance, count: int):
@@ -52,7 +43,7 @@ def sample_surface(mesh: MeshInstance, count: int):
     points, normals, weights = [], [], []
     for n in np.unique(splits):
         sel = np.flatnonzero(splits == n)
-        uv = _subtriangle_centroids(int(n))
+        uv = subtriangle_centroids(int(n))
         w0 = 1.0 - uv[:, 0] - uv[:, 1]
         bary = np.stack([w0, uv[:, 0], uv[:, 1]], axis=1)  # (k, 3)
         points.append(np.einsum("kc,tcd->tkd", bary, tris[sel]).reshape(-1, 3))

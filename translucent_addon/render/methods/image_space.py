@@ -15,6 +15,7 @@ import dataclasses
 import numpy as np
 
 from .. import blocks, shaders
+from ..targets import new_target, screen_quad, texture_from_array
 from .image_space_data import ImageSpacePlan, SamplingSettings, plan  # noqa: F401  (SamplingSettings re-exported)
 
 
@@ -36,14 +37,6 @@ class Prepared:
     far_lut: object  # GPUTexture
 
 
-def _texture(array: np.ndarray):
-    import gpu
-
-    rows, cols, _ = array.shape
-    data = gpu.types.Buffer("FLOAT", array.size, np.ascontiguousarray(array, np.float32).ravel().tolist())
-    return gpu.types.GPUTexture((cols, rows), format="RGBA32F", data=data)
-
-
 def prepare(frame, settings: SamplingSettings) -> Prepared:
     """The plan and its GPU data; placeholders when no mesh uses IMAGE_SPACE (the base pass binds them)."""
     import gpu
@@ -51,8 +44,8 @@ def prepare(frame, settings: SamplingSettings) -> Prepared:
     p = plan(frame, settings)
     if p is None:
         empty = np.zeros((1, 2, 4), np.float32)
-        return Prepared(None, gpu.types.GPUUniformBuf(bytes(64 * 16)), _texture(empty), _texture(empty))
-    return Prepared(p, gpu.types.GPUUniformBuf(p.materials_block()), _texture(p.near_lut()), _texture(p.far_lut()))
+        return Prepared(None, gpu.types.GPUUniformBuf(bytes(64 * 16)), texture_from_array(empty), texture_from_array(empty))
+    return Prepared(p, gpu.types.GPUUniformBuf(p.materials_block()), texture_from_array(p.near_lut()), texture_from_array(p.far_lut()))
 
 
 def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):
@@ -64,7 +57,7 @@ def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):
     key = (name, tuple(size), depth, attachments)
     found = pipeline.targets.get(key)
     if found is None:
-        found = pipeline.targets[key] = _new_target(size, depth, attachments)
+        found = pipeline.targets[key] = new_target(size, depth, attachments)
     return found[:2]
 
 
@@ -80,8 +73,8 @@ def _history_for(pipeline, frame, p: ImageSpacePlan, size):
     if history is None or history["signature"] != signature:
         history = _history[pipeline.coherence_key] = {
             "signature": signature, "parity": 0, "frame": None, "view_proj": None, "models": None,
-            "gbuffer": [_new_target(size, depth=True) for _ in range(2)],
-            "accum": [_new_target(size, depth=False) for _ in range(2)],
+            "gbuffer": [new_target(size, depth=True) for _ in range(2)],
+            "accum": [new_target(size, depth=False) for _ in range(2)],
         }
     return history
 
@@ -123,27 +116,6 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
     return out
 
 
-def _new_target(size, depth: bool, attachments: int = 1):
-    """(framebuffer, color textures, depth texture): keep all three referenced."""
-    import gpu
-
-    colors = [gpu.types.GPUTexture(size, format="RGBA32F") for _ in range(attachments)]
-    depth_tex = gpu.types.GPUTexture(size, format="DEPTH_COMPONENT32F") if depth else None
-    fb = gpu.types.GPUFrameBuffer(depth_slot=depth_tex, color_slots=colors if attachments > 1 else colors[0])
-    return fb, colors, depth_tex
-
-
-def _quad_batch(pipeline):
-    batch = pipeline.targets.get("splat_quad")
-    if batch is None:
-        from gpu_extras.batch import batch_for_shader
-
-        corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32)
-        batch = pipeline.targets["splat_quad"] = batch_for_shader(shaders.get("is_splat"), "TRIS",
-                                                                  {"corner": corners})
-    return batch
-
-
 def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipeline) -> None:
     import gpu
 
@@ -180,7 +152,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
 
     samples_shader = shaders.get("is_samples")
     splat_shader = shaders.get("is_splat")
-    quad = _quad_batch(pipeline)
+    quad = screen_quad(pipeline, "is_splat")
     for sampling in p.samplings:
         n = sampling.grid
         atlas_size = (3 * n, 2 * n) if sampling.n_faces == 6 else (n, n)

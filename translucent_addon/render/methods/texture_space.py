@@ -22,9 +22,11 @@ import time
 
 import numpy as np
 
+from ...bake.lensch import global_product, throughput_matrices
 from ...bake.proxy import subdivide_corners
 from ...physics.fresnel import hemispherical_transmittance
 from .. import shaders
+from ..targets import new_target, screen_quad, texture_from_array
 from . import texture_space_data as tsd
 
 # GPU data of each bake, by bake key (object name and inputs hash): built on first use.
@@ -35,24 +37,6 @@ def clear_cache() -> None:
     _resources.clear()
 
 
-def _texture(image: np.ndarray, fmt: str):
-    """A GPUTexture from an (h, w, c) array. Blender fills textures from FLOAT buffers only, so
-    integer tables travel as R32F (exact below 2^24, checked by ``texture_space_data``)."""
-    import gpu
-
-    h, w, c = image.shape
-    flat = np.ascontiguousarray(image, np.float32).reshape(-1)
-    return gpu.types.GPUTexture((w, h), format=fmt, data=gpu.types.Buffer("FLOAT", flat.size, flat))
-
-
-def _target(size, attachments: int = 1):
-    import gpu
-
-    colors = [gpu.types.GPUTexture(size, format="RGBA32F") for _ in range(attachments)]
-    fb = gpu.types.GPUFrameBuffer(color_slots=colors if attachments > 1 else colors[0])
-    return fb, colors
-
-
 class Resources:
     """Textures, point batches and render targets of one bake."""
 
@@ -61,21 +45,21 @@ class Resources:
 
         self.tables = t = tables
         self.arrays = arrays  # for the CPU product and the tests' twin
-        self.kernels = _texture(t.kernels, "RGBA16F")
+        self.kernels = texture_from_array(t.kernels, "RGBA16F")
         if t.gpu_product:
-            self.F_indptr = _texture(t.F_indptr, "R32F")
-            self.F_indices = _texture(t.F_indices, "R32F")
-            self.F_data = _texture(t.F_data, "RGBA32F")
+            self.F_indptr = texture_from_array(t.F_indptr, "R32F")
+            self.F_indices = texture_from_array(t.F_indices, "R32F")
+            self.F_data = texture_from_array(t.F_data, "RGBA32F")
         self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
             "texel": t.texel, "pos": t.position, "nor": t.normal})
         self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
             "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
         self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
             "texel": t.texel, "source": t.source_texel, "row": t.row, "bary": t.bary, "verts": t.verts})
-        self.irradiance = _target(t.atlas_size)
-        self.maps = _target(t.atlas_size, attachments=2)  # local, global
-        self.vertex_in = _target(t.vertex_size, attachments=2)  # E^g, B^d
-        self.vertex_out = _target(t.vertex_size)
+        self.irradiance = new_target(t.atlas_size)
+        self.maps = new_target(t.atlas_size, attachments=2)  # local, global
+        self.vertex_in = new_target(t.vertex_size, attachments=2)  # E^g, B^d
+        self.vertex_out = new_target(t.vertex_size)
         self.display = {}  # display batch by mesh key
         self._sparse = None
 
@@ -94,14 +78,10 @@ class Resources:
         return batch
 
     def sparse(self):
-        """F^0 per channel as scipy CSR matrices (the CPU product)."""
+        """F^0 per channel as scipy CSR matrices (the CPU product), built once."""
         if self._sparse is None:
-            from scipy.sparse import csr_matrix
-
-            _, lensch = tsd.load(self.arrays)
-            V = len(lensch.A_v)
-            self._sparse = [csr_matrix((lensch.F_data[:, c], lensch.F_indices, lensch.F_indptr), shape=(V, V))
-                            for c in range(3)]
+            a = self.arrays
+            self._sparse = throughput_matrices(a["lensch_F_indptr"], a["lensch_F_indices"], a["lensch_F_data"])
         return self._sparse
 
 
@@ -142,7 +122,7 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
 
     shader = shaders.get("ts_illumination")
     for a in actives:
-        fb, _ = a.resources.irradiance
+        fb, _, _ = a.resources.irradiance
         with fb.bind():
             if mode == 0:
                 clear_target(fb, depth=None)
@@ -163,16 +143,6 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
             gpu.state.blend_set("NONE")
 
 
-def _quad(pipeline):
-    batch = pipeline.targets.get("ts_quad")
-    if batch is None:
-        from gpu_extras.batch import batch_for_shader
-
-        corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32)
-        batch = pipeline.targets["ts_quad"] = batch_for_shader(shaders.get("ts_product"), "TRIS", {"corner": corners})
-    return batch
-
-
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
     """Gather, product, filter and display; returns seconds per step (summed over meshes)."""
     import gpu
@@ -187,8 +157,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             frame.warnings.append(f"'{a.mesh.name}': {t.form_factors:,} form factors are more than the GPU product "
                                   "indexes; F^0 E runs on the CPU (a smaller atlas makes fewer)")
         t0 = time.perf_counter()
-        (irr_fb, (irradiance,)) = res.irradiance
-        vin_fb, (E_vertex, B_direct) = res.vertex_in
+        irr_fb, (irradiance,), _ = res.irradiance
+        vin_fb, (E_vertex, B_direct), _ = res.vertex_in
         with vin_fb.bind():
             clear_target(vin_fb, depth=None)
             gpu.state.depth_test_set("NONE")
@@ -205,16 +175,13 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
         t1 = time.perf_counter()
         T_p = subdivide_corners(np.asarray(a.mesh.colors, np.float32), t.display_subdivisions)[t.vertex_corner]
-        vout_fb, (B_vertex,) = res.vertex_out
+        vout_fb, (B_vertex,), _ = res.vertex_out
         if product_here == "CPU":
-            B = B_d.astype(np.float64)
-            for c, F in enumerate(res.sparse()):
-                B[:, c] += F @ E_g[:, c].astype(np.float64)
-            B /= np.maximum(T_p, 1e-4)
-            B_vertex = _texture(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
+            B = global_product(res.sparse(), E_g, B_d) / np.maximum(T_p, 1e-4)
+            B_vertex = texture_from_array(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
             res.cpu_vertex = B_vertex  # referenced until drawn
         else:
-            T_p_texture = _texture(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
+            T_p_texture = texture_from_array(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
             with vout_fb.bind():
                 gpu.state.blend_set("NONE")
                 shader = shaders.get("ts_product")
@@ -227,9 +194,9 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 shader.uniform_sampler("T_p_vertex", T_p_texture)
                 shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
                 shader.uniform_int("vertex_count", t.vertex_count)
-                _quad(pipeline).draw(shader)
+                screen_quad(pipeline, "ts_product").draw(shader)
         t2 = time.perf_counter()
-        maps_fb, (local_map, global_map) = res.maps
+        maps_fb, (local_map, global_map), _ = res.maps
         with maps_fb.bind():
             clear_target(maps_fb, depth=None)
             gpu.state.blend_set("NONE")

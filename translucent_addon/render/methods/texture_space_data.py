@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 
 from ...bake.atlas import TexelAtlas
-from ...bake.lensch import LenschBake, radiosity
+from ...bake.lensch import LenschBake, local_radiosity, vertex_radiosity
 
 TABLE_WIDTH = 4096
 GPU_PRODUCT_LIMIT = 1 << 24  # form factors the GPU product can index (float texels hold integers exactly)
@@ -68,20 +68,21 @@ class GpuTables:
         return VERTEX_WIDTH, max(1, -(-self.vertex_count // VERTEX_WIDTH))
 
 
-def load(arrays: dict) -> tuple[TexelAtlas, LenschBake]:
-    """The atlas and Lensch tables of a stored bake (kernel taps are recomputed, not stored)."""
+def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
+    """The atlas and Lensch tables of a stored bake. Kernel taps are not stored: with ``taps`` they
+    are recomputed from the atlas (the CPU twin needs them, the GPU finds its taps itself)."""
     from ...bake.lensch import LOCAL_OFFSETS, _taps
 
     atlas = TexelAtlas.from_arrays(arrays)
     fields = {f.name: arrays.get(f"lensch_{f.name}") for f in dataclasses.fields(LenschBake)}
     fields["kernels"] = np.asarray(fields["kernels"], np.float32)
-    if fields["kernel_taps"] is None:
+    if fields["kernel_taps"] is None and taps:
         fields["kernel_taps"] = _taps(atlas, np.arange(atlas.surface_count), LOCAL_OFFSETS)
     return atlas, LenschBake(**fields)
 
 
 def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
-    atlas, lensch = load(arrays)
+    atlas, lensch = load(arrays, taps=False)
     # Indices travel as exact floats: beyond 2^24 form factors the product runs on the CPU.
     gpu_product = len(lensch.F_indices) < GPU_PRODUCT_LIMIT
     n, N = atlas.surface_count, atlas.count
@@ -123,34 +124,17 @@ def vertex_image(values: np.ndarray, vertex_count: int) -> np.ndarray:
     return wrap(np.concatenate([values, np.ones((len(values), 1), values.dtype)], axis=1), VERTEX_WIDTH)
 
 
-def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None = None,
-                    T_p_texel: np.ndarray | None = None):
+def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None = None):
     """CPU twin of the GPU passes: (B^l (N, 3), B^g / T_p interpolated (N, 3)) at every texel.
 
-    ``E`` (N, 3) is the illumination map at every texel (border texels hold their source's).
+    ``E`` (N, 3) is the illumination map at every texel (border texels hold their source's); a
+    border texel's outputs are its source's, as the filter pass draws them.
     """
-    from scipy.sparse import csr_matrix
-
     atlas, lensch = load(arrays)
     n = atlas.surface_count
-    V = len(lensch.A_v)
-    E = np.asarray(E, np.float64)
-    E_s = E[:n]
-    E_g = np.zeros((V, 3))
-    B_vertex = np.zeros((V, 3))
-    for k in range(3):
-        np.add.at(E_g, lensch.dual_vertices[:, k], lensch.dual_weights[:, k, None] * E_s)
-        np.add.at(B_vertex, lensch.dual_vertices[:, k], lensch.blend_weights[:, k, :] * E_s)
-    for c in range(3):
-        F = csr_matrix((lensch.F_data[:, c], lensch.F_indices, lensch.F_indptr), shape=(V, V))
-        B_vertex[:, c] += F @ E_g[:, c]
+    B_vertex = vertex_radiosity(lensch, np.asarray(E, np.float64)[:n])
     if T_p_vertex is not None:
         B_vertex /= np.maximum(T_p_vertex, 1e-4)
     verts = np.asarray(arrays["proxy_triangles"], np.int64)[atlas.triangle]
     B_global = np.einsum("nk,nkc->nc", atlas.bary.astype(np.float64), B_vertex[verts])
-    E_taps = np.where(lensch.kernel_taps[..., None] >= 0, E[np.maximum(lensch.kernel_taps, 0)], 0.0)
-    B_local = np.einsum("nkc,nkc->nc", lensch.kernels.astype(np.float64), E_taps)
-    return B_local[atlas.source], B_global
-
-
-__all__ = ["GpuTables", "gpu_tables", "frame_radiosity", "load", "wrap", "vertex_image", "radiosity"]
+    return local_radiosity(lensch, E)[atlas.source], B_global

@@ -1,0 +1,39 @@
+"""Per-vertex measures of a triangle mesh and a quadrature rule on triangles (pure)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .mesh_checks import triangle_areas
+
+
+def vertex_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """A_v: the area of the triangles sharing each vertex (Lensch 5.2; a third of it is the vertex's own)."""
+    v = np.asarray(vertices, np.float64)
+    t = np.asarray(triangles, np.int64).reshape(-1, 3)
+    area = triangle_areas(v, t)
+    A_v = np.zeros(len(v))
+    for k in range(3):
+        np.add.at(A_v, t[:, k], area)
+    return A_v
+
+
+def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals (zero for vertices no triangle uses)."""
+    v = np.asarray(vertices, np.float64)
+    t = np.asarray(triangles, np.int64).reshape(-1, 3)
+    face_n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # length = 2 * area
+    n = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(n, t[:, k], face_n)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+
+
+def subtriangle_centroids(n: int) -> np.ndarray:
+    """Barycentric (u, v) of the centroids of the n^2 equal sub-triangles of a triangle: (n^2, 2)."""
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    up = i + j <= n - 1
+    down = i + j <= n - 2
+    cu = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
+    cv = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
+    return np.stack([cu, cv], axis=1)
