@@ -229,7 +229,7 @@ def _inputs(method="TEXTURE_SPACE", **kw):
 
 
 def test_surface_stage_conserves_area_and_scales_to_mm():
-    gen = run(_inputs("QUADGRAPH"))
+    gen = run(_inputs("GEOCUBE"))
     try:
         while True:
             next(gen)

@@ -103,6 +103,28 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
                     "shows the paper's Fig. 6 artefact (light counted twice near where it enters)",
         default=True,
     )
+    quadgraph_K: bpy.props.FloatProperty(
+        name="Density K",
+        description="QUADGRAPH: tetrahedron size as the paper's K (Wang 2010 Fig. 11-13); smaller is denser, "
+                    "slower and more accurate (1: about 10 % error, 0.1: about 2 % in the paper). Changing it "
+                    "needs a new bake",
+        min=0.05, max=2.0, default=1.0, precision=2,
+    )
+    quadgraph_levels: bpy.props.IntProperty(
+        name="Levels",
+        description="QUADGRAPH: multi-resolution levels, each with about a quarter of the surface nodes of "
+                    "the next (Wang 2010 Sec. 4.3); the solver starts on the coarsest",
+        min=1, max=5, default=3,
+    )
+    veins: bpy.props.FloatProperty(
+        name="Veins",
+        description="QUADGRAPH: strength of procedural marble veins in the volume (more absorption and "
+                    "scattering along noise veins, as Lensch's marble); 0 is homogeneous",
+        min=0.0, max=1.0, default=0.0,
+    )
+    veins_scale: bpy.props.FloatProperty(
+        name="Vein spacing (mm)", description="QUADGRAPH: distance between veins, in mm", min=0.1, default=20.0, unit="NONE",
+    )
 
 
 class TranslucentSceneSettings(bpy.types.PropertyGroup):
@@ -140,6 +162,15 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         items=(("GPU", "GPU", "A fragment per vertex walks its row of the sparse matrix"),
                ("CPU", "CPU", "scipy.sparse after reading the vertex irradiance back")),
         default="GPU",
+    )
+    quadgraph_tolerance: bpy.props.FloatProperty(
+        name="Solver tolerance",
+        description="QUADGRAPH: the relaxation stops when an iteration changes the flux by less than this "
+                    "(relative); it also stops at the iteration cap",
+        min=1e-7, max=0.1, default=1e-3, precision=5,
+    )
+    quadgraph_iterations: bpy.props.IntProperty(
+        name="Max iterations", description="QUADGRAPH: iteration cap per level", min=8, max=20000, default=400,
     )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",

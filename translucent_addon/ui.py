@@ -48,9 +48,16 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
             col = layout.column(align=True)
             col.prop(s, "atlas_resolution")
             col.prop(s, "texture_blending")
+        if s.method == "QUADGRAPH":
+            col = layout.column(align=True)
+            col.prop(s, "quadgraph_K")
+            col.prop(s, "quadgraph_levels")
+            col = layout.column(align=True)
+            col.prop(s, "veins")
+            col.prop(s, "veins_scale")
         status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
         layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
-        if status in {"OK", "STALE"} and s.method == "TEXTURE_SPACE":
+        if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH"}:
             _bake_statistics(layout, ob, s.method)
         row = layout.row(align=True)
         row.operator("translucent.bake", icon="RENDER_STILL")
@@ -74,6 +81,12 @@ def _bake_statistics(layout, ob, method) -> None:
         return
     col = layout.column(align=True)
     col.scale_y = 0.8
+    if method == "QUADGRAPH":
+        col.label(text=f"Nodes: {meta.get('surface_nodes', 0):,} surface, {meta.get('inner_nodes', 0):,} inner "
+                       f"({len(meta.get('levels', []))} levels, edge {meta.get('edge_mm', 0.0):.1f} mm)")
+        col.label(text=f"Proxy: {meta.get('proxy_triangles', 0):,} triangles; baked in "
+                       f"{meta.get('seconds', 0.0):.1f} s")
+        return
     col.label(text=f"Proxy: {meta.get('proxy_vertices', 0):,} vertices, atlas {meta.get('atlas', ['?', '?'])[0]}"
                    f" x {meta.get('atlas', ['?', '?'])[1]}")
     col.label(text=f"Texels: {meta.get('surface_texels', 0):,} ({meta.get('texel_mm', 0.0):.2f} mm), "
@@ -100,6 +113,10 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.prop(s, "splat_max_grid")
         col.prop(s, "temporal_coherence")
         layout.prop(s, "texture_product")
+        col = layout.column(align=True)
+        col.label(text="QuadGraph solver")
+        col.prop(s, "quadgraph_tolerance")
+        col.prop(s, "quadgraph_iterations")
         layout.prop(s, "overlay_other_engines")
         layout.operator("translucent.add_demo_scene", icon="SCENE_DATA")
 

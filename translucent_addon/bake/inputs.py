@@ -39,6 +39,8 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         atlas_resolution=int(props.atlas_resolution),
         blending=bool(props.texture_blending),
         stretch=stretch_of(np.array(ob_eval.matrix_world)[:3, :3]),
+        quadgraph_K=float(props.quadgraph_K),
+        quadgraph_levels=int(props.quadgraph_levels),
     )
     if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):
         from .proxy import surface_area, target_triangles
@@ -47,6 +49,13 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
                                   inputs.atlas_resolution)
         if target < 0.8 * len(inputs.triangles):
             inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
+    if for_bake and inputs.method == "QUADGRAPH" and len(inputs.triangles):
+        from .quadgraph_bake import proxy_triangles
+
+        inputs.proxy_levels = [
+            decimated(inputs.vertices, inputs.triangles, n) if n < 0.8 * len(inputs.triangles)
+            else (inputs.vertices, inputs.triangles)
+            for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels)]
     return inputs
 
 

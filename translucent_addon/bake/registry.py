@@ -21,7 +21,7 @@ METHOD_STAGES = {
     "OFF": (),
     "IMAGE_SPACE": (),
     "TEXTURE_SPACE": ("texture_space",),
-    "QUADGRAPH": ("surface",),
+    "QUADGRAPH": ("quadgraph",),
     "GEOCUBE": ("surface",),
 }
 
@@ -57,25 +57,33 @@ class BakeInputs:
     # The object's stretch (scale without rotation, 3x3, the symmetric factor of the polar
     # decomposition of its world matrix): the physical size is stretch @ vertex * mm_per_unit.
     stretch: np.ndarray | None = None
+    quadgraph_K: float = 1.0  # QUADGRAPH density (the paper's K; bake/quadgraph_bake.py maps it)
+    quadgraph_levels: int = 3  # QUADGRAPH multi-resolution levels
+    # QUADGRAPH: decimated proxies, coarsest first, made by Blender ([(vertices, triangles)], object space).
+    proxy_levels: list | None = None
 
     def stretch_matrix(self) -> np.ndarray:
         return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
 
     def hash(self) -> str:
+        """Hash of what the bake depends on. A QUADGRAPH bake is geometry only (kappa and mu are set per
+        node at run time), so editing its material keeps the bake current."""
+        material = {"sigma_a": list(self.sigma_a), "sigma_s_prime": list(self.sigma_s_prime), "eta": self.eta,
+                    "g": self.g}
+        stretch = {"stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
         extra = {}
         if self.method == "TEXTURE_SPACE":
-            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
-                     "stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
+            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending), **stretch}
+        elif self.method == "QUADGRAPH":
+            material = {}
+            extra = {"K": float(self.quadgraph_K), "levels": int(self.quadgraph_levels), **stretch}
         return store.inputs_hash(
             {"vertices": self.vertices, "triangles": self.triangles},
             {
                 "method": self.method,
                 "stages": list(METHOD_STAGES.get(self.method, ())),
                 "mm_per_unit": self.mm_per_unit,
-                "sigma_a": list(self.sigma_a),
-                "sigma_s_prime": list(self.sigma_s_prime),
-                "eta": self.eta,
-                "g": self.g,
+                **material,
                 **extra,
             },
         )
@@ -123,16 +131,23 @@ def run(inputs: BakeInputs):
     meta_extra: dict = {}
     for i, stage in enumerate(stages):
         yield i / len(stages), f"{inputs.method}: {stage}"
-        if stage == "texture_space":
-            from .texture_space import bake as texture_space_bake
+        if stage in ("texture_space", "quadgraph"):
+            if stage == "texture_space":
+                from .texture_space import bake as stage_bake
+            else:
+                from .quadgraph_bake import bake as stage_bake
 
-            job = texture_space_bake(inputs)
+            from .tetra import TetrahedraError
+
+            job = stage_bake(inputs)
             try:
                 while True:
                     fraction, text = next(job)
                     yield (i + fraction) / len(stages), text
             except StopIteration as done:
                 stage_arrays, stage_meta = done.value
+            except TetrahedraError as err:
+                raise BakeInputError(f"'{inputs.name}': {err}") from None
             arrays.update(stage_arrays)
             meta_extra.update(stage_meta)
         elif stage == "surface":

@@ -1,0 +1,174 @@
+"""The diffusion equation with the diffusive-source Robin boundary (Wang et al. 2010, Sec. 3-4).
+
+Pure. Units: mm and mm^-1; RGB coefficients broadcast. The discrete system lives on a QuadGraph
+(``bake/quadgraph.py``) given as arrays: ``neighbours`` (N, 4), geometric Laplacian weights
+``weights`` (N, 4), ``d_surface`` (S,), surface nodes first.
+
+Conventions, derived here because the paper's printed equations disagree with each other:
+- kappa = 1 / (3 (mu + sigma_s')) (DESIGN.md section 3; the paper prints [3 mu + sigma_s']^-1, and
+  ``tests/test_quadgraph.py`` shows which one reproduces the dipole's total diffuse reflectance).
+- Robin boundary (Eq. 2), from the partial currents J_in = F_dr J_out + q:
+  phi + 2 A kappa dphi/dn = 4 q / (1 - F_dr). Eq. 9 prints 4 q / (1 + F_dr); solving Eq. 6 for
+  phi(n_s) gives 4 q / (1 - F_dr), which is what is used.
+- Outgoing radiance (Eq. 4 = Eq. 7 with F_t for the printed F_r):
+  L_o = F_t(w_o) / (2 pi (1 + F_dr)) (phi - 2 q) = F_t(w_o) / pi * B, with the radiosity
+  B = (phi - 2 q) / (2 (1 + F_dr)); a slab of albedo 1 gives B (1 - F_dr) = q: all light leaves.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .dipole import A as internal_reflection
+from .fresnel import F_dr as diffuse_fresnel
+
+
+def kappa(sigma_a, sigma_s_prime):
+    """Diffusion coefficient kappa = 1 / (3 (mu + sigma_s')) [mm] (mu = sigma_a)."""
+    return 1.0 / (3.0 * (np.asarray(sigma_a, np.float64) + np.asarray(sigma_s_prime, np.float64)))
+
+
+def kappa_as_printed(sigma_a, sigma_s_prime):
+    """The paper's printed kappa = 1 / (3 mu + sigma_s') (Sec. 3), kept to show that it is wrong."""
+    return 1.0 / (3.0 * np.asarray(sigma_a, np.float64) + np.asarray(sigma_s_prime, np.float64))
+
+
+def radiosity(phi_s, q, eta):
+    """B = (phi(n_s) - 2 q(n_s)) / (2 (1 + F_dr)): L_o = F_t(w_o) / pi B (Eq. 4, 7)."""
+    return (np.asarray(phi_s) - 2.0 * np.asarray(q)) / (2.0 * (1.0 + diffuse_fresnel(eta)))
+
+
+def slab_reflectance(sigma_a, sigma_s_prime, eta, kappa_of=kappa):
+    """Fraction of the light entering a semi-infinite slab that leaves it, for the continuous model.
+
+    phi(z) = C e^{-sigma_tr z}, sigma_tr = sqrt(mu / kappa); the Robin condition gives
+    C = 4 q / ((1 - F_dr)(1 + 2 A kappa sigma_tr)), and the exitance (1 - F_dr) B over q is
+    (1/A) [2 / ((1 - F_dr)(1 + 2 A kappa sigma_tr)) - 1]: the counterpart of the dipole's total
+    diffuse reflectance (Jensen 2001 Eq. 6), equal to 1 without absorption.
+    """
+    mu = np.asarray(sigma_a, np.float64)
+    k = kappa_of(mu, sigma_s_prime)
+    sigma_tr = np.sqrt(mu / k)
+    F = diffuse_fresnel(eta)
+    A = internal_reflection(eta)
+    return (2.0 / ((1.0 - F) * (1.0 + 2.0 * A * k * sigma_tr)) - 1.0) / A
+
+
+# -- the discrete system (Eq. 5-6) and its relaxation (Eq. 8-9) -----------------------------------
+# The surface link s-k is exponentially fitted: between the surface node and its inner node the
+# flux follows the 1-D solution of kappa phi'' = mu phi, phi = a e^{-sigma_tr x} + b e^{sigma_tr x},
+# instead of a straight line. With x = sigma_tr d_sk, the outward derivative at s is
+# (e2 phi_s - e1 phi_k) / d and the inward one at k is (e1 phi_s - e2 phi_k) / d, with
+# e1 = x / sinh x and e2 = x / tanh x (both 1 at x = 0, giving back Eq. 6 and 9). On a graph too
+# coarse for the material (sigma_tr d >> 1: skin's blue, 0.7 mm, between nodes 5 mm apart) the
+# straight line sends several times too much light out of the surface; the fitted link gives the
+# slab's exact surface flux at any spacing.
+
+
+def link_factors(x):
+    """(e1, e2) = (x / sinh x, x / tanh x), with their series near 0."""
+    x = np.asarray(x, np.float64)
+    small = x < 1e-3
+    xs = np.where(small, 1.0, np.minimum(x, 300.0))
+    e1 = np.where(small, 1.0 - x * x / 6.0, xs / np.sinh(xs))
+    e2 = np.where(small, 1.0 + x * x / 3.0, xs / np.tanh(xs))
+    return e1, e2
+
+
+def surface_link(kappa_nodes, mu_nodes, d_surface):
+    """(e1, e2) of every surface link, (S, C), from the surface node's own sigma_tr = sqrt(mu / kappa)."""
+    S = len(d_surface)
+    k = np.asarray(kappa_nodes, np.float64)[:S]
+    mu = np.asarray(mu_nodes, np.float64)[:S]
+    return link_factors(np.sqrt(mu / k) * d_surface[:, None])
+
+
+def edge_kappa(kappa_nodes, neighbours):
+    """Conductance of each link: the harmonic mean of its two ends' kappa, (N, 4, C); 0 where unlinked."""
+    k = np.asarray(kappa_nodes, np.float64)
+    kj = k[np.maximum(neighbours, 0)]
+    ki = k[:, None, :]
+    return np.where((neighbours >= 0)[..., None], 2.0 * ki * kj / np.maximum(ki + kj, 1e-300), 0.0)
+
+
+def matrix(neighbours, weights, d_surface, kappa_nodes, mu_nodes, eta, channel: int):
+    """Sparse M with M phi = b for one colour channel (rows: surface nodes, Eq. 6; inner nodes, Eq. 5)."""
+    from scipy.sparse import csr_matrix
+
+    N, S = len(neighbours), len(d_surface)
+    A = float(internal_reflection(eta))
+    k = np.asarray(kappa_nodes, np.float64)[:, channel]
+    mu = np.asarray(mu_nodes, np.float64)[:, channel]
+    ke = edge_kappa(kappa_nodes, neighbours)[..., channel]
+    e1, e2 = (e[:, channel] for e in surface_link(kappa_nodes, mu_nodes, d_surface))
+    inner = np.arange(S, N)
+    # Inner: (sum_j a_ij k_ij + mu_i) phi_i - sum_j a_ij k_ij phi_j = 0; a link to a surface node
+    # carries e1 on phi_s and e2 on phi_i.
+    c = weights[S:] * ke[S:]
+    to_surface = neighbours[S:] < S
+    nb = neighbours[S:]
+    off = c * np.where(to_surface, e1[np.minimum(nb, S - 1)], 1.0)
+    on = c * np.where(to_surface, e2[np.minimum(nb, S - 1)], 1.0)
+    diag = np.concatenate([2.0 * A * k[:S] * e2 + d_surface, on.sum(axis=1) + mu[S:]])
+    rows = [np.arange(N), np.repeat(inner, 4), np.arange(S)]
+    cols = [np.arange(N), nb.reshape(-1), neighbours[:S, 0]]
+    vals = [diag, -off.reshape(-1), -2.0 * A * k[:S] * e1]
+    # Surface: (2 A k_s e2 + d) phi_s - 2 A k_s e1 phi_k = 4 d q / (1 - F_dr)  (Eq. 6 times d).
+    return csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(N, N))
+
+
+def right_hand_side(q, d_surface, eta, count: int):
+    """b of M phi = b: 4 d q / (1 - F_dr) on surface rows, 0 on inner rows; (N, C)."""
+    q = np.asarray(q, np.float64)
+    b = np.zeros((count, q.shape[1]))
+    b[:len(d_surface)] = 4.0 * d_surface[:, None] * q / (1.0 - diffuse_fresnel(eta))
+    return b
+
+
+def solve_direct(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta):
+    """phi (N, C) by a sparse LU factorisation, per channel: the reference for the relaxation."""
+    from scipy.sparse.linalg import splu
+
+    b = right_hand_side(q, d_surface, eta, len(neighbours))
+    phi = np.zeros_like(b)
+    for c in range(b.shape[1]):
+        M = matrix(neighbours, weights, d_surface, kappa_nodes, mu_nodes, eta, c).tocsc()
+        phi[:, c] = splu(M).solve(b[:, c])
+    return phi
+
+
+def relax(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta, phi, iterations: int):
+    """``iterations`` Jacobi steps (Eq. 8 for inner nodes, Eq. 9 for surface nodes, with the fitted surface
+    link), all nodes at once
+    from the previous iterate, as the GPU pass does. The CPU twin of ``qg_relax.glsl``."""
+    S = len(d_surface)
+    A = float(internal_reflection(eta))
+    F = float(diffuse_fresnel(eta))
+    k = np.asarray(kappa_nodes, np.float64)
+    mu = np.asarray(mu_nodes, np.float64)
+    e1, e2 = surface_link(k, mu, d_surface)
+    inner_nb = neighbours[S:]
+    to_surface = (inner_nb < S)[..., None]
+    c = weights[S:, :, None] * edge_kappa(k, neighbours)[S:]  # (T, 4, C)
+    off = c * np.where(to_surface, e1[np.minimum(inner_nb, S - 1)], 1.0)
+    denom = (c * np.where(to_surface, e2[np.minimum(inner_nb, S - 1)], 1.0)).sum(axis=1) + mu[S:]
+    source = d_surface[:, None] * 4.0 * np.asarray(q, np.float64) / (1.0 - F)
+    ks = 2.0 * A * k[:S]
+    surface_nb = neighbours[:S, 0]
+    phi = np.array(phi, np.float64)
+    for _ in range(iterations):
+        new = np.empty_like(phi)
+        new[S:] = np.einsum("tkc,tkc->tc", off, phi[inner_nb]) / denom
+        new[:S] = (ks * e1 * phi[surface_nb] + source) / (ks * e2 + d_surface[:, None])
+        phi = new
+    return phi
+
+
+def relative_change(new, old) -> float:
+    """max |new - old| / max |new|: the convergence test of the relaxation (Sec. 5.2)."""
+    scale = float(np.abs(new).max())
+    return float(np.abs(new - old).max() / scale) if scale > 0 else 0.0
+
+
+def upsample(phi_coarse, link_index, link_weight):
+    """Initial phi at the finer level from the coarser solution (Eq. 10)."""
+    return np.einsum("nb,nbc->nc", link_weight, np.asarray(phi_coarse)[link_index])
