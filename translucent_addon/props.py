@@ -165,12 +165,12 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     )
     quadgraph_tolerance: bpy.props.FloatProperty(
         name="Solver tolerance",
-        description="QUADGRAPH: the relaxation stops when an iteration changes the flux by less than this "
-                    "(relative); it also stops at the iteration cap",
-        min=1e-7, max=0.1, default=1e-3, precision=5,
+        description="QUADGRAPH: a level's relaxation stops when one iteration changes the flux by less than "
+                    "this (relative to its largest value; checked every 16 iterations), or at the cap",
+        min=1e-7, max=0.1, default=2e-5, precision=6,
     )
     quadgraph_iterations: bpy.props.IntProperty(
-        name="Max iterations", description="QUADGRAPH: iteration cap per level", min=8, max=20000, default=400,
+        name="Max iterations", description="QUADGRAPH: iteration cap per level", min=8, max=20000, default=1000,
     )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",

@@ -57,6 +57,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(scene)
         pipeline.texture_product = scene.translucent.texture_product
+        pipeline.quadgraph_solver = (scene.translucent.quadgraph_tolerance, scene.translucent.quadgraph_iterations)
         pipeline.capture = {} if scene.translucent.capture_passes else None
         # Coherent with the previous F12 only when it drew the previous frame of the same scene.
         pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
@@ -88,6 +89,8 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline = self._get_pipeline()
         pipeline.sampling = sampling_settings(depsgraph.scene)
         pipeline.texture_product = depsgraph.scene.translucent.texture_product
+        pipeline.quadgraph_solver = (depsgraph.scene.translucent.quadgraph_tolerance,
+                                     depsgraph.scene.translucent.quadgraph_iterations)
         pipeline.coherence_key = "viewport" if depsgraph.scene.translucent.temporal_coherence else None
         pipeline.coherence_frame += 1
         pipeline.forget({m.key for m in frame.meshes})

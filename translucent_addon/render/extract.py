@@ -158,6 +158,8 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             if s.profile == "MULTIPOLE":
                 layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
                              base_sigma_s_prime=tuple(s.base_sigma_s_prime))
+            if method == "QUADGRAPH":
+                layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale))
             medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
                             **layer)
         return MeshInstance(

@@ -11,7 +11,9 @@ into the bound framebuffer). Passes:
    the lighting pass above (objects with a subsurface slot) and splats the far field after it;
    TEXTURE_SPACE (``methods/texture_space.py``) lights its illumination maps in the world pass
    and in each emitter's pass (reusing its shadow atlas), then filters, gathers and draws its
-   objects over the base; an object whose method draws nothing yet keeps the base.
+   objects over the base; QUADGRAPH (``methods/quadgraph.py``) lights q(n_s) at its surface nodes in
+   the same passes, relaxes the diffusion equation coarse to fine and draws its objects over the
+   base; an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ import time
 import numpy as np
 
 from . import blocks, shaders
-from .methods import image_space, texture_space
+from .methods import image_space, quadgraph, texture_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
 
@@ -52,6 +54,7 @@ class Pipeline:
         self.coherence_key = None
         self.coherence_frame = 0
         self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
+        self.quadgraph_solver = (2e-5, 1000)  # QUADGRAPH: (relative change per step, iteration cap per level)
 
     def free(self) -> None:
         self._batches.clear()
@@ -116,6 +119,7 @@ class Pipeline:
         batches = [self._batch(m) for m in frame.meshes]
         subsurface = image_space.prepare(frame, self.sampling)
         textured = texture_space.prepare(frame)
+        graphs = quadgraph.prepare(frame)
         slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
@@ -138,6 +142,8 @@ class Pipeline:
         self._draw_base(base_shader, *base_inputs, placeholder, mode=0)
         if textured:
             texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0)
+        if graphs:
+            quadgraph.illuminate(graphs, objects, frame_ubo, placeholder, atlas[1], mode=0)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
         t_shadow = t_light = 0.0
@@ -157,6 +163,8 @@ class Pipeline:
                 gpu.state.depth_mask_set(True)
             if textured:
                 texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1)
+            if graphs:
+                quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1)
             t_shadow += t2 - t1
             t_light += time.perf_counter() - t2
         timings["shadow_maps"] = t_shadow
@@ -169,6 +177,10 @@ class Pipeline:
             t1 = time.perf_counter()
             timings.update(texture_space.finish(textured, frame, frame_ubo, objects, fb, self, self.texture_product))
             timings["TEXTURE_SPACE"] = time.perf_counter() - t1
+        if graphs:
+            t1 = time.perf_counter()
+            timings.update(quadgraph.finish(graphs, frame, frame_ubo, objects, fb, self, *self.quadgraph_solver))
+            timings["QUADGRAPH"] = time.perf_counter() - t1
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         timings["total"] = time.perf_counter() - t0

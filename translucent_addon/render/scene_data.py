@@ -27,6 +27,9 @@ class Medium:
     layer_thickness_mm: float | None = None
     base_sigma_a: tuple | None = None
     base_sigma_s_prime: tuple | None = None
+    # QUADGRAPH: procedural marble veins in the volume (strength 0..1, spacing in mm).
+    veins: float = 0.0
+    veins_spacing_mm: float = 20.0
 
 
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d

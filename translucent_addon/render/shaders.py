@@ -144,6 +144,35 @@ SPECS = {
         push_constants=(("FLOAT", "eta"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
+    "qg_relax": ShaderSpec(
+        source="qg_relax.glsl",
+        libraries=("qg_common.glsl",),
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "phi"), (1, "FLOAT_2D", "incident"), (2, "FLOAT_2D", "links_map"),
+                  (3, "FLOAT_2D", "weights_map"), (4, "FLOAT_2D", "node_kappa"), (5, "FLOAT_2D", "node_mu")),
+        push_constants=(("INT", "blocks_per_row"), ("INT", "n_surface"), ("INT", "inner_start"),
+                        ("INT", "inner_end"), ("FLOAT", "A"), ("FLOAT", "F_dr")),
+        fragment_out=((0, "VEC4", "out_phi"),),
+    ),
+    "qg_upsample": ShaderSpec(
+        source="qg_upsample.glsl",
+        libraries=("qg_common.glsl",),
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "coarse_phi"), (1, "FLOAT_2D", "up_index0"), (2, "FLOAT_2D", "up_index1"),
+                  (3, "FLOAT_2D", "up_weight0"), (4, "FLOAT_2D", "up_weight1")),
+        push_constants=(("INT", "coarse_blocks_per_row"),),
+        fragment_out=((0, "VEC4", "out_phi"),),
+    ),
+    "qg_display": ShaderSpec(
+        source="qg_display.glsl",
+        libraries=("translucent_common.glsl", "qg_common.glsl"),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC4", "links"), ("VEC4", "link_weights")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_radiosity")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
+        samplers=((0, "FLOAT_2D", "phi"), (1, "FLOAT_2D", "incident")),
+        push_constants=(("INT", "blocks_per_row"), ("FLOAT", "eta"), ("FLOAT", "F_dr")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
 }
 
 _cache: dict = {}

@@ -13,12 +13,12 @@ METHOD_DESCRIPTIONS = {
     "OFF": "Opaque: base colour with Lambert shading and shadows",
     "IMAGE_SPACE": "Image-space splatting of the dipole (Shah 2007): no bake, deforming objects",
     "TEXTURE_SPACE": "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects",
-    "QUADGRAPH": "Diffusion on a tetrahedral QuadGraph (Wang 2010): thin, heterogeneous, deformable",
+    "QUADGRAPH": "Diffusion equation on a tetrahedral QuadGraph (Wang 2010): thin parts, veins; edit without re-baking",
     "GEOCUBE": "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering",
 }
 
 # The methods whose passes exist (render/methods/<method>.py); the others draw as the base.
-AVAILABLE = frozenset({"OFF", "IMAGE_SPACE", "TEXTURE_SPACE"})
+AVAILABLE = frozenset({"OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH"})
 
 
 def has_passes(method: str) -> bool:

@@ -1,0 +1,34 @@
+/* QUADGRAPH display (Wang Eq. 4, 7): each displayed vertex interpolates the radiosity
+ * B = (phi_s - 2 q_s) / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the bake),
+ * and the fragment leaves L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh. */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  vec4 world = object.model * vec4(pos, 1.0);
+  v_world = world.xyz;
+  v_normal = mat3(object.normal_matrix) * nor;
+  vec3 B = vec3(0.0);
+  for (int j = 0; j < 4; j++) {
+    ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
+    vec3 phi_s = texelFetch(phi, t, 0).rgb;
+    vec3 q = texelFetch(incident, t, 0).rgb;
+    B += link_weights[j] * (phi_s - 2.0 * q);
+  }
+  v_radiosity = max(B / (2.0 * (1.0 + F_dr)), vec3(0.0));
+  gl_Position = frame.view_proj * world;
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+void main()
+{
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) {
+    n = -n;
+  }
+  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
+                                                  normalize(frame.camera_position.xyz - v_world);
+  float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
+  out_color = vec4((1.0 - F_r) / PI * v_radiosity + F_r * frame.world_color.rgb, 1.0);
+}
+#endif

@@ -1,0 +1,279 @@
+"""QUADGRAPH: the diffusion equation solved on the GPU every frame (Wang et al. 2010, Blender-facing).
+
+Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
+1. q(n_s) at the surface nodes of every level: one point per surface node at its texel, lit at its
+   surface point with Fresnel and shadows, the world first and then each emitter inside the
+   pipeline's emitter loop (the ``ts_illumination`` pass of TEXTURE_SPACE, pointed at the level);
+2. coarse to fine: start each level from the coarser solution (``qg_upsample``, Eq. 10), the
+   coarsest from zero (or the finest from the last frame when nothing but the lights moved is not
+   assumed: lights do move), then Jacobi steps (``qg_relax``, Eq. 8-9) into two textures in turn;
+   every ``CHECK_EVERY`` steps the last step's relative change is read back and the level stops
+   below the scene's tolerance or at its iteration cap (Sec. 5.2);
+3. display: the original mesh interpolates B = (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
+   nodes per vertex and draws L = F_t / pi B + F_r L_world over the base pass (``qg_display``).
+kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
+edits need no bake. The maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from ...physics.dipole import A as internal_reflection
+from ...physics.fresnel import F_dr as diffuse_fresnel
+from ...physics.fresnel import hemispherical_transmittance
+from .. import shaders
+from ..targets import new_target, screen_quad, texture_from_array
+from . import quadgraph_data as qgd
+
+CHECK_EVERY = 16
+_resources: dict = {}
+
+
+def clear_cache() -> None:
+    _resources.clear()
+
+
+class LevelGpu:
+    """Textures and targets of one level."""
+
+    def __init__(self, t: qgd.LevelTables, stretch_inv: np.ndarray, mm: float):
+        from gpu_extras.batch import batch_for_shader
+
+        self.tables = t
+        size = t.layout.size
+        self.links = texture_from_array(t.links_image)
+        self.weights = texture_from_array(t.weights_image)
+        self.up = tuple(texture_from_array(img) for img in t.up_images) if t.up_images else None
+        S = t.n_surface
+        pos = (t.positions_mm[:S] @ stretch_inv.T / mm).astype(np.float32)
+        nor = t.normals @ np.linalg.inv(stretch_inv)  # normals transform with S (S symmetric)
+        nor = (nor / np.linalg.norm(nor, axis=1, keepdims=True)).astype(np.float32)
+        self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
+            "texel": t.surface_texels, "pos": pos, "nor": nor})
+        self.incident = new_target(size)
+        self.phi = [new_target(size), new_target(size)]
+        self.kappa = self.mu = None
+
+    def set_material(self, kappa: np.ndarray, mu: np.ndarray) -> None:
+        self.kappa = texture_from_array(self.tables.image(kappa))
+        self.mu = texture_from_array(self.tables.image(mu))
+
+
+class Resources:
+    """GPU data of one bake: its levels, the material images and the display batch."""
+
+    def __init__(self, arrays: dict, mm: float):
+        self.levels_cpu = qgd.load(arrays)
+        stretch = np.asarray(arrays["stretch"], np.float64).reshape(3, 3)
+        stretch_inv = np.linalg.inv(stretch)
+        self.levels = [LevelGpu(t, stretch_inv, mm) for t in self.levels_cpu]
+        self.display_index = arrays["qg_display_index"]
+        self.display_weight = arrays["qg_display_weight"]
+        self.material_key = None
+        self.materials = None
+        self.display = {}
+        self.iterations: list[int] = []
+
+    def set_material(self, medium) -> None:
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.veins, medium.veins_spacing_mm)
+        if key == self.material_key:
+            return
+        self.materials = []
+        for lg in self.levels:
+            kappa, mu = qgd.node_material(lg.tables.positions_mm, medium.sigma_a, medium.sigma_s_prime,
+                                          medium.veins, medium.veins_spacing_mm)
+            lg.set_material(kappa, mu)
+            self.materials.append((kappa, mu))
+        self.material_key = key
+
+    def display_batch(self, mesh):
+        batch = self.display.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.display.clear()
+            finest = self.levels_cpu[-1]
+            slots = finest.layout.slots(self.display_index).astype(np.float32)
+            batch = self.display[mesh.key] = batch_for_shader(shaders.get("qg_display"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32),
+                "links": slots, "link_weights": np.ascontiguousarray(self.display_weight, np.float32)})
+        return batch
+
+
+@dataclasses.dataclass
+class Active:
+    index: int
+    mesh: object
+    resources: Resources
+
+
+def prepare(frame) -> list[Active]:
+    """The QUADGRAPH meshes of a frame whose bake is loaded (on first use) and current."""
+    active = []
+    for k, mesh in enumerate(frame.meshes):
+        handle = getattr(mesh, "bake", None)
+        if mesh.method != "QUADGRAPH" or handle is None or mesh.medium is None:
+            continue
+        res = _resources.get(handle.key)
+        if res is None:
+            arrays = handle.load()
+            for key in [k2 for k2 in _resources if k2.split("#")[0] == handle.key.split("#")[0]]:
+                del _resources[key]
+            res = _resources[handle.key] = Resources(arrays, mesh.medium.mm_per_unit)
+        if len(res.display_index) != len(mesh.positions):
+            frame.warnings.append(f"'{mesh.name}': QUADGRAPH bake does not match the mesh; press Bake")
+            continue
+        res.set_material(mesh.medium)
+        active.append(Active(k, mesh, res))
+    return active
+
+
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
+    """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3)."""
+    import gpu
+
+    from ..pipeline import clear_target
+
+    shader = shaders.get("ts_illumination")
+    for a in actives:
+        eta = float(a.mesh.medium.eta)
+        for lg in a.resources.levels:
+            fb = lg.incident[0]
+            with fb.bind():
+                if mode == 0:
+                    clear_target(fb, depth=None)
+                gpu.state.depth_test_set("NONE")
+                gpu.state.depth_mask_set(False)
+                gpu.state.blend_set("ADDITIVE_PREMULT")
+                gpu.state.point_size_set(1.0)
+                shader.bind()
+                shader.uniform_block("frame", frame_ubo)
+                shader.uniform_block("object", objects[a.index])
+                shader.uniform_block("light", light_ubo)
+                shader.uniform_sampler("shadow_atlas", shadow_atlas)
+                shader.uniform_int("mode", mode)
+                shader.uniform_float("eta", eta)
+                shader.uniform_float("world_transmittance", float(hemispherical_transmittance(eta)))
+                shader.uniform_float("atlas_size", tuple(float(x) for x in lg.tables.layout.size))
+                lg.points.draw(shader)
+                gpu.state.blend_set("NONE")
+
+
+def _relative_change(fb_new, fb_old, size) -> float:
+    from ..pipeline import read_pixels
+
+    with fb_new.bind():
+        new = read_pixels(fb_new, *size)[..., :3]
+    with fb_old.bind():
+        old = read_pixels(fb_old, *size)[..., :3]
+    scale = float(np.abs(new).max())
+    return float(np.abs(new - old).max() / scale) if scale > 0 else 0.0
+
+
+def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresolution: bool = True):
+    """Relax every level coarse to fine; returns the finest level's current phi target index."""
+    import gpu
+
+    from ..pipeline import clear_target
+
+    res = a.resources
+    eta = float(a.mesh.medium.eta)
+    A, F = float(internal_reflection(eta)), float(diffuse_fresnel(eta))
+    res.iterations = []
+    previous = None  # (LevelGpu, index of its current phi target)
+    levels = res.levels if multiresolution else res.levels[-1:]
+    for lg in levels:
+        t = lg.tables
+        size = t.layout.size
+        cur = 0
+        fb = lg.phi[cur][0]
+        with fb.bind():
+            gpu.state.blend_set("NONE")
+            gpu.state.depth_test_set("NONE")
+            if previous is None or lg.up is None:
+                clear_target(fb, depth=None)
+            else:
+                shader = shaders.get("qg_upsample")
+                shader.bind()
+                shader.uniform_sampler("coarse_phi", previous[0].phi[previous[1]][1][0])
+                for name, tex in zip(("up_index0", "up_index1", "up_weight0", "up_weight1"), lg.up):
+                    shader.uniform_sampler(name, tex)
+                shader.uniform_int("coarse_blocks_per_row", previous[0].tables.layout.blocks_per_row)
+                screen_quad(pipeline, "qg_upsample").draw(shader)
+        shader = shaders.get("qg_relax")
+        n = 0
+        while n < max_iterations:
+            step = min(CHECK_EVERY, max_iterations - n)
+            for _ in range(step):
+                src, dst = lg.phi[cur], lg.phi[1 - cur]
+                with dst[0].bind():
+                    gpu.state.blend_set("NONE")
+                    shader.bind()
+                    shader.uniform_sampler("phi", src[1][0])
+                    shader.uniform_sampler("incident", lg.incident[1][0])
+                    shader.uniform_sampler("links_map", lg.links)
+                    shader.uniform_sampler("weights_map", lg.weights)
+                    shader.uniform_sampler("node_kappa", lg.kappa)
+                    shader.uniform_sampler("node_mu", lg.mu)
+                    shader.uniform_int("blocks_per_row", t.layout.blocks_per_row)
+                    shader.uniform_int("n_surface", t.n_surface)
+                    shader.uniform_int("inner_start", t.layout.inner_start)
+                    shader.uniform_int("inner_end", t.layout.inner_start + t.count - t.n_surface)
+                    shader.uniform_float("A", A)
+                    shader.uniform_float("F_dr", F)
+                    screen_quad(pipeline, "qg_relax").draw(shader)
+                cur = 1 - cur
+            n += step
+            if _relative_change(lg.phi[cur][0], lg.phi[1 - cur][0], size) < tolerance:
+                break
+        res.iterations.append(n)
+        previous = (lg, cur)
+    return previous[1]
+
+
+def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, tolerance: float,
+           max_iterations: int) -> dict:
+    """Solve and display; returns seconds per step (summed over meshes)."""
+    import gpu
+
+    from ..pipeline import read_pixels
+
+    timings = {"qg_solve": 0.0, "qg_display": 0.0}
+    for a in actives:
+        t0 = time.perf_counter()
+        cur = solve(a, pipeline, tolerance, max_iterations)
+        finest = a.resources.levels[-1]
+        if pipeline.capture is not None:
+            size = finest.tables.layout.size
+            record = {"name": a.mesh.name, "iterations": list(a.resources.iterations), "q": [], "resources": a.resources}
+            for lg in a.resources.levels:
+                with lg.incident[0].bind():
+                    record["q"].append(lg.tables.from_image(read_pixels(lg.incident[0], *lg.tables.layout.size)))
+            with finest.phi[cur][0].bind():
+                record["phi"] = finest.tables.from_image(read_pixels(finest.phi[cur][0], *size))
+            pipeline.capture.setdefault("quadgraph", []).append(record)
+        t1 = time.perf_counter()
+        eta = float(a.mesh.medium.eta)
+        with target_fb.bind():
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(False)
+            gpu.state.blend_set("NONE")
+            shader = shaders.get("qg_display")
+            shader.bind()
+            shader.uniform_block("frame", frame_ubo)
+            shader.uniform_block("object", objects[a.index])
+            shader.uniform_sampler("phi", finest.phi[cur][1][0])
+            shader.uniform_sampler("incident", finest.incident[1][0])
+            shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
+            shader.uniform_float("eta", eta)
+            shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
+            a.resources.display_batch(a.mesh).draw(shader)
+            gpu.state.depth_mask_set(True)
+        t2 = time.perf_counter()
+        timings["qg_solve"] += t1 - t0
+        timings["qg_display"] += t2 - t1
+    return timings

@@ -1,0 +1,161 @@
+"""QUADGRAPH: the bake's levels laid out as GPU images, node materials, and the CPU twin of a frame (pure).
+
+Every level is one block layout (``bake.quadgraph.TextureLayout``, Sec. 5.1): node n sits at the
+texel of its slot; links hold slots (exact floats below 2^24), so a fragment finds its four
+neighbours with four ``texelFetch``. Material images (kappa, mu) are rebuilt when the material
+changes; the geometry images only when the bake does.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...bake.quadgraph import TextureLayout, layout_for
+from ...physics import diffusion as df
+
+
+@dataclasses.dataclass
+class LevelTables:
+    layout: TextureLayout
+    positions_mm: np.ndarray  # (N, 3)
+    normals: np.ndarray  # (S, 3) unit, mm space
+    neighbours: np.ndarray  # (N, 4) node ids
+    weights: np.ndarray  # (N, 4)
+    d_surface: np.ndarray  # (S,)
+    links_image: np.ndarray  # (h, w, 4) neighbour slots, -1 unused
+    weights_image: np.ndarray  # (h, w, 4) a_ij; surface texels: (d_sk, 0, 0, 0)
+    surface_texels: np.ndarray  # (S, 2) float32 texel of each surface node
+    up_index: np.ndarray | None = None  # (N, 8) node ids in the coarser level
+    up_weight: np.ndarray | None = None  # (N, 8)
+    up_images: tuple | None = None  # (index 0-3, index 4-7, weight 0-3, weight 4-7) images
+
+    @property
+    def count(self) -> int:
+        return len(self.positions_mm)
+
+    @property
+    def n_surface(self) -> int:
+        return len(self.d_surface)
+
+    def image(self, per_node: np.ndarray, channels: int = 4) -> np.ndarray:
+        """An (h, w, channels) image holding per-node values (N, c) at their texels."""
+        w, h = self.layout.size
+        per_node = np.asarray(per_node, np.float32).reshape(self.count, -1)
+        img = np.zeros((h, w, channels), np.float32)
+        t = self.layout.texels(np.arange(self.count))
+        img[t[:, 1], t[:, 0], :per_node.shape[1]] = per_node
+        return img
+
+    def from_image(self, image: np.ndarray, channels: int = 3) -> np.ndarray:
+        t = self.layout.texels(np.arange(self.count))
+        return np.asarray(image)[t[:, 1], t[:, 0], :channels]
+
+
+def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTables:
+    p = f"qg{h}_"
+    nb = arrays[p + "neighbours"].astype(np.int64)
+    S = int(arrays[p + "n_surface"][0])
+    positions = arrays[p + "positions"].astype(np.float64)
+
+    class _G:  # what layout_for reads
+        n_surface = S
+        count = len(positions)
+        n_inner = len(positions) - S
+
+    layout = layout_for(_G)
+    slots = np.where(nb >= 0, layout.slots(np.maximum(nb, 0)), -1)
+    d = arrays[p + "d_surface"].astype(np.float64)
+    weights = arrays[p + "weights"].astype(np.float64)
+    t = LevelTables(layout=layout, positions_mm=positions, normals=arrays[p + "normals"].astype(np.float64),
+                    neighbours=nb, weights=weights, d_surface=d, links_image=None, weights_image=None,
+                    surface_texels=layout.texels(np.arange(S)).astype(np.float32))
+    t.links_image = t.image(slots)
+    w_img = weights.copy()
+    w_img[:S, 0] = d
+    t.weights_image = t.image(w_img)
+    if coarser is not None:
+        t.up_index = arrays[p + "up_index"].astype(np.int64)
+        t.up_weight = arrays[p + "up_weight"].astype(np.float64)
+        up_slots = coarser.layout.slots(t.up_index)
+        t.up_images = (t.image(up_slots[:, :4]), t.image(up_slots[:, 4:]), t.image(t.up_weight[:, :4]),
+                       t.image(t.up_weight[:, 4:]))
+    return t
+
+
+def load(arrays: dict) -> list[LevelTables]:
+    """Tables of every level, coarsest first."""
+    levels: list[LevelTables] = []
+    for h in range(int(arrays["qg_levels"][0])):
+        levels.append(level_tables(arrays, h, levels[-1] if levels else None))
+    return levels
+
+
+# -- node materials (Sec. 3: kappa, mu per node; heterogeneous) ----------------------------------
+def vein_field(positions_mm: np.ndarray, spacing_mm: float) -> np.ndarray:
+    """A marble vein field in [0, 1] (1 on a vein): |sin| of a plane wave bent by a few octaves of
+    smooth trigonometric noise, as in Perlin's marble that Lensch's marble follows. Deterministic."""
+    p = np.asarray(positions_mm, np.float64) / max(float(spacing_mm), 1e-6)
+    turbulence = np.zeros(len(p))
+    rng = np.random.default_rng(7)
+    for octave in range(4):
+        f = 2.0**octave
+        for _ in range(3):
+            direction = rng.normal(size=3)
+            direction /= np.linalg.norm(direction)
+            turbulence += np.sin(f * p @ direction * 2.3 + rng.uniform(0, 2 * np.pi)) / (f * 3.0)
+    wave = np.sin(np.pi * (p[:, 0] + 0.6 * p[:, 2] + 1.5 * turbulence))
+    return (1.0 - np.abs(wave)) ** 6
+
+
+def node_material(positions_mm, sigma_a, sigma_s_prime, veins: float = 0.0, veins_spacing_mm: float = 20.0):
+    """(kappa, mu) per node, (N, 3) each. Veins raise absorption (x8) and scattering (x2) along the
+    vein field, so that they show as darker, sharper streaks under the surface."""
+    sa = np.broadcast_to(np.asarray(sigma_a, np.float64), (len(positions_mm), 3)).copy()
+    ss = np.broadcast_to(np.asarray(sigma_s_prime, np.float64), (len(positions_mm), 3)).copy()
+    if veins > 0:
+        v = float(veins) * vein_field(positions_mm, veins_spacing_mm)[:, None]
+        sa *= 1.0 + 7.0 * v
+        ss *= 1.0 + 1.0 * v
+    return df.kappa(sa, ss), sa
+
+
+# -- the CPU twin of a frame ---------------------------------------------------------------------
+@dataclasses.dataclass
+class Solution:
+    phi: list  # per level (N, 3)
+    iterations: list  # per level
+    B_surface: np.ndarray  # (S, 3) radiosity at the finest surface nodes
+
+
+def solve_frame(levels: list[LevelTables], q_levels: list, materials: list, eta: float, tolerance: float,
+                max_iterations: int, check_every: int = 16, multiresolution: bool = True,
+                start: np.ndarray | None = None) -> Solution:
+    """Relaxation coarse to fine (Wang Fig. 9) with the convergence test of the GPU path: every
+    ``check_every`` iterations, the relative change of the last iteration."""
+    phis, its = [], []
+    phi_prev = None
+    for h, t in enumerate(levels):
+        if not multiresolution and h < len(levels) - 1:
+            continue
+        kappa, mu = materials[h]
+        if h == len(levels) - 1 and start is not None:
+            phi = np.array(start, np.float64)
+        elif phi_prev is not None and multiresolution:
+            phi = df.upsample(phi_prev, t.up_index, t.up_weight)
+        else:
+            phi = np.zeros((t.count, 3))
+        n = 0
+        args = (t.neighbours, t.weights, t.d_surface, kappa, mu, q_levels[h], eta)
+        while n < max_iterations:
+            step = min(check_every, max_iterations - n)
+            before = df.relax(*args, phi, step - 1)
+            phi = df.relax(*args, before, 1)
+            n += step
+            if df.relative_change(phi, before) < tolerance:
+                break
+        phis.append(phi)
+        its.append(n)
+        phi_prev = phi
+    t = levels[-1]
+    return Solution(phis, its, df.radiosity(phis[-1][:t.n_surface], q_levels[-1], eta))
