@@ -1,0 +1,212 @@
+"""QUADGRAPH phase of the benchmark (Wang 2010), in one run on this machine.
+
+For the back-lit bunny and cow of the scene set: bake at several densities K, draw, and measure the
+relative RMSE against the cached Cycles brute-force and random-walk references of `make bench`
+(rendered there if missing), beside IMAGE_SPACE and EEVEE 16 drawn in the same run; iterations to
+tolerance with and without the multi-resolution start (the paper's Fig. 14, on the CPU twin with the
+frame's captured q); GPU memory per 100k nodes; images of spot, cow and a torus knot to look at.
+Writes bench/results/quadgraph/ (summary.md, results.json, chart.png, images).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import blender_env  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "quadgraph"))
+    parser.add_argument("--cache", default=str(ROOT / "bench" / "cache"))
+    parser.add_argument("--width", type=int, default=192)
+    parser.add_argument("--height", type=int, default=144)
+    parser.add_argument("--densities", nargs="*", type=float, default=[1.0, 0.5, 0.3])
+    parser.add_argument("--scenes", nargs="*", default=["bunny_backlit", "cow_backlit"])
+    args = parser.parse_args()
+
+    package = blender_env.start()
+    import importlib
+
+    import bpy
+
+    demo = importlib.import_module(f"{package}.translucent_addon.demo")
+    runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
+    cache = importlib.import_module(f"{package}.translucent_addon.compare.cache")
+    metrics = importlib.import_module(f"{package}.translucent_addon.compare.metrics")
+    report = importlib.import_module(f"{package}.translucent_addon.compare.report")
+    extract = importlib.import_module(f"{package}.translucent_addon.render.extract")
+    engine = importlib.import_module(f"{package}.translucent_addon.render.engine")
+    qgd = importlib.import_module(f"{package}.translucent_addon.render.methods.quadgraph_data")
+    df = importlib.import_module(f"{package}.translucent_addon.physics.diffusion")
+    bvh = importlib.import_module(f"{package}.translucent_addon.compare.bvh_tracer")
+
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    rows, fig14 = [], []
+    settings = runner.CompareSettings()
+    w, h = args.width, args.height
+    for name in args.scenes:
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = demo.build_scene(name, bpy.context.scene)
+        scene.render.resolution_x, scene.render.resolution_y = w, h
+        subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
+        tracer = bvh.BVHTracer(runner.scene_triangles(frame)[0])
+        mask = runner.interior(runner._mask(frame, tracer, {subject.name}))
+        description = runner.scene_description(depsgraph, frame, [subject])
+        refs = {}
+        for kind, spp in (("brute_force", settings.brute_force_reference_samples),
+                          ("random_walk", settings.reference_samples)):
+            desc = {**description, "engine": "CYCLES", "kind": kind, "samples": spp, "bounces": settings.cycles_bounces}
+            hit = cache.load(Path(args.cache), desc)
+            if hit is None:
+                print(f"[{name}] Cycles {kind} {spp} spp (not cached) ...", flush=True)
+                with runner.twin_materials_applied([subject], kind), \
+                        runner.engine_setup(scene, "CYCLES", **runner.cycles_options(spp, settings.cycles_bounces)):
+                    image, sec = runner.render_pixels(scene, w, h)
+                cache.store(Path(args.cache), desc, image, sec)
+                hit = (image, sec)
+            refs[kind] = hit[0]
+            report.save_image_png(out / f"{name}_cycles_{kind}.png", hit[0])
+
+        def measure(label, image, seconds, **extra):
+            row = {"scene": name, "label": label, "seconds": round(seconds, 3),
+                   "rel_rmse_brute_force": metrics.relative_rmse(image, refs["brute_force"], mask),
+                   "rel_rmse_random_walk": metrics.relative_rmse(image, refs["random_walk"], mask),
+                   "median_vs_brute_force": metrics.median_relative_error(image, refs["brute_force"], mask), **extra}
+            slug = "".join(c if c.isalnum() else "_" for c in f"{name}_{label}").lower()
+            report.save_image_png(out / f"{slug}.png", image)
+            report.save_error_png(out / f"{slug}_error.png", image, refs["brute_force"], mask)
+            rows.append(row)
+            print(f"[{name}] {label}: {row['rel_rmse_brute_force']:.3f} RMSE vs brute force, {seconds:.2f} s",
+                  flush=True)
+
+        subject.translucent.method = "IMAGE_SPACE"
+        with runner.engine_setup(scene, "TRANSLUCENT_RT"):
+            runner.render_pixels(scene, w, h)
+            img, sec = runner.render_pixels(scene, w, h)
+        measure("IMAGE_SPACE", img, sec)
+        with runner.twin_materials_applied([subject], "random_walk"), \
+                runner.engine_setup(scene, "BLENDER_EEVEE", **runner.eevee_options(16)):
+            img, sec = runner.render_pixels(scene, w, h)
+        measure("EEVEE 16", img, sec)
+        for K in args.densities:
+            subject.translucent.method = "QUADGRAPH"
+            subject.translucent.quadgraph_K = K
+            bake_seconds, (meta,) = runner.bake_objects([subject], "QUADGRAPH",
+                                                        progress=lambda t, n=name: print(f"[{n}] {t}", flush=True))
+            scene.translucent.capture_passes = True
+            with runner.engine_setup(scene, "TRANSLUCENT_RT"):
+                runner.render_pixels(scene, w, h)  # uploads the bake
+                img, sec = runner.render_pixels(scene, w, h)
+            scene.translucent.capture_passes = False
+            (rec,) = engine.LAST_CAPTURE["quadgraph"]
+            res = rec["resources"]
+            nodes = sum(t.count for t in res.levels_cpu)
+            texels = sum(int(np.prod(t.layout.size)) for t in res.levels_cpu)
+            # links, weights, kappa, mu, q, phi x 2 (+ 4 level-link images above the coarsest), RGBA32F
+            gpu_bytes = sum(int(np.prod(t.layout.size)) * 16 * (7 + (4 if t.up_images else 0)) for t in res.levels_cpu)
+            measure(f"QUADGRAPH K={K:g}", img, sec, K=K, bake_seconds=round(bake_seconds, 2),
+                    proxy_triangles=meta["proxy_triangles"], surface_nodes=meta["surface_nodes"],
+                    inner_nodes=meta["inner_nodes"], levels=meta["levels"], iterations=rec["iterations"],
+                    gpu_mb=round(gpu_bytes / 2**20, 2), gpu_mb_per_100k_nodes=round(gpu_bytes / 2**20 * 1e5 / nodes, 2),
+                    texels=texels, tetrahedralize_seconds=meta["tetrahedralize_seconds"])
+            if K == args.densities[0]:
+                # Fig. 14 on the CPU twin: error against iterations, with and without the coarse start.
+                levels = res.levels_cpu
+                eta = float(subject.translucent.eta)
+                q = [r[:t.n_surface] for r, t in zip(rec["q"], levels)]
+                finest = levels[-1]
+                kappa, mu = res.materials[-1]
+                exact = df.solve_direct(finest.neighbours, finest.weights, finest.d_surface, kappa, mu, q[-1], eta)
+                for multi in (True, False):
+                    phi = None
+                    coarse_its = 0
+                    if multi:
+                        sol = qgd.solve_frame(levels[:-1], q[:-1], res.materials[:-1], eta, 2e-5, 1000) \
+                            if len(levels) > 1 else None
+                        coarse_its = sum(sol.iterations) if sol else 0
+                        phi = df.upsample(sol.phi[-1], finest.up_index, finest.up_weight) if sol else None
+                    if phi is None:
+                        phi = np.zeros((finest.count, 3))
+                    curve = []
+                    args_fine = (finest.neighbours, finest.weights, finest.d_surface, kappa, mu, q[-1], eta)
+                    for it in range(0, 2001, 25):
+                        curve.append((it, float(np.abs(phi - exact).max() / np.abs(exact).max())))
+                        phi = df.relax(*args_fine, phi, 25)
+                    fig14.append({"scene": name, "multiresolution": multi, "coarse_iterations": coarse_its,
+                                  "curve": curve})
+    (out / "results.json").write_text(json.dumps({"rows": rows, "fig14": fig14}, indent=2, default=float))
+    chart(rows, fig14, out)
+    (out / "summary.md").write_text(summary(rows, fig14))
+    print(f"wrote {out / 'summary.md'}")
+    return 0
+
+
+def chart(rows, fig14, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
+    for scene in sorted({r["scene"] for r in rows}):
+        rs = [r for r in rows if r["scene"] == scene]
+        for r in rs:
+            marker = "o" if r["label"].startswith("QUADGRAPH") else ("s" if "IMAGE" in r["label"] else "^")
+            a.scatter(r["seconds"], r["rel_rmse_brute_force"], marker=marker)
+            a.annotate(f"{scene.split('_')[0]} {r['label']}", (r["seconds"], r["rel_rmse_brute_force"]), fontsize=7)
+    a.set_xscale("log")
+    a.set_xlabel("seconds per frame (llvmpipe)")
+    a.set_ylabel("relative RMSE vs Cycles brute force")
+    a.set_title("QUADGRAPH density against IMAGE_SPACE and EEVEE")
+    for f in fig14:
+        its = [c[0] + (f["coarse_iterations"] if f["multiresolution"] else 0) for c in f["curve"]]
+        b.semilogy(its, [c[1] for c in f["curve"]],
+                   label=f"{f['scene'].split('_')[0]} {'with' if f['multiresolution'] else 'without'} levels")
+    b.axhline(1e-3, color="grey", lw=0.5)
+    b.set_xlabel("iterations (coarse levels' counted first)")
+    b.set_ylabel("max relative error vs direct solve")
+    b.set_title("Wang Fig. 14: multi-resolution start")
+    b.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "chart.png", dpi=110)
+
+
+def summary(rows, fig14) -> str:
+    lines = ["# QUADGRAPH (Wang 2010): density, accuracy, speed\n",
+             "Relative RMSE over the object's pixels against Cycles brute force (256 spp) and random walk "
+             "(1024 spp), 192x144, one run on this machine (Mesa llvmpipe for our engine and EEVEE).\n",
+             "| scene | method | s/frame | RMSE vs brute force | RMSE vs random walk | median vs BF | bake s | "
+             "proxy tris | surface / inner nodes | iterations per level | GPU MB (per 100k nodes) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        q = r["label"].startswith("QUADGRAPH")
+        lines.append(
+            f"| {r['scene']} | {r['label']} | {r['seconds']:.2f} | {r['rel_rmse_brute_force']:.3f} | "
+            f"{r['rel_rmse_random_walk']:.3f} | {r['median_vs_brute_force']:.3f} | "
+            + (f"{r['bake_seconds']:.1f} | {r['proxy_triangles']:,} | {r['surface_nodes']:,} / {r['inner_nodes']:,} | "
+               f"{r['iterations']} | {r['gpu_mb']:.1f} ({r['gpu_mb_per_100k_nodes']:.1f}) |" if q else
+               "| | | | |"))
+    lines.append("\n## Iterations to 1e-3 of the direct solution at the finest level (CPU twin, K = first density)\n")
+    lines.append("| scene | start | coarse-level iterations | finest-level iterations |")
+    lines.append("|---|---|---|---|")
+    for f in fig14:
+        done = next((it for it, e in f["curve"] if e < 1e-3), None)
+        lines.append(f"| {f['scene']} | {'coarse levels' if f['multiresolution'] else 'zero'} | "
+                     f"{f['coarse_iterations']} | {done if done is not None else '> 2000'} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
