@@ -31,6 +31,7 @@ test: extension
 
 bench: $(STAMP)
 	$(PY) scripts/bench.py
+	$(PY) scripts/bench_quadgraph.py
 
 clean:
 	rm -rf dist wheels out .pytest_cache
