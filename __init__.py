@@ -12,7 +12,7 @@ from .translucent_addon.render import draw_handler as _draw_handler
 from .translucent_addon.render import engine as _engine
 from .translucent_addon.render import shaders as _shaders
 from .translucent_addon.render.methods import image_space as _image_space
-from .translucent_addon.render.methods import texture_space as _texture_space
+from .translucent_addon.render.methods import bake_cache as _bake_cache
 
 _classes = (
     *_props.classes,
@@ -40,7 +40,7 @@ def unregister():
 
     _draw_handler.unregister()
     _image_space.clear_history()
-    _texture_space.clear_cache()
+    _bake_cache.clear()
     _shaders.free_all()
     _ui.unregister_compat_panels()
     _props.unregister_pointers()

@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -114,14 +113,13 @@ def main() -> int:
             (rec,) = engine.LAST_CAPTURE["quadgraph"]
             res = rec["resources"]
             nodes = sum(t.count for t in res.levels_cpu)
-            texels = sum(int(np.prod(t.layout.size)) for t in res.levels_cpu)
             # links, weights, kappa, mu, q, phi x 2 (+ 4 level-link images above the coarsest), RGBA32F
             gpu_bytes = sum(int(np.prod(t.layout.size)) * 16 * (7 + (4 if t.up_images else 0)) for t in res.levels_cpu)
             measure(f"QUADGRAPH K={K:g}", img, sec, K=K, bake_seconds=round(bake_seconds, 2),
                     proxy_triangles=meta["proxy_triangles"], surface_nodes=meta["surface_nodes"],
                     inner_nodes=meta["inner_nodes"], levels=meta["levels"], iterations=rec["iterations"],
                     gpu_mb=round(gpu_bytes / 2**20, 2), gpu_mb_per_100k_nodes=round(gpu_bytes / 2**20 * 1e5 / nodes, 2),
-                    texels=texels, tetrahedralize_seconds=meta["tetrahedralize_seconds"])
+                    tetrahedralize_seconds=meta["tetrahedralize_seconds"])
             if K == args.densities[0]:
                 # Fig. 14 on the CPU twin: error against iterations, with and without the coarse start.
                 levels = res.levels_cpu

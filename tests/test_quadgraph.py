@@ -206,7 +206,7 @@ def test_breadth_first_blocks_keep_links_inside_blocks(sphere_graph):
     packed, old = qg.pack(g)
     packed.check()
     np.testing.assert_array_equal(packed.positions, g.positions[old])
-    layout = qg.layout_for(packed)
+    layout = qg.layout_for(packed.n_surface, packed.count)
     texels = layout.texels(np.arange(packed.count))
     assert len(np.unique(texels, axis=0)) == packed.count
     w, h = layout.size
@@ -215,7 +215,7 @@ def test_breadth_first_blocks_keep_links_inside_blocks(sphere_graph):
     S = packed.n_surface
 
     def same_block(graph):
-        t = qg.layout_for(graph).slots(np.arange(graph.count)) // qg.BLOCK**2
+        t = qg.layout_for(graph.n_surface, graph.count).slots(np.arange(graph.count)) // qg.BLOCK**2
         nb = graph.neighbours[S:]
         return float(np.mean(t[S:, None] == t[nb]))
 

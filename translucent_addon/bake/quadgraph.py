@@ -319,8 +319,8 @@ class TextureLayout:
                         axis=-1)
 
 
-def layout_for(graph: QuadGraph, max_width: int = 2048) -> TextureLayout:
-    """A near-square layout with whole blocks (the paper used r = 32)."""
-    blocks = -(-graph.n_surface // BLOCK**2) + -(-graph.n_inner // BLOCK**2)
+def layout_for(n_surface: int, count: int, max_width: int = 2048) -> TextureLayout:
+    """A near-square layout with whole blocks (the paper used r = 32) for S surface and N nodes in all."""
+    blocks = -(-n_surface // BLOCK**2) + -(-(count - n_surface) // BLOCK**2)
     per_row = int(np.clip(np.ceil(np.sqrt(blocks)), 1, max_width // BLOCK))
-    return TextureLayout(graph.n_surface, graph.count, per_row)
+    return TextureLayout(n_surface, count, per_row)

@@ -22,18 +22,15 @@ import time
 import numpy as np
 
 from ...physics.dipole import A as internal_reflection
+from ...physics import diffusion as df
 from ...physics.fresnel import F_dr as diffuse_fresnel
-from ...physics.fresnel import hemispherical_transmittance
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
+from . import bake_cache
 from . import quadgraph_data as qgd
+from .texture_space import draw_illumination
 
 CHECK_EVERY = 16
-_resources: dict = {}
-
-
-def clear_cache() -> None:
-    _resources.clear()
 
 
 class LevelGpu:
@@ -118,12 +115,7 @@ def prepare(frame) -> list[Active]:
         handle = getattr(mesh, "bake", None)
         if mesh.method != "QUADGRAPH" or handle is None or mesh.medium is None:
             continue
-        res = _resources.get(handle.key)
-        if res is None:
-            arrays = handle.load()
-            for key in [k2 for k2 in _resources if k2.split("#")[0] == handle.key.split("#")[0]]:
-                del _resources[key]
-            res = _resources[handle.key] = Resources(arrays, mesh.medium.mm_per_unit)
+        res = bake_cache.get(handle, lambda arrays, mm=mesh.medium.mm_per_unit: Resources(arrays, mm))
         if len(res.display_index) != len(mesh.positions):
             frame.warnings.append(f"'{mesh.name}': QUADGRAPH bake does not match the mesh; press Bake")
             continue
@@ -134,44 +126,21 @@ def prepare(frame) -> list[Active]:
 
 def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3)."""
-    import gpu
-
-    from ..pipeline import clear_target
-
-    shader = shaders.get("ts_illumination")
     for a in actives:
-        eta = float(a.mesh.medium.eta)
         for lg in a.resources.levels:
-            fb = lg.incident[0]
-            with fb.bind():
-                if mode == 0:
-                    clear_target(fb, depth=None)
-                gpu.state.depth_test_set("NONE")
-                gpu.state.depth_mask_set(False)
-                gpu.state.blend_set("ADDITIVE_PREMULT")
-                gpu.state.point_size_set(1.0)
-                shader.bind()
-                shader.uniform_block("frame", frame_ubo)
-                shader.uniform_block("object", objects[a.index])
-                shader.uniform_block("light", light_ubo)
-                shader.uniform_sampler("shadow_atlas", shadow_atlas)
-                shader.uniform_int("mode", mode)
-                shader.uniform_float("eta", eta)
-                shader.uniform_float("world_transmittance", float(hemispherical_transmittance(eta)))
-                shader.uniform_float("atlas_size", tuple(float(x) for x in lg.tables.layout.size))
-                lg.points.draw(shader)
-                gpu.state.blend_set("NONE")
+            draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
+                              light_ubo, shadow_atlas, mode, a.mesh.medium.eta)
 
 
 def _relative_change(fb_new, fb_old, size) -> float:
+    """The convergence test of ``physics.diffusion.relative_change`` on two read-back phi targets."""
     from ..pipeline import read_pixels
 
     with fb_new.bind():
         new = read_pixels(fb_new, *size)[..., :3]
     with fb_old.bind():
         old = read_pixels(fb_old, *size)[..., :3]
-    scale = float(np.abs(new).max())
-    return float(np.abs(new - old).max() / scale) if scale > 0 else 0.0
+    return df.relative_change(new, old)
 
 
 def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresolution: bool = True):

@@ -57,13 +57,7 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
     nb = arrays[p + "neighbours"].astype(np.int64)
     S = int(arrays[p + "n_surface"][0])
     positions = arrays[p + "positions"].astype(np.float64)
-
-    class _G:  # what layout_for reads
-        n_surface = S
-        count = len(positions)
-        n_inner = len(positions) - S
-
-    layout = layout_for(_G)
+    layout = layout_for(S, len(positions))
     slots = np.where(nb >= 0, layout.slots(np.maximum(nb, 0)), -1)
     d = arrays[p + "d_surface"].astype(np.float64)
     weights = arrays[p + "weights"].astype(np.float64)

@@ -27,15 +27,8 @@ from ...bake.proxy import subdivide_corners
 from ...physics.fresnel import hemispherical_transmittance
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
+from . import bake_cache
 from . import texture_space_data as tsd
-
-# GPU data of each bake, by bake key (object name and inputs hash): built on first use.
-_resources: dict = {}
-
-
-def clear_cache() -> None:
-    _resources.clear()
-
 
 class Resources:
     """Textures, point batches and render targets of one bake."""
@@ -99,12 +92,8 @@ def prepare(frame) -> list[Active]:
         handle = getattr(mesh, "bake", None)
         if mesh.method != "TEXTURE_SPACE" or handle is None or mesh.medium is None:
             continue
-        res = _resources.get(handle.key)
-        if res is None:
-            arrays = handle.load()
-            for key in [k2 for k2 in _resources if k2.split("#")[0] == handle.key.split("#")[0]]:
-                del _resources[key]  # the object's previous bake
-            res = _resources[handle.key] = Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays)
+        res = bake_cache.get(handle, lambda arrays, mm=mesh.medium.mm_per_unit: Resources(tsd.gpu_tables(arrays, mm),
+                                                                                             arrays))
         if len(res.tables.display_uv) != len(mesh.positions) * 4 ** res.tables.display_subdivisions:
             frame.warnings.append(f"'{mesh.name}': TEXTURE_SPACE bake does not match the mesh; press Bake")
             continue
@@ -112,35 +101,39 @@ def prepare(frame) -> list[Active]:
     return active
 
 
-
-
-def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
-    """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
+def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float) -> None:
+    """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
+    point; mode 0 (the world) clears first, mode 1 (one emitter) adds. QUADGRAPH uses it for q(n_s)."""
     import gpu
 
     from ..pipeline import clear_target
 
     shader = shaders.get("ts_illumination")
+    with fb.bind():
+        if mode == 0:
+            clear_target(fb, depth=None)
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("ADDITIVE_PREMULT")
+        gpu.state.point_size_set(1.0)
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        shader.uniform_block("object", obj_ubo)
+        shader.uniform_block("light", light_ubo)
+        shader.uniform_sampler("shadow_atlas", shadow_atlas)
+        shader.uniform_int("mode", mode)
+        shader.uniform_float("eta", float(eta))
+        shader.uniform_float("world_transmittance", float(hemispherical_transmittance(eta)))
+        shader.uniform_float("atlas_size", tuple(float(x) for x in size))
+        points.draw(shader)
+        gpu.state.blend_set("NONE")
+
+
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
+    """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
     for a in actives:
-        fb, _, _ = a.resources.irradiance
-        with fb.bind():
-            if mode == 0:
-                clear_target(fb, depth=None)
-            gpu.state.depth_test_set("NONE")
-            gpu.state.depth_mask_set(False)
-            gpu.state.blend_set("ADDITIVE_PREMULT")
-            gpu.state.point_size_set(1.0)
-            shader.bind()
-            shader.uniform_block("frame", frame_ubo)
-            shader.uniform_block("object", objects[a.index])
-            shader.uniform_block("light", light_ubo)
-            shader.uniform_sampler("shadow_atlas", shadow_atlas)
-            shader.uniform_int("mode", mode)
-            shader.uniform_float("eta", float(a.mesh.medium.eta))
-            shader.uniform_float("world_transmittance", float(hemispherical_transmittance(a.mesh.medium.eta)))
-            shader.uniform_float("atlas_size", tuple(float(x) for x in a.resources.tables.atlas_size))
-            a.resources.illumination_points.draw(shader)
-            gpu.state.blend_set("NONE")
+        draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
+                          objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta)
 
 
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
