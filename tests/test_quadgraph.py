@@ -66,9 +66,11 @@ def _homogeneous(graph, sigma_a, sigma_s_prime, kappa_of=df.kappa):
 
 
 # -- tetrahedra and graph (Sec. 4.1) ------------------------------------------------------------
-def test_split_leaves_no_tetrahedron_with_two_boundary_faces_and_keeps_the_volume():
+def test_split_leaves_no_tetrahedron_with_two_boundary_faces_and_keeps_the_volume(tmp_path, monkeypatch):
     v, f = icosphere(2, 10.0)
+    monkeypatch.chdir(tmp_path)
     points, tets = tetra.tetrahedralize(v, f)
+    assert list(tmp_path.iterdir()) == []  # fTetWild's scratch file stays out of the working directory
     before = (tetra.face_adjacency(tets) < 0).sum(axis=1)
     assert (before >= 2).any()  # fTetWild leaves C2/C3 tetrahedra on a sphere: the split has work
     p2, t2, n = tetra.split_boundary_tetrahedra(points, tets)

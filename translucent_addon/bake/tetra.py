@@ -5,6 +5,9 @@ Pure (NumPy; pytetwild imported only when a mesh is tetrahedralised).
 """
 from __future__ import annotations
 
+import os
+import tempfile
+
 import numpy as np
 
 # Face k of a tetrahedron is the one opposite its vertex k, wound so that its normal points out
@@ -34,8 +37,16 @@ def tetrahedralize(vertices_mm: np.ndarray, triangles: np.ndarray, edge_fraction
                               "Linux x86-64 or Windows x64 wheels)") from None
     v = np.ascontiguousarray(vertices_mm, np.float64)
     t = np.ascontiguousarray(triangles, np.int32)
-    points, tets = pytetwild.tetrahedralize(v, t, edge_length_fac=float(edge_fraction), optimize=False,
-                                            num_threads=1, quiet=True)
+    # fTetWild writes a ``__tracked_surface.stl`` into the working directory: run it in a temporary one
+    # so nothing lands in the user's folder (or fails where that folder is read-only).
+    cwd = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="translucent_tet_") as scratch:
+        os.chdir(scratch)
+        try:
+            points, tets = pytetwild.tetrahedralize(v, t, edge_length_fac=float(edge_fraction),
+                                                    optimize=False, num_threads=1, quiet=True)
+        finally:
+            os.chdir(cwd)
     if len(tets) == 0:
         raise TetrahedraError("the tetrahedraliser found no volume inside the surface (is it closed?)")
     points, tets = compact(points, tets)
