@@ -13,6 +13,7 @@ from .translucent_addon.render import engine as _engine
 from .translucent_addon.render import shaders as _shaders
 from .translucent_addon.render.methods import image_space as _image_space
 from .translucent_addon.render.methods import bake_cache as _bake_cache
+from .translucent_addon.render.methods import geocube as _geocube
 
 _classes = (
     *_props.classes,
@@ -41,6 +42,7 @@ def unregister():
     _draw_handler.unregister()
     _image_space.clear_history()
     _bake_cache.clear()
+    _geocube.clear_caches()
     _shaders.free_all()
     _ui.unregister_compat_panels()
     _props.unregister_pointers()

@@ -40,3 +40,15 @@ struct TemporalData {
   mat4 previous_view_proj;
   vec4 tolerance; /* x: world distance under which a reprojected point is the same surface */
 };
+
+struct GeocubeData {
+  /* GEOCUBE (render/methods/geocube.py): one object's bake frame (mm) and material. */
+  mat4 bake_from_world;
+  mat4 world_from_bake;
+  vec4 sigma_a;        /* rgb: mm^-1; w: eta */
+  vec4 sigma_s;        /* rgb: sigma_s' / (1 - g), mm^-1; w: the minimum step delta (mm) */
+  vec4 params;         /* x: cube face texels, y: cubes, z: max steps, w: environment levels */
+  vec4 table;          /* x: log(1 + tau_max), y: transfer table entries, z: output mode (0: colour) */
+  vec4 env_mean;       /* rgb: C_A, the environment's average */
+  vec4 env_levels[16]; /* per key filtered level: x: sigma (rad), y: first atlas row, z: face texels */
+};

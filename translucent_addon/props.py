@@ -125,6 +125,18 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
     veins_scale: bpy.props.FloatProperty(
         name="Vein spacing (mm)", description="QUADGRAPH: distance between veins, in mm", min=0.1, default=20.0, unit="NONE",
     )
+    geocube_resolution: bpy.props.IntProperty(
+        name="Cube texels",
+        description="GEOCUBE: texels along a cube face (Chan & Wang used 64); 0 chooses it from the object's "
+                    "size on the scene camera's image at bake time. Changing it needs a new bake",
+        min=0, max=256, default=0,
+    )
+    geocube_steps: bpy.props.IntProperty(
+        name="Max steps",
+        description="GEOCUBE: cap on the cone-propelled steps of a ray inside the object (Chan & Wang Sec. 4: "
+                    "5 to 10 there); a ray that reaches it exits early at the last surface point it saw",
+        min=1, max=256, default=32,
+    )
 
 
 class TranslucentSceneSettings(bpy.types.PropertyGroup):
@@ -171,6 +183,11 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     )
     quadgraph_iterations: bpy.props.IntProperty(
         name="Max iterations", description="QUADGRAPH: iteration cap per level", min=8, max=20000, default=1000,
+    )
+    geocube_output: bpy.props.IntProperty(
+        name="GEOCUBE output", description="GEOCUBE pass output (tests, debugging): 0 colour, 1 entry point, "
+                                           "2 exit point, 3 refracted direction (bake frame)",
+        min=0, max=3, default=0, options={"HIDDEN"},
     )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",

@@ -55,9 +55,13 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
             col = layout.column(align=True)
             col.prop(s, "veins")
             col.prop(s, "veins_scale")
+        if s.method == "GEOCUBE":
+            col = layout.column(align=True)
+            col.prop(s, "geocube_resolution")
+            col.prop(s, "geocube_steps")
         status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
         layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
-        if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH"}:
+        if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}:
             _bake_statistics(layout, ob, s.method)
         row = layout.row(align=True)
         row.operator("translucent.bake", icon="RENDER_STILL")

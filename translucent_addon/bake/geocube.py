@@ -45,6 +45,10 @@ COARSE_POINTS = 3000  # surface points bounding the cones everywhere
 CONE_SAFETY = 0.98  # cone half-angle tangents shrunk by this factor against the surface sampling's gaps
 
 
+class GeocubeError(ValueError):
+    """The object cannot be covered by geocubes; the message says why in one line."""
+
+
 @dataclasses.dataclass
 class GeocubeSet:
     """Every cube of one object, in the bake frame (mm)."""
@@ -147,7 +151,7 @@ def place(points, normals, areas, tracer, n_candidates=CANDIDATES, max_cubes=MAX
     far; a new batch is tried only while some area is still uncovered (a convex object stops after one)."""
     cand = candidates(points, normals, tracer, n_candidates, seed)
     if len(cand) == 0:
-        raise ValueError("no point inside the surface was found for a geocube centre (is it closed?)")
+        raise GeocubeError("no point inside the surface was found for a geocube centre (is the mesh closed?)")
     seen = np.zeros((0, len(points)), bool)
     covered = np.zeros(len(points), bool)
     chosen: list[int] = []
@@ -379,7 +383,7 @@ def bake(inputs):
     t0 = time.perf_counter()
     v = (inputs.stretch_matrix() @ np.asarray(inputs.vertices, np.float64).T).T * float(inputs.mm_per_unit)
     t = np.asarray(inputs.triangles, np.int64)
-    res = int(inputs.geocube_resolution) or resolution_for(inputs.screen_pixels)
+    res = inputs.geocube_res()
     tracer = default_tracer(v[t])
     yield 0.0, f"geocube: {res}x{res}x6 cubes"
     job = build_steps(v, t, res, float(inputs.eta), tracer)
@@ -391,6 +395,7 @@ def bake(inputs):
             g = done.value
             break
     arrays = to_arrays(g)
+    arrays["stretch"] = inputs.stretch_matrix().astype(np.float32).ravel()
     meta = {"geocube_cubes": g.count, "geocube_res": res, "geocube_coverage": round(g.coverage, 5),
             "geocube_seconds": round(time.perf_counter() - t0, 2)}
     yield 1.0, f"geocube: {g.count} cubes cover {100 * g.coverage:.1f} % of the surface"

@@ -41,7 +41,10 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         stretch=stretch_of(np.array(ob_eval.matrix_world)[:3, :3]),
         quadgraph_K=float(props.quadgraph_K),
         quadgraph_levels=int(props.quadgraph_levels),
+        geocube_resolution=int(props.geocube_resolution),
     )
+    if for_bake and inputs.method == "GEOCUBE" and inputs.geocube_resolution == 0:
+        inputs.screen_pixels = screen_pixels(ob_eval)  # the automatic cube resolution follows it
     if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):
         from .proxy import surface_area, target_triangles
 
@@ -57,6 +60,24 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
             else (inputs.vertices, inputs.triangles)
             for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels)]
     return inputs
+
+
+def screen_pixels(ob_eval) -> float | None:
+    """The object's bounding-box diagonal on the scene camera's image, in pixels (None: no camera)."""
+    import bpy
+    from bpy_extras.object_utils import world_to_camera_view
+    from mathutils import Vector
+
+    scene = bpy.context.scene
+    cam = scene.camera
+    if cam is None:
+        return None
+    r = scene.render
+    size = np.array([r.resolution_x, r.resolution_y], float) * r.resolution_percentage / 100.0
+    m = ob_eval.matrix_world
+    pts = np.array([tuple(world_to_camera_view(scene, cam, m @ Vector(c)))[:2] for c in ob_eval.bound_box])
+    pts = np.clip(pts, -0.5, 1.5) * size
+    return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
 
 
 def stretch_of(linear: np.ndarray) -> np.ndarray:

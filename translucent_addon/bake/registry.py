@@ -14,7 +14,6 @@ import numpy as np
 from ..geometry.mesh_checks import check_mesh
 from ..physics.presets import validate_coefficients
 from . import store
-from .surface import surface_samples
 
 # method -> stage names, in order. The method issues append their stages.
 METHOD_STAGES = {
@@ -22,7 +21,7 @@ METHOD_STAGES = {
     "IMAGE_SPACE": (),
     "TEXTURE_SPACE": ("texture_space",),
     "QUADGRAPH": ("quadgraph",),
-    "GEOCUBE": ("surface",),
+    "GEOCUBE": ("geocube",),
 }
 
 NO_BAKE_REASON = {
@@ -61,6 +60,13 @@ class BakeInputs:
     quadgraph_levels: int = 3  # QUADGRAPH multi-resolution levels
     # QUADGRAPH: decimated proxies, coarsest first, made by Blender ([(vertices, triangles)], object space).
     proxy_levels: list | None = None
+    geocube_resolution: int = 0  # GEOCUBE cube face texels; 0: from screen_pixels
+    screen_pixels: float | None = None  # GEOCUBE: the object's size on the camera's image
+
+    def geocube_res(self) -> int:
+        from .geocube import resolution_for
+
+        return int(self.geocube_resolution) or resolution_for(self.screen_pixels)
 
     def stretch_matrix(self) -> np.ndarray:
         return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
@@ -77,6 +83,10 @@ class BakeInputs:
         elif self.method == "QUADGRAPH":
             material = {}
             extra = {"K": float(self.quadgraph_K), "levels": int(self.quadgraph_levels), **stretch}
+        elif self.method == "GEOCUBE":
+            material = {"eta": self.eta}  # cone C's half angle is the critical angle; the rest is geometry
+            # An automatic resolution is chosen once, at bake time: moving the camera later does not stale it.
+            extra = {"res": int(self.geocube_resolution) or "auto", **stretch}
         return store.inputs_hash(
             {"vertices": self.vertices, "triangles": self.triangles},
             {
@@ -131,12 +141,15 @@ def run(inputs: BakeInputs):
     meta_extra: dict = {}
     for i, stage in enumerate(stages):
         yield i / len(stages), f"{inputs.method}: {stage}"
-        if stage in ("texture_space", "quadgraph"):
+        if stage in ("texture_space", "quadgraph", "geocube"):
             if stage == "texture_space":
                 from .texture_space import bake as stage_bake
-            else:
+            elif stage == "quadgraph":
                 from .quadgraph_bake import bake as stage_bake
+            else:
+                from .geocube import bake as stage_bake
 
+            from .geocube import GeocubeError
             from .tetra import TetrahedraError
 
             job = stage_bake(inputs)
@@ -146,13 +159,10 @@ def run(inputs: BakeInputs):
                     yield (i + fraction) / len(stages), text
             except StopIteration as done:
                 stage_arrays, stage_meta = done.value
-            except TetrahedraError as err:
+            except (TetrahedraError, GeocubeError) as err:
                 raise BakeInputError(f"'{inputs.name}': {err}") from None
             arrays.update(stage_arrays)
             meta_extra.update(stage_meta)
-        elif stage == "surface":
-            arrays.update({f"surface_{k}": v for k, v in
-                           surface_samples(inputs.vertices, inputs.triangles, inputs.mm_per_unit).items()})
         else:  # pragma: no cover - a stage name without an implementation is a programming error
             raise KeyError(stage)
     yield 1.0, f"{inputs.method}: done"

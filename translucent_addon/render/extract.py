@@ -15,7 +15,7 @@ from ..bake.inputs import bake_status
 from . import methods
 from .lights import emitters_from_light
 from ..physics.lut import BLUR_MIN
-from .scene_data import BakeHandle, CameraView, FrameInputs, Medium, MeshInstance
+from .scene_data import BakeHandle, CameraView, Environment, FrameInputs, Medium, MeshInstance
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -44,15 +44,61 @@ def material_base_color(mat) -> tuple[float, float, float]:
 
 
 def world_color(scene) -> np.ndarray:
+    """The world's uniform radiance; for an environment image, its average over the sphere."""
     world = scene.world
     if world is None:
         return np.zeros(3)
+    env = world_environment(scene)
+    if env is not None:
+        return equirect_mean(env.image)
     tree = getattr(world, "node_tree", None)
     if tree is not None:
         bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
         if bg is not None and not bg.inputs["Color"].is_linked:
             return np.array(bg.inputs["Color"].default_value[:3]) * float(bg.inputs["Strength"].default_value)
     return np.array(world.color[:3], dtype=np.float64)
+
+
+_environment_cache: dict = {}
+
+
+def world_environment(scene) -> Environment | None:
+    """The world's Environment Texture (equirectangular) feeding its Background, as linear radiance
+    times the strength; None for any other world. Read once per image and strength."""
+    world = scene.world
+    tree = getattr(world, "node_tree", None) if world is not None else None
+    if tree is None or not world.use_nodes:
+        return None
+    bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
+    if bg is None or not bg.inputs["Color"].is_linked:
+        return None
+    node = bg.inputs["Color"].links[0].from_node
+    if node.type != "TEX_ENVIRONMENT" or node.image is None or node.projection != "EQUIRECTANGULAR":
+        return None
+    img = node.image
+    w, h = img.size
+    if w == 0 or h == 0:
+        return None
+    strength = float(bg.inputs["Strength"].default_value)
+    key = f"{img.name}|{img.filepath}|{w}x{h}|{strength}|{img.colorspace_settings.name}"
+    env = _environment_cache.get(key)
+    if env is None:
+        px = np.empty(w * h * img.channels, np.float32)
+        img.pixels.foreach_get(px)
+        rgb = px.reshape(h, w, img.channels)[..., :3].copy()
+        if not img.is_float and img.colorspace_settings.name == "sRGB":
+            rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+        _environment_cache.clear()
+        env = _environment_cache[key] = Environment(key=key, image=rgb * strength)
+    return env
+
+
+def equirect_mean(image: np.ndarray) -> np.ndarray:
+    """Solid-angle-weighted mean of an equirectangular image (rows weighted by cos latitude)."""
+    h = image.shape[0]
+    lat = (np.arange(h) + 0.5) / h * np.pi - np.pi / 2
+    w = np.cos(lat)[:, None, None]
+    return (image * w).sum(axis=(0, 1)) / (w.sum() * image.shape[1])
 
 
 def mesh_corner_arrays(mesh):
@@ -160,6 +206,8 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
                              base_sigma_s_prime=tuple(s.base_sigma_s_prime))
             if method == "QUADGRAPH":
                 layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale))
+            if method == "GEOCUBE":
+                layer = dict(max_steps=int(s.geocube_steps))
             medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
                             **layer)
         return MeshInstance(
@@ -217,6 +265,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
         emitters=emitters,
         camera=camera,
         world_color=world_color(scene),
+        environment=world_environment(scene),
         film_transparent=scene.render.film_transparent,
         shadow_resolution=settings.shadow_resolution,
         warnings=warnings,

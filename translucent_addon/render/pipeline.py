@@ -4,7 +4,7 @@ Both callers share it: ``RenderEngine.render`` (F12, batch; into an RGBA32F
 offscreen) and the viewport (``view_draw`` and the SpaceView3D draw handler;
 into the bound framebuffer). Passes:
 
-1. base, world term: clear to the world colour, rho * L_world, depth;
+1. base, world term: clear to the world colour (or draw the world's environment image), rho * L_world, depth;
 2. per emitter: shadow distances into an R32F cube atlas (``shadow_distance``),
    then rho / pi * E * V added (``base_lighting``, additive blending);
 3. method passes: IMAGE_SPACE (``methods/image_space.py``) adds the near field of the profile in
@@ -13,7 +13,8 @@ into the bound framebuffer). Passes:
    and in each emitter's pass (reusing its shadow atlas), then filters, gathers and draws its
    objects over the base; QUADGRAPH (``methods/quadgraph.py``) lights q(n_s) at its surface nodes in
    the same passes, relaxes the diffusion equation coarse to fine and draws its objects over the
-   base; an object whose method draws nothing yet keeps the base.
+   base; GEOCUBE (``methods/geocube.py``) draws its objects' refraction of the world over the base;
+   an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ import time
 import numpy as np
 
 from . import blocks, shaders
-from .methods import image_space, quadgraph, texture_space
+from .methods import geocube, image_space, quadgraph, texture_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
 
@@ -54,7 +55,8 @@ class Pipeline:
         self.coherence_key = None
         self.coherence_frame = 0
         self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
-        self.quadgraph_solver = (2e-5, 1000)  # QUADGRAPH: (relative change per step, iteration cap per level)
+        self.quadgraph_solver = (2e-5, 1000)
+        self.geocube_mode = 0  # GEOCUBE output: 0 colour; 1-3 intermediate values for tests (gc_refract.glsl)  # QUADGRAPH: (relative change per step, iteration cap per level)
 
     def free(self) -> None:
         self._batches.clear()
@@ -112,6 +114,8 @@ class Pipeline:
         if clear:
             alpha = 0.0 if frame.film_transparent else 1.0
             clear_target(fb, (*map(float, frame.world_color), alpha))
+            if frame.environment is not None and not frame.film_transparent:
+                self._draw_environment(frame)
         if not frame.meshes:
             self.last_timings = {"total": time.perf_counter() - t0}
             return
@@ -120,6 +124,7 @@ class Pipeline:
         subsurface = image_space.prepare(frame, self.sampling)
         textured = texture_space.prepare(frame)
         graphs = quadgraph.prepare(frame)
+        glass = geocube.prepare(frame)
         slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
@@ -181,10 +186,32 @@ class Pipeline:
             t1 = time.perf_counter()
             timings.update(quadgraph.finish(graphs, frame, frame_ubo, objects, fb, self, *self.quadgraph_solver))
             timings["QUADGRAPH"] = time.perf_counter() - t1
+        if glass:
+            timings.update(geocube.draw(glass, frame, frame_ubo, objects, fb, self))
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         timings["total"] = time.perf_counter() - t0
         self.last_timings = timings
+
+    def _draw_environment(self, frame) -> None:
+        """The world image behind everything, where the world is an environment texture."""
+        import gpu
+
+        from .targets import screen_quad
+
+        chain, env_tex = geocube.environment(frame)
+        cam = frame.camera
+        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color))
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("NONE")
+        shader = shaders.get("env_background")
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        shader.uniform_sampler("env_atlas", env_tex)
+        shader.uniform_int("env_res", int(chain.res))
+        screen_quad(self, "env_background").draw(shader)
+        gpu.state.depth_mask_set(True)
 
     @staticmethod
     def _draw_base(shader, batches, objects, frame_ubo, materials_ubo, near_lut, atlas_texture, light_ubo,

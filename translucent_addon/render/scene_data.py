@@ -30,6 +30,7 @@ class Medium:
     # QUADGRAPH: procedural marble veins in the volume (strength 0..1, spacing in mm).
     veins: float = 0.0
     veins_spacing_mm: float = 20.0
+    max_steps: int = 32  # GEOCUBE: cap on the exit search's steps
 
 
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
@@ -112,6 +113,16 @@ class CameraView:
 
 
 @dataclasses.dataclass
+class Environment:
+    """The world as an equirectangular radiance image (Blender's Environment Texture, times the
+    Background strength), for the methods that look it up by direction (GEOCUBE). ``key`` names the
+    image and strength for GPU caches."""
+
+    key: str
+    image: np.ndarray  # (H, W, 3) float32 linear radiance, row 0 at the bottom
+
+
+@dataclasses.dataclass
 class FrameInputs:
     """Everything one frame needs, in plain arrays."""
 
@@ -120,6 +131,7 @@ class FrameInputs:
     camera: CameraView
     world_color: np.ndarray  # (3,) linear radiance of the uniform world
     film_transparent: bool = False
+    environment: Environment | None = None  # None: the uniform world_color in every direction
     shadow_resolution: int = 1024  # texels per shadow-map face
     warnings: list[str] = dataclasses.field(default_factory=list)
     _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)

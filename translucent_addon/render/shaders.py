@@ -173,6 +173,26 @@ SPECS = {
         push_constants=(("INT", "blocks_per_row"), ("FLOAT", "eta"), ("FLOAT", "F_dr")),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
+    "env_background": ShaderSpec(
+        source="env_background.glsl",
+        libraries=("translucent_common.glsl", "cube_atlas.glsl"),
+        vertex_in=(("VEC2", "corner"),),
+        varyings=(("smooth", "VEC2", "v_ndc"),),
+        uniform_blocks=((0, "FrameData", "frame"),),
+        samplers=((0, "FLOAT_2D", "env_atlas"),),
+        push_constants=(("INT", "env_res"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+    "gc_refract": ShaderSpec(
+        source="gc_refract.glsl",
+        libraries=("translucent_common.glsl", "cube_atlas.glsl", "gc_common.glsl"),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("FLOAT", "start_cube")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("flat", "INT", "v_cube")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "GeocubeData", "gc")),
+        samplers=((0, "FLOAT_2D", "gc_cones"), (1, "FLOAT_2D", "gc_normals"), (2, "FLOAT_2D", "gc_centres"),
+                  (3, "FLOAT_2D", "env_atlas"), (4, "FLOAT_2D", "transfer_table")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
 }
 
 _cache: dict = {}

@@ -2,8 +2,8 @@
 
 A method module holds its GPU passes (``image_space.py``, ``texture_space.py``) and its pure
 maths (``*_data.py``); the pipeline calls it around the base pass. The method issues
-(QUADGRAPH, GEOCUBE) each add their module here. A mesh whose
-method has no module yet is drawn by the base pass and the frame carries a warning.
+(QUADGRAPH, GEOCUBE) each added their module here. A mesh whose method had no module would be drawn
+by the base pass with a warning in the frame.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ METHOD_DESCRIPTIONS = {
 }
 
 # The methods whose passes exist (render/methods/<method>.py); the others draw as the base.
-AVAILABLE = frozenset({"OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH"})
+AVAILABLE = frozenset(METHOD_IDS)
 
 
 def has_passes(method: str) -> bool:

@@ -217,3 +217,53 @@ def _bisect(at, inside_p, outside_p, cube):
         a = np.where(ins[:, None], m, a)
         b = np.where(ins[:, None], b, m)
     return 0.5 * (a + b)
+
+
+# -- frame data --------------------------------------------------------------------------------------
+GC_FLOATS = 2 * 16 + 5 * 4 + 16 * 4
+MAX_ENV_LEVELS = 16
+TRANSFER_ENTRIES = 64
+
+
+def bake_from_world(model: np.ndarray, stretch: np.ndarray, mm_per_unit: float) -> np.ndarray:
+    """The bake frame (mm, ``stretch @ v * mm``) from world space: mm S model^-1 (a scaled rotation
+    for the linear part, since model = R S)."""
+    m = np.eye(4)
+    m[:3, :3] = np.asarray(stretch, np.float64).reshape(3, 3) * float(mm_per_unit)
+    return m @ np.linalg.inv(np.asarray(model, np.float64))
+
+
+def transfer_image(table) -> tuple[np.ndarray, float]:
+    """The slab transfer fit (f_t, theta_bar, c_t, c_r) resampled at TRANSFER_ENTRIES depths uniform in
+    s = log(1 + tau) / log(1 + tau_max): (1, n, 4) image and log(1 + tau_max)."""
+    log_max = float(np.log1p(table.tau[-1]))
+    tau = np.expm1(np.linspace(0.0, 1.0, TRANSFER_ENTRIES) * log_max)
+    _, f_t, theta_bar, c_t, c_r = table.at(tau)
+    return np.stack([f_t, theta_bar, c_t, c_r], axis=1)[None].astype(np.float32), log_max
+
+
+def transfer_lookup(image: np.ndarray, log_max: float, tau) -> np.ndarray:
+    """The GLSL ``transfer`` twin: (f_t, theta_bar, c_t, c_r) at depths tau."""
+    n = image.shape[1]
+    x = np.clip(np.log1p(np.asarray(tau, np.float64)) / log_max, 0.0, 1.0) * (n - 1)
+    i = np.minimum(np.floor(x).astype(int), n - 2)
+    f = (x - i)[..., None]
+    return image[0, i] * (1 - f) + image[0, i + 1] * f
+
+
+def gc_block(to_bake: np.ndarray, sigma_a, sigma_s, eta: float, min_step: float, res: int, cubes: int,
+             max_steps: int, env, log_tau_max: float, mode: int = 0) -> bytes:
+    """GeocubeData (std140) of ``gpu_shaders/translucent_structs.glsl``; env: an EnvironmentChain."""
+    if env.levels > MAX_ENV_LEVELS:
+        raise ValueError(f"environment chain has {env.levels} levels, the shader takes {MAX_ENV_LEVELS}")
+    data = np.zeros(GC_FLOATS, np.float32)
+    data[0:16] = np.asarray(to_bake, np.float32).T.ravel()
+    data[16:32] = np.linalg.inv(to_bake).astype(np.float32).T.ravel()
+    data[32:35], data[35] = sigma_a, eta
+    data[36:39], data[39] = sigma_s, min_step
+    data[40:44] = (res, cubes, max_steps, env.levels)
+    data[44:48] = (log_tau_max, TRANSFER_ENTRIES, mode, 0.0)
+    data[48:51] = env.mean[:3]
+    for l in range(env.levels):
+        data[52 + 4 * l: 55 + 4 * l] = (env.sigma[l], env.rows[l], env.level_res(l))
+    return data.tobytes()
