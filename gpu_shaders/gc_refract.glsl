@@ -4,7 +4,7 @@
  * transfer fit for the scattering depth tau = sigma_s L (f_t G_theta_bar + c_t, Sec. 3.3, plus the
  * unscattered e^-tau) and dimmed by coloured Beer absorption e^(-sigma_a L).
  * Output modes (gc.table.z), for tests: 0 colour; 1 entry point (bake frame) and steps of the first
- * leg; 2 first exit point and premature flag; 3 refracted direction (bake frame). */
+ * leg; 2 first exit point and premature flag; 3 refracted direction (bake frame) and starting cube. */
 
 /* The key filtered environment at blur width theta (radians): fractional level by piecewise-linear
  * interpolation in the levels' sigma, bilinear in each level (bake/environment.sample twin). */
@@ -68,7 +68,7 @@ void main()
   vec3 p1 = (gc.bake_from_world * vec4(v_world, 1.0)).xyz;
   vec3 r1 = normalize(to_bake * refract(-to_eye, n, 1.0 / eta));
   if (int(gc.table.z + 0.5) == 3) {
-    out_color = vec4(r1, 1.0);
+    out_color = vec4(r1, float(v_cube));
     return;
   }
   int cube = v_cube;

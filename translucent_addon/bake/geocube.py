@@ -248,6 +248,8 @@ def cone_parameters(centre, dirs, dist, normals, coarse, dense, eta: float, epsi
     near = dense[ik]  # (t, k, 3)
     cosA = np.empty(n_tex)
     cosB = np.empty(n_tex)
+    far_C = np.empty(n_tex)
+    cos_c = np.sqrt(1.0 - 1.0 / eta ** 2)
     far = np.asarray(coarse, np.float32)[None]
     near32 = near.astype(np.float32)
     for s in range(0, n_tex, chunk):
@@ -259,17 +261,24 @@ def cone_parameters(centre, dirs, dist, normals, coarse, dense, eta: float, epsi
         a_dot_n = np.clip(np.einsum("td,td->t", dirs[sl], normals[sl]), 0.0, 1.0)
         cosA[sl] = np.maximum(np.maximum(a1, a2), np.sqrt(1.0 - a_dot_n ** 2))
         cosB[sl] = np.maximum(b1, b2)
+        # Cone C among the coarse points (the dense neighbours may all lie outside it).
+        PS = far - args[3][:, None, :]
+        far_d = np.sqrt((PS * PS).sum(-1))
+        inside_c = -(PS * args[4][:, None, :]).sum(-1) > cos_c * far_d
+        far_C[sl] = np.where(inside_c & (far_d > 0.5 * args[5][:, None]), far_d, np.inf).min(axis=1)
     # Shrink each cone's tangent a little: the sampling of P leaves gaps a cone could reach into.
     cosA = _shrink(cosA)
     cosB = _shrink(np.maximum(cosB, 0.0))
-    # Cone C: apex S, axis -N, half angle asin(1 / eta); the nearest dense point inside it.
-    cos_c = np.sqrt(1.0 - 1.0 / eta ** 2)
+    # Cone C: apex S, axis -N, half angle asin(1 / eta): the nearest dense point inside it, or else the
+    # nearest coarse point inside it less the coarse spacing (a surface between coarse samples).
     to = near - S[:, None, :]
     cos_to = -np.einsum("tkd,td->tk", to, normals) / np.maximum(dk, 1e-20)
     min_d = 0.5 * epsilon[:, None]  # the sample's own neighbourhood on the tangent plane
     in_c = (cos_to > cos_c) & (dk > min_d)
     R_C = np.where(in_c, dk, np.inf).min(axis=1)
-    R_C = np.minimum(R_C, dk[:, -1]) * CONE_SAFETY
+    spacing = np.sqrt(np.pi * np.max(dk[:, -1]) ** 2 / k * len(dense) / max(len(coarse), 1))
+    beyond = np.maximum(dk[:, -1], far_C - spacing)
+    R_C = np.where(np.isfinite(R_C), R_C, beyond) * CONE_SAFETY
     return cosA, cosB, R_C
 
 
@@ -297,9 +306,9 @@ def starting_cubes(v, t, centres, tracer) -> np.ndarray:
     return np.argmin(rank, axis=1).astype(np.int32)
 
 
-def build(v_mm, t, res: int, eta: float, tracer) -> GeocubeSet:
+def build(v_mm, t, res: int, eta: float, tracer, coverage_samples: int = COVERAGE_SAMPLES) -> GeocubeSet:
     """Place the cubes and fill them (``build_steps`` run to the end)."""
-    job = build_steps(v_mm, t, res, eta, tracer)
+    job = build_steps(v_mm, t, res, eta, tracer, coverage_samples)
     while True:
         try:
             next(job)
@@ -307,12 +316,12 @@ def build(v_mm, t, res: int, eta: float, tracer) -> GeocubeSet:
             return done.value
 
 
-def build_steps(v_mm, t, res: int, eta: float, tracer):
+def build_steps(v_mm, t, res: int, eta: float, tracer, coverage_samples: int = COVERAGE_SAMPLES):
     """Generator: yields (fraction, text) between steps, returns the GeocubeSet."""
     v = np.asarray(v_mm, np.float64)
     t = np.asarray(t, np.int64)
     size = float(np.linalg.norm(v.max(0) - v.min(0)))
-    pts, nrm, _ = area_samples(v, t, COVERAGE_SAMPLES, seed=0)
+    pts, nrm, _ = area_samples(v, t, coverage_samples, seed=0)
     areas = np.full(len(pts), 1.0 / len(pts))
     yield 0.05, "placing cubes"
     centres, coverage = place(pts, nrm, areas, tracer)

@@ -67,7 +67,7 @@ def world_environment(scene) -> Environment | None:
     times the strength; None for any other world. Read once per image and strength."""
     world = scene.world
     tree = getattr(world, "node_tree", None) if world is not None else None
-    if tree is None or not world.use_nodes:
+    if tree is None:
         return None
     bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
     if bg is None or not bg.inputs["Color"].is_linked:

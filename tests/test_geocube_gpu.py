@@ -1,0 +1,129 @@
+"""GEOCUBE (Chan & Wang 2005) on the GPU: the exit search against its NumPy twin, Beer absorption along
+the GPU's own path, blur, and the bake workflow."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import add_camera, render  # noqa: E402
+from conftest import ext_module  # noqa: E402
+
+
+def checker_world(scene, w=128, h=64):
+    u, v = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
+    chk = (np.floor(u * 16) + np.floor(v * 8)) % 2
+    img = np.stack([0.2 + 0.8 * chk, 0.2 + 0.5 * u, 0.2 + 0.8 * v, np.ones_like(u)], -1).astype(np.float32)
+    im = bpy.data.images.new("checker", w, h, float_buffer=True)
+    im.pixels.foreach_set(img.ravel())
+    world = bpy.data.worlds.new("Checker")
+    scene.world = world
+    tree = world.node_tree
+    tex = tree.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = im
+    tree.links.new(tex.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+
+
+def glass(ob, sigma_a=(0.0, 0.0, 0.0), sigma_s_prime=1e-4, g=0.9, res=16):
+    t = ob.translucent
+    t.mm_per_unit = 1000.0
+    t.method = "GEOCUBE"
+    t.eta = 1.5
+    t.g = g
+    t.sigma_a = sigma_a
+    t.sigma_s_prime = (sigma_s_prime,) * 3
+    t.geocube_resolution = res
+
+
+def _u_object(scene):
+    """A U (non-star: one cube cannot see both arms' insides), 5 cm tall."""
+    from test_geocube import u_shape
+
+    v, t = u_shape(scale=0.0125)
+    mesh = bpy.data.meshes.new("U")
+    mesh.from_pydata(v.tolist(), [], t.tolist())
+    ob = bpy.data.objects.new("U", mesh)
+    scene.collection.objects.link(ob)
+    ob.location = (-0.019, 0, -0.025)
+    return ob
+
+
+def test_gpu_exit_search_matches_its_numpy_twin(tr, scene):
+    checker_world(scene)
+    ob = _u_object(scene)
+    glass(ob)
+    bpy.context.view_layer.objects.active = ob
+    ob.select_set(True)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    add_camera(scene, (0.06, -0.25, 0.05), (0, 0, 0), lens=50)
+    outputs = {}
+    for mode in (1, 2, 3):
+        scene.translucent.geocube_output = mode
+        outputs[mode] = render(scene, 96, 72)
+    p1, steps = outputs[1][..., :3], outputs[1][..., 3]
+    p2, premature = outputs[2][..., :3], outputs[2][..., 3]
+    r1, cube = outputs[3][..., :3], outputs[3][..., 3]
+    store = ext_module(tr, "translucent_addon.bake.store")
+    geocube = ext_module(tr, "translucent_addon.bake.geocube")
+    gd = ext_module(tr, "translucent_addon.render.methods.geocube_data")
+    g = geocube.from_arrays(store.read(ob, "GEOCUBE").arrays)
+    assert g.count >= 2
+    on = np.abs(np.linalg.norm(r1, axis=-1) - 1.0) < 1e-3  # the object's pixels hold unit directions
+    on &= steps >= 1
+    assert on.sum() > 300
+    ex = gd.exit_search(gd.atlases(g), p1[on].astype(np.float64), r1[on].astype(np.float64),
+                        np.round(cube[on]).astype(int), 32, g.min_step)
+    err = np.linalg.norm(ex.point - p2[on], axis=1) / g.size
+    # Same algorithm in float32 and float64: a ray grazing a decision (inside or not, which cube) may
+    # branch differently; nearly all agree to 1e-3 of the object's size.
+    assert (err < 1e-3).mean() > 0.97, (err < 1e-3).mean()
+    assert (ex.premature == (premature[on] > 0.5)).mean() > 0.97
+
+
+def test_absorption_follows_beer_along_the_gpu_path_and_scattering_blurs(tr, scene):
+    checker_world(scene)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.05)
+    ob = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    glass(ob)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    add_camera(scene, (0.0, -0.4, 0.0), (0, 0, 0), lens=50)
+    clear = render(scene, 64, 48)
+    scene.translucent.geocube_output = 1
+    p1 = render(scene, 64, 48)[..., :3]
+    scene.translucent.geocube_output = 2
+    p2 = render(scene, 64, 48)[..., :3]
+    scene.translucent.geocube_output = 0
+    sigma_a = np.array([0.002, 0.01, 0.03])
+    ob.translucent.sigma_a = sigma_a
+    absorbing = render(scene, 64, 48)
+    assert np.isfinite(clear).all() and np.isfinite(absorbing).all()
+    # The centre pixels: no total internal reflection, a straight path p1 -> p2 (mm).
+    centre = (slice(20, 28), slice(28, 36))
+    L = np.linalg.norm(p2[centre] - p1[centre], axis=-1)
+    assert (L > 90.0).all() and (L < 100.5).all()  # near the middle of a 10 cm ball
+    # Colour = F1 reflection + (1 - F1) T exp(-sigma_a L): the reflection is the same in both.
+    F1 = 0.04
+    ratio = (absorbing[centre][..., :3] - F1 * 0.5) / (clear[centre][..., :3] - F1 * 0.5)
+    want = np.exp(-sigma_a * L[..., None])
+    assert np.abs(ratio - want).max() < 0.05, (ratio.mean(axis=(0, 1)), want.mean(axis=(0, 1)))
+    # Scattering blurs the checker seen through the ball: less contrast inside it.
+    ob.translucent.sigma_a = (0.0, 0.0, 0.0)
+    ob.translucent.sigma_s_prime = (0.01,) * 3  # sigma_s = 0.1 / mm with g = 0.9: tau = 10 across
+    blurred = render(scene, 64, 48)
+    inside = (slice(14, 34), slice(22, 42))
+    assert blurred[inside][..., 0].std() < 0.5 * clear[inside][..., 0].std()
+
+
+def test_geocube_bake_goes_stale_on_an_ior_edit_and_a_missing_bake_is_reported(tr, scene):
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, radius=0.05)
+    ob = bpy.context.active_object
+    glass(ob)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"
+    ob.translucent.sigma_a = (0.1, 0.1, 0.1)  # absorption is applied per frame: still current
+    assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"
+    ob.translucent.eta = 1.33  # cone C is built for the critical angle
+    assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "STALE"
