@@ -32,6 +32,7 @@ test: extension
 bench: $(STAMP)
 	$(PY) scripts/bench.py
 	$(PY) scripts/bench_quadgraph.py
+	$(PY) scripts/bench_geocube.py
 
 clean:
 	rm -rf dist wheels out .pytest_cache

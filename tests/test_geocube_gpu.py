@@ -127,3 +127,22 @@ def test_geocube_bake_goes_stale_on_an_ior_edit_and_a_missing_bake_is_reported(t
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"
     ob.translucent.eta = 1.33  # cone C is built for the critical angle
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "STALE"
+
+
+def test_automatic_cube_resolution_follows_the_size_on_the_camera_image(tr, scene):
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, radius=0.05)
+    ob = bpy.context.active_object
+    glass(ob, res=0)
+    scene.render.resolution_x, scene.render.resolution_y = 200, 150
+    add_camera(scene, (0.0, -0.4, 0.0), (0, 0, 0), lens=50)
+    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    geocube = ext_module(tr, "translucent_addon.bake.geocube")
+    px = inputs.screen_pixels(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+    # A 10 cm ball 40 cm from a 50 mm lens on a 36 mm sensor 200 px wide: its bounding box's diagonal
+    # spans about sqrt(2) * 0.1 / 0.4 * 50 / 36 * 200 = 98 px (the box is nearer than the ball's centre).
+    assert 90 < px < 130, px
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    store = ext_module(tr, "translucent_addon.bake.store")
+    assert store.read_meta(ob, "GEOCUBE")["geocube_res"] == geocube.resolution_for(px) == 64
+    scene.camera.location.y = -2.0  # moving the camera later does not stale an automatic resolution
+    assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"
