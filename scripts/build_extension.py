@@ -19,9 +19,9 @@ ROOT = Path(__file__).resolve().parents[1]
 PLATFORM_TAGS = {
     "linux-x64": ["manylinux2014_x86_64", "manylinux_2_17_x86_64", "manylinux1_x86_64"],
     "windows-x64": ["win_amd64"],
-    "macos-arm64": ["macosx_11_0_arm64"],
+    "macos-arm64": ["macosx_11_0_arm64", "macosx_12_0_arm64"],  # scipy 1.14.1: 12.0
     # xatlas 0.0.11 has no 10.9 build for Intel macOS, only 10.14 (Blender 4.2 needs macOS 11.2+).
-    "macos-x64": ["macosx_10_9_x86_64", "macosx_10_14_x86_64"],
+    "macos-x64": ["macosx_10_9_x86_64", "macosx_10_13_x86_64", "macosx_10_14_x86_64"],
 }
 PYTHON_VERSION = "3.11"  # Blender 4.2 to 5.0
 # Requirements with no wheel for a platform: the extension works there without the method that needs

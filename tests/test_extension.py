@@ -113,3 +113,22 @@ def test_render_engine_and_properties_are_there(tr, scene):
     items = [i.identifier for i in ob.translucent.bl_rna.properties["method"].enum_items]
     assert tuple(items) == methods.METHOD_IDS
     assert scene.translucent.shadow_resolution == 1024
+
+
+def test_bundled_scipy_wheel_imports(installed):
+    """SciPy (the bakes' sparse solvers and k-d trees, GEOCUBE's world and slab tables) from the zip's
+    wheels: Blender ships none. Imported first from the extensions' site-packages, as in test above."""
+    import subprocess
+    import sys
+
+    sites = [p for p in sys.path if f"{os.sep}.local{os.sep}" in p and "extensions" in p and p.endswith("site-packages")]
+    assert sites, sys.path
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import numpy as np, scipy; "
+            "from scipy.spatial import cKDTree; from scipy.sparse import csc_matrix; "
+            "from scipy.sparse.linalg import splu; "
+            "d, i = cKDTree(np.eye(3)).query([[0.9, 0.0, 0.0]]); assert i[0] == 0; "
+            "x = splu(csc_matrix(2.0 * np.eye(3))).solve(np.ones(3)); assert np.allclose(x, 0.5); "
+            "print(scipy.__file__)")
+    out = subprocess.run([sys.executable, "-I", "-c", code, sites[0]], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().startswith(sites[0]), out.stdout
