@@ -122,6 +122,7 @@ def sphere_set():
 def test_one_cube_covers_a_sphere_and_its_cones_follow_the_geometry(sphere_set):
     v, t, tracer, g = sphere_set
     assert g.count == 1 and g.coverage == 1.0
+    assert np.isfinite(g.cones).all() and np.isfinite(g.normals).all()
     assert np.linalg.norm(g.centres[0]) < 1.0  # near the centre
 
     # Every texel's surface point lies on the polyhedron: between its inscribed and its circumscribed sphere.
@@ -177,6 +178,7 @@ def u_set():
 def test_automatic_placement_covers_a_shape_that_is_not_star_shaped(u_set):
     v, t, tracer, g = u_set
     assert g.count >= 2, "a U needs a cube per arm"
+    assert np.isfinite(g.cones).all()
     assert g.coverage == 1.0
     # Independently: every one of a fresh set of samples is seen by some centre.
     pts, nrm, _ = geocube.area_samples(v, t, 800, seed=11)

@@ -277,7 +277,9 @@ def cone_parameters(centre, dirs, dist, normals, coarse, dense, eta: float, epsi
     in_c = (cos_to > cos_c) & (dk > min_d)
     R_C = np.where(in_c, dk, np.inf).min(axis=1)
     spacing = np.sqrt(np.pi * np.max(dk[:, -1]) ** 2 / k * len(dense) / max(len(coarse), 1))
-    beyond = np.maximum(dk[:, -1], far_C - spacing)
+    # No coarse point in the cone either (the cone leaves through a gap of the sampling): the k-th
+    # neighbour's distance, which is conservative.
+    beyond = np.where(np.isfinite(far_C), np.maximum(dk[:, -1], far_C - spacing), dk[:, -1])
     R_C = np.where(np.isfinite(R_C), R_C, beyond) * CONE_SAFETY
     return cosA, cosB, R_C
 
