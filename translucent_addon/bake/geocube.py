@@ -38,7 +38,9 @@ from ..geometry.mesh_measures import vertex_normals
 GRAZING_COS = 0.15  # a centre covers a surface sample it sees at cos(angle to the normal) above this
 COVERAGE_SAMPLES = 6000  # area-uniform surface samples the placement must cover
 CANDIDATES = 240  # candidate centres tried by the greedy cover
-MAX_CUBES = 16  # the shader's limit
+MAX_CUBES = 32  # more cubes cost memory and a longer cube switch (each cube is tested there)
+TARGETED_ROUNDS = 3  # rounds of candidates placed for the samples still uncovered
+TARGETED_SAMPLES = 48
 RES_RANGE = (16, 256)
 CONE_C_NEIGHBOURS = 48  # dense neighbours bounding the cones near each texel
 COARSE_POINTS = 3000  # surface points bounding the cones everywhere
@@ -168,6 +170,30 @@ def place(points, normals, areas, tracer, n_candidates=CANDIDATES, max_cubes=MAX
             covered |= seen[best]
         if covered.all() or len(chosen) >= max_cubes:
             break
+    # Targeted rounds for what is left (crevices, horns, the inside of a bend): candidates on the inward
+    # normals of uncovered samples, near them, where they see the sample head-on.
+    rng = np.random.default_rng(seed + 1)
+    for _ in range(TARGETED_ROUNDS):
+        if covered.all() or len(chosen) >= max_cubes:
+            break
+        miss = np.flatnonzero(~covered)
+        pick = rng.choice(miss, size=min(TARGETED_SAMPLES, len(miss)), replace=False)
+        o = points[pick] - normals[pick] * 1e-6
+        t, _, _, _ = tracer.closest_hit(o, -normals[pick])
+        ok = np.isfinite(t)
+        extra = np.concatenate([o[ok] - normals[pick][ok] * (f * t[ok])[:, None] for f in (0.5, 0.25, 0.1)])
+        extra = extra[inside(extra, tracer)]
+        if len(extra) == 0:
+            break
+        cand = np.concatenate([cand, extra])
+        seen = np.concatenate([seen, visibility(extra, points, normals, tracer)])
+        while len(chosen) < max_cubes and not covered.all():
+            gain = (seen & ~covered) @ areas
+            best = int(np.argmax(gain))
+            if gain[best] <= 0:
+                break
+            chosen.append(best)
+            covered |= seen[best]
     return cand[chosen], float(areas[covered].sum() / areas.sum())
 
 
