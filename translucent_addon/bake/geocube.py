@@ -96,14 +96,23 @@ def area_samples(v: np.ndarray, t: np.ndarray, n: int, seed: int = 0):
     return p, nrm, tri
 
 
-def visibility(centres: np.ndarray, points: np.ndarray, normals: np.ndarray, tracer) -> np.ndarray:
-    """(C, P) bool: centre c sees point p unoccluded, at an angle to p's normal no flatter than GRAZING_COS."""
+def face_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+
+
+def visibility(centres: np.ndarray, points: np.ndarray, normals: np.ndarray, tracer, faces=None) -> np.ndarray:
+    """(C, P) bool: centre c sees point p unoccluded, at an angle to p's normal no flatter than GRAZING_COS.
+    ``faces``: the samples' face normals, accepted as well (smooth normals twist on parts thinner than
+    the smoothing, and would hide a sample no centre could see)."""
     seen = np.zeros((len(centres), len(points)), bool)
     for c, o in enumerate(centres):
         to = points - o
         dist = np.linalg.norm(to, axis=1)
         d = to / np.maximum(dist, 1e-12)[:, None]
         facing = np.einsum("pd,pd->p", d, normals) > GRAZING_COS
+        if faces is not None:
+            facing |= np.einsum("pd,pd->p", d, faces) > GRAZING_COS
         idx = np.flatnonzero(facing)
         t, _, _, _ = tracer.closest_hit(np.repeat(o[None], len(idx), 0), d[idx])
         seen[c, idx] = t >= dist[idx] * (1.0 - 1e-4) - 1e-6 * dist.max()
@@ -146,7 +155,7 @@ def candidates(points: np.ndarray, normals: np.ndarray, tracer, n: int, seed: in
 
 
 def place(points, normals, areas, tracer, n_candidates=CANDIDATES, max_cubes=MAX_CUBES, batch: int = 24,
-          seed: int = 1):
+          seed: int = 1, faces=None):
     """Greedy cover: centres (C, 3) and the fraction of sample area they cover together.
 
     Lazy: candidates are tried in batches, deepest first, and the greedy choice runs over those tried so
@@ -158,7 +167,7 @@ def place(points, normals, areas, tracer, n_candidates=CANDIDATES, max_cubes=MAX
     covered = np.zeros(len(points), bool)
     chosen: list[int] = []
     for start in range(0, len(cand), batch):
-        seen = np.concatenate([seen, visibility(cand[start:start + batch], points, normals, tracer)])
+        seen = np.concatenate([seen, visibility(cand[start:start + batch], points, normals, tracer, faces)])
         while len(chosen) < max_cubes and not covered.all():
             gain = (seen & ~covered) @ areas
             best = int(np.argmax(gain))
@@ -186,7 +195,7 @@ def place(points, normals, areas, tracer, n_candidates=CANDIDATES, max_cubes=MAX
         if len(extra) == 0:
             break
         cand = np.concatenate([cand, extra])
-        seen = np.concatenate([seen, visibility(extra, points, normals, tracer)])
+        seen = np.concatenate([seen, visibility(extra, points, normals, tracer, faces)])
         while len(chosen) < max_cubes and not covered.all():
             gain = (seen & ~covered) @ areas
             best = int(np.argmax(gain))
@@ -349,10 +358,10 @@ def build_steps(v_mm, t, res: int, eta: float, tracer, coverage_samples: int = C
     v = np.asarray(v_mm, np.float64)
     t = np.asarray(t, np.int64)
     size = float(np.linalg.norm(v.max(0) - v.min(0)))
-    pts, nrm, _ = area_samples(v, t, coverage_samples, seed=0)
+    pts, nrm, tri = area_samples(v, t, coverage_samples, seed=0)
     areas = np.full(len(pts), 1.0 / len(pts))
     yield 0.05, "placing cubes"
-    centres, coverage = place(pts, nrm, areas, tracer)
+    centres, coverage = place(pts, nrm, areas, tracer, faces=face_normals(v, t)[tri])
     tris = v[t]
     radius_D = np.array([point_triangle_distance(o, tris).min() for o in centres])
     vn = vertex_normals(v, t)
