@@ -58,6 +58,8 @@ def main() -> int:
     parser.add_argument("--caps", nargs="*", type=int, default=[4, 8, 16, 32])
     parser.add_argument("--reference-samples", type=int, default=256)
     parser.add_argument("--skip-exits", action="store_true")
+    parser.add_argument("--exits-only", action="store_true")
+    parser.add_argument("--meshes", nargs="*", default=["bunny", "cow"])
     args = parser.parse_args()
 
     package = blender_env.start()
@@ -71,7 +73,7 @@ def main() -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     exits = [] if args.skip_exits else exit_accuracy(mod, args)
-    images = image_phase(bpy, mod, args, out)
+    images = [] if args.exits_only else image_phase(bpy, mod, args, out)
     (out / "results.json").write_text(json.dumps({"exits": exits, "images": images}, indent=2, default=float))
     chart(images, exits, out)
     (out / "summary.md").write_text(summary(exits, images, args))
@@ -84,7 +86,7 @@ def exit_accuracy(mod, args) -> list[dict]:
     gd = mod("render.methods.geocube_data")
     mesh_io = mod("geometry.mesh_io")
     rows = []
-    for name in ("bunny", "cow"):
+    for name in args.meshes:
         v, t = mesh_io.load_npz(ROOT / "translucent_addon" / "data" / "meshes" / f"{name}.npz")
         v = np.asarray(v, np.float64)
         v = (v - v.mean(axis=0)) * (100.0 / np.linalg.norm(v.max(0) - v.min(0)))

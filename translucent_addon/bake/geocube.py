@@ -38,7 +38,7 @@ from ..geometry.mesh_measures import vertex_normals
 GRAZING_COS = 0.15  # a centre covers a surface sample it sees at cos(angle to the normal) above this
 COVERAGE_SAMPLES = 6000  # area-uniform surface samples the placement must cover
 CANDIDATES = 240  # candidate centres tried by the greedy cover
-MAX_CUBES = 32  # more cubes cost memory and a longer cube switch (each cube is tested there)
+MAX_CUBES = 64  # more cubes cost bake time, memory and a longer cube switch (each cube is tested there)
 TARGETED_ROUNDS = 3  # rounds of candidates placed for the samples still uncovered
 TARGETED_SAMPLES = 48
 RES_RANGE = (16, 256)
@@ -189,9 +189,10 @@ def place(points, normals, areas, tracer, n_candidates=CANDIDATES, max_cubes=MAX
         pick = rng.choice(miss, size=min(TARGETED_SAMPLES, len(miss)), replace=False)
         o = points[pick] - normals[pick] * 1e-6
         t, _, _, _ = tracer.closest_hit(o, -normals[pick])
-        ok = np.isfinite(t)
+        # Points of the segment from a sample to the first surface behind it are inside by construction
+        # (on a closed mesh), however thin the part: no parity test, which fails within a hair of a surface.
+        ok = np.isfinite(t) & (t > 1e-9 * np.ptp(points, axis=0).max())
         extra = np.concatenate([o[ok] - normals[pick][ok] * (f * t[ok])[:, None] for f in (0.5, 0.25, 0.1)])
-        extra = extra[inside(extra, tracer)]
         if len(extra) == 0:
             break
         cand = np.concatenate([cand, extra])
