@@ -43,14 +43,14 @@ def material_base_color(mat) -> tuple[float, float, float]:
     return tuple(float(c) for c in mat.diffuse_color[:3])
 
 
-def world_color(scene) -> np.ndarray:
-    """The world's uniform radiance; for an environment image, its average over the sphere."""
+def world_color(scene, env: Environment | None = None) -> np.ndarray:
+    """The world's uniform radiance; for an environment image (``world_environment``), its average over
+    the sphere."""
     world = scene.world
     if world is None:
         return np.zeros(3)
-    env = world_environment(scene)
     if env is not None:
-        return equirect_mean(env.image)
+        return env.mean
     tree = getattr(world, "node_tree", None)
     if tree is not None:
         bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
@@ -89,7 +89,8 @@ def world_environment(scene) -> Environment | None:
         if not img.is_float and img.colorspace_settings.name == "sRGB":
             rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
         _environment_cache.clear()
-        env = _environment_cache[key] = Environment(key=key, image=rgb * strength)
+        rgb *= strength
+        env = _environment_cache[key] = Environment(key=key, image=rgb, mean=equirect_mean(rgb))
     return env
 
 
@@ -260,12 +261,13 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
             )
     if not emitters and meshes:
         warnings.append("the scene has no lights: objects are lit by the world colour only")
+    environment = world_environment(scene)
     return FrameInputs(
         meshes=meshes,
         emitters=emitters,
         camera=camera,
-        world_color=world_color(scene),
-        environment=world_environment(scene),
+        world_color=world_color(scene, environment),
+        environment=environment,
         film_transparent=scene.render.film_transparent,
         shadow_resolution=settings.shadow_resolution,
         warnings=warnings,

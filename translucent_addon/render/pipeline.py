@@ -111,11 +111,13 @@ class Pipeline:
         t0 = time.perf_counter()
         timings = {}
         fb = gpu.state.active_framebuffer_get()
+        cam = frame.camera
+        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color))
         if clear:
             alpha = 0.0 if frame.film_transparent else 1.0
             clear_target(fb, (*map(float, frame.world_color), alpha))
             if frame.environment is not None and not frame.film_transparent:
-                self._draw_environment(frame)
+                self._draw_environment(frame, frame_ubo)
         if not frame.meshes:
             self.last_timings = {"total": time.perf_counter() - t0}
             return
@@ -130,8 +132,6 @@ class Pipeline:
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
             for k, m in enumerate(frame.meshes)
         ]
-        cam = frame.camera
-        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color))
         centre, radius = frame.bounds()
         texels = int(frame.shadow_resolution)
         atlas = self._shadow_atlas(texels)
@@ -193,15 +193,13 @@ class Pipeline:
         timings["total"] = time.perf_counter() - t0
         self.last_timings = timings
 
-    def _draw_environment(self, frame) -> None:
+    def _draw_environment(self, frame, frame_ubo) -> None:
         """The world image behind everything, where the world is an environment texture."""
         import gpu
 
         from .targets import screen_quad
 
         chain, env_tex = geocube.environment(frame)
-        cam = frame.camera
-        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color))
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         gpu.state.blend_set("NONE")

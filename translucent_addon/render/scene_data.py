@@ -120,6 +120,7 @@ class Environment:
 
     key: str
     image: np.ndarray  # (H, W, 3) float32 linear radiance, row 0 at the bottom
+    mean: np.ndarray  # (3,) its solid-angle-weighted average: the uniform world the base pass uses
 
 
 @dataclasses.dataclass
