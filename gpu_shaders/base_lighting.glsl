@@ -35,8 +35,7 @@ void main()
     n = -n;
   }
   int slot = int(object.shading.x + 0.5) - 1;
-  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
-                                                  normalize(frame.camera_position.xyz - v_world);
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float cos_o = max(dot(n, to_eye), 0.0);
   float m = (slot >= 0) ? v_paint.x : 0.0;
   vec3 modulation = v_paint.z * v_tint; /* M_i: glow and tint */

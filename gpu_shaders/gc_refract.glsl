@@ -55,8 +55,7 @@ void main()
 {
   float eta = gc.sigma_a.w;
   vec3 n = normalize(v_normal);
-  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
-                                                  normalize(frame.camera_position.xyz - v_world);
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   if (dot(n, to_eye) < 0.0) {
     n = -n; /* a back face seen through a hole, or a normal that disagrees with the winding */
   }

@@ -19,8 +19,7 @@ void main()
   if (!gl_FrontFacing) {
     n = -n;
   }
-  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
-                                                  normalize(frame.camera_position.xyz - v_world);
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float eta = materials.params[2 * slot].w;
   vec3 S = texelFetch(scatter, ivec2(gl_FragCoord.xy), 0).rgb;
   out_color = vec4((1.0 - fresnel_dielectric(max(dot(n, to_eye), 0.0), eta)) / PI * S * v_paint.x, 0.0);

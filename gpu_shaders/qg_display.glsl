@@ -26,8 +26,7 @@ void main()
   if (!gl_FrontFacing) {
     n = -n;
   }
-  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
-                                                  normalize(frame.camera_position.xyz - v_world);
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
   out_color = vec4((1.0 - F_r) / PI * v_radiosity + F_r * frame.world_color.rgb, 1.0);
 }

@@ -15,6 +15,13 @@ float fresnel_dielectric(float cos_i, float eta)
   return 0.5 * (r_s * r_s + r_p * r_p);
 }
 
+/* Unit direction from a surface point toward the eye: the camera's position (perspective) or its
+ * backward axis (orthographic, camera_position.w = 1); FrameData's camera fields. */
+vec3 direction_to_eye(vec4 camera_position, vec4 camera_forward, vec3 p)
+{
+  return (camera_position.w > 0.5) ? -camera_forward.xyz : normalize(camera_position.xyz - p);
+}
+
 int cube_face(vec3 d)
 {
   vec3 a = abs(d);

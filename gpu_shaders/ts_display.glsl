@@ -37,8 +37,7 @@ void main()
   if (!gl_FrontFacing) {
     n = -n;
   }
-  vec3 to_eye = (frame.camera_position.w > 0.5) ? -frame.camera_forward.xyz :
-                                                  normalize(frame.camera_position.xyz - v_world);
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
   vec4 l = bilinear(local_map, v_uv);
   vec4 g = bilinear(global_map, v_uv);

@@ -124,17 +124,8 @@ def exit_accuracy(mod, args) -> list[dict]:
 def build_scene(bpy, mod, case: str):
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
-    img = environment_image()
-    h, w = img.shape[:2]
-    im = bpy.data.images.new("bench_environment", w, h, float_buffer=True, alpha=True)
-    im.pixels.foreach_set(np.concatenate([img, np.ones((h, w, 1), np.float32)], -1).ravel())
-    im.pack()
-    world = bpy.data.worlds.new("Environment")
-    scene.world = world
-    tree = world.node_tree
-    tex = tree.nodes.new("ShaderNodeTexEnvironment")
-    tex.image = im
-    tree.links.new(tex.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    demo = mod("demo")
+    demo.environment_world(scene, environment_image(), "bench_environment")
     if case.startswith("sphere"):
         bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=0.05)
         ob = bpy.context.active_object
@@ -147,9 +138,7 @@ def build_scene(bpy, mod, case: str):
         v = np.asarray(v, np.float64)
         v = (v - 0.5 * (v.max(0) + v.min(0))) * (0.12 / np.linalg.norm(v.max(0) - v.min(0)))
         v = v[:, [0, 2, 1]] * np.array([1, -1, 1])  # the scan's y-up to Blender's z-up
-        mesh = bpy.data.meshes.new("Bunny")
-        mesh.from_pydata(v.tolist(), [], np.asarray(t).tolist())
-        ob = bpy.data.objects.new("Bunny", mesh)
+        ob = bpy.data.objects.new("Bunny", demo.mesh_from_arrays("Bunny", v, t))
         scene.collection.objects.link(ob)
         bpy.context.view_layer.objects.active = ob
         ob.select_set(True)

@@ -91,16 +91,23 @@ def test_bundled_xatlas_wheel_imports(installed):
     """xatlas (lightmap UVs) from the zip's wheels. The test environment has its own xatlas
     earlier on sys.path, so the bundled copy is imported in a child interpreter with the
     extensions' site-packages first, as in a Blender without that environment."""
+    _run_with_bundled_wheels(
+        "import numpy as np, xatlas; "
+        "v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32); "
+        "f = np.array([[0, 1, 2], [0, 2, 3]], np.uint32); "
+        "vmap, idx, uvs = xatlas.parametrize(v, f); "
+        "assert idx.shape == (2, 3) and uvs.shape[1] == 2, (idx.shape, uvs.shape); print(xatlas.__file__)")
+
+
+def _run_with_bundled_wheels(code: str) -> None:
+    """Run ``code`` in a child interpreter with the extensions' site-packages first on sys.path; it must
+    succeed and print the path of the module it tested, which must come from those site-packages."""
     import subprocess
     import sys
 
     sites = [p for p in sys.path if f"{os.sep}.local{os.sep}" in p and "extensions" in p and p.endswith("site-packages")]
     assert sites, sys.path
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); import numpy as np, xatlas; "
-            "v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32); "
-            "f = np.array([[0, 1, 2], [0, 2, 3]], np.uint32); "
-            "vmap, idx, uvs = xatlas.parametrize(v, f); "
-            "assert idx.shape == (2, 3) and uvs.shape[1] == 2, (idx.shape, uvs.shape); print(xatlas.__file__)")
+    code = "import sys; sys.path.insert(0, sys.argv[1]); " + code
     out = subprocess.run([sys.executable, "-I", "-c", code, sites[0]], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().startswith(sites[0]), out.stdout
@@ -117,18 +124,11 @@ def test_render_engine_and_properties_are_there(tr, scene):
 
 def test_bundled_scipy_wheel_imports(installed):
     """SciPy (the bakes' sparse solvers and k-d trees, GEOCUBE's world and slab tables) from the zip's
-    wheels: Blender ships none. Imported first from the extensions' site-packages, as in test above."""
-    import subprocess
-    import sys
-
-    sites = [p for p in sys.path if f"{os.sep}.local{os.sep}" in p and "extensions" in p and p.endswith("site-packages")]
-    assert sites, sys.path
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); import numpy as np, scipy; "
-            "from scipy.spatial import cKDTree; from scipy.sparse import csc_matrix; "
-            "from scipy.sparse.linalg import splu; "
-            "d, i = cKDTree(np.eye(3)).query([[0.9, 0.0, 0.0]]); assert i[0] == 0; "
-            "x = splu(csc_matrix(2.0 * np.eye(3))).solve(np.ones(3)); assert np.allclose(x, 0.5); "
-            "print(scipy.__file__)")
-    out = subprocess.run([sys.executable, "-I", "-c", code, sites[0]], capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip().startswith(sites[0]), out.stdout
+    wheels: Blender ships none."""
+    _run_with_bundled_wheels(
+        "import numpy as np, scipy; "
+        "from scipy.spatial import cKDTree; from scipy.sparse import csc_matrix; "
+        "from scipy.sparse.linalg import splu; "
+        "d, i = cKDTree(np.eye(3)).query([[0.9, 0.0, 0.0]]); assert i[0] == 0; "
+        "x = splu(csc_matrix(2.0 * np.eye(3))).solve(np.ones(3)); assert np.allclose(x, 0.5); "
+        "print(scipy.__file__)")

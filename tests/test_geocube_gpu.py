@@ -11,18 +11,11 @@ from blender_helpers import add_camera, render  # noqa: E402
 from conftest import ext_module  # noqa: E402
 
 
-def checker_world(scene, w=128, h=64):
+def checker_world(tr, scene, w=128, h=64):
     u, v = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
     chk = (np.floor(u * 16) + np.floor(v * 8)) % 2
-    img = np.stack([0.2 + 0.8 * chk, 0.2 + 0.5 * u, 0.2 + 0.8 * v, np.ones_like(u)], -1).astype(np.float32)
-    im = bpy.data.images.new("checker", w, h, float_buffer=True)
-    im.pixels.foreach_set(img.ravel())
-    world = bpy.data.worlds.new("Checker")
-    scene.world = world
-    tree = world.node_tree
-    tex = tree.nodes.new("ShaderNodeTexEnvironment")
-    tex.image = im
-    tree.links.new(tex.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    img = np.stack([0.2 + 0.8 * chk, 0.2 + 0.5 * u, 0.2 + 0.8 * v], -1)
+    ext_module(tr, "translucent_addon.demo").environment_world(scene, img, "Checker")
 
 
 def glass(ob, sigma_a=(0.0, 0.0, 0.0), sigma_s_prime=1e-4, g=0.9, res=16):
@@ -36,22 +29,20 @@ def glass(ob, sigma_a=(0.0, 0.0, 0.0), sigma_s_prime=1e-4, g=0.9, res=16):
     t.geocube_resolution = res
 
 
-def _u_object(scene):
+def _u_object(tr, scene):
     """A U (non-star: one cube cannot see both arms' insides), 5 cm tall."""
     from test_geocube import u_shape
 
     v, t = u_shape(scale=0.0125)
-    mesh = bpy.data.meshes.new("U")
-    mesh.from_pydata(v.tolist(), [], t.tolist())
-    ob = bpy.data.objects.new("U", mesh)
+    ob = bpy.data.objects.new("U", ext_module(tr, "translucent_addon.demo").mesh_from_arrays("U", v, t))
     scene.collection.objects.link(ob)
     ob.location = (-0.019, 0, -0.025)
     return ob
 
 
 def test_gpu_exit_search_matches_its_numpy_twin(tr, scene):
-    checker_world(scene)
-    ob = _u_object(scene)
+    checker_world(tr, scene)
+    ob = _u_object(tr, scene)
     glass(ob)
     bpy.context.view_layer.objects.active = ob
     ob.select_set(True)
@@ -82,7 +73,7 @@ def test_gpu_exit_search_matches_its_numpy_twin(tr, scene):
 
 
 def test_absorption_follows_beer_along_the_gpu_path_and_scattering_blurs(tr, scene):
-    checker_world(scene)
+    checker_world(tr, scene)
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.05)
     ob = bpy.context.active_object
     bpy.ops.object.shade_smooth()

@@ -57,6 +57,26 @@ def uniform_world(scene, color, name: str = "World") -> bpy.types.World:
     return world
 
 
+def environment_world(scene, image: np.ndarray, name: str = "Environment") -> bpy.types.World:
+    """Give the scene a new world lit by an equirectangular radiance image ((H, W, 3) linear, row 0 at
+    the bottom), packed into the file: Environment Texture -> Background (what GEOCUBE refracts)."""
+    h, w = image.shape[:2]
+    rgba = np.concatenate([np.asarray(image, np.float32)[..., :3], np.ones((h, w, 1), np.float32)], axis=2)
+    im = bpy.data.images.new(name, w, h, float_buffer=True, alpha=True)
+    im.pixels.foreach_set(rgba.ravel())
+    im.pack()
+    world = bpy.data.worlds.new(name)
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    tree = world.node_tree
+    tex = tree.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = im
+    bg = next(n for n in tree.nodes if n.type == "BACKGROUND")
+    tree.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    scene.world = world
+    return world
+
+
 def _aim(ob, target: Vector) -> None:
     ob.rotation_euler = (target - ob.location).to_track_quat("-Z", "Y").to_euler()
 

@@ -4,7 +4,35 @@ A new bake of an object replaces its previous entry, so a re-baked object does n
 """
 from __future__ import annotations
 
+import dataclasses
+
 _entries: dict = {}
+
+
+@dataclasses.dataclass
+class Active:
+    """A mesh of the frame drawn by a baked method, with the GPU data of its bake."""
+
+    index: int  # mesh index in the frame
+    mesh: object
+    resources: object
+
+
+def prepare(frame, method: str, build, matches) -> list[Active]:
+    """The meshes of ``method`` in a frame whose bake is current, with its GPU data (``build(arrays, mesh)``
+    on first use). A bake that does not ``matches(resources, mesh)`` is not drawn: the mesh keeps its base
+    colour and the frame says why."""
+    active = []
+    for k, mesh in enumerate(frame.meshes):
+        handle = getattr(mesh, "bake", None)
+        if mesh.method != method or handle is None or mesh.medium is None:
+            continue
+        res = get(handle, lambda arrays, m=mesh: build(arrays, m))
+        if not matches(res, mesh):
+            frame.warnings.append(f"'{mesh.name}': {method} bake does not match the mesh; press Bake")
+            continue
+        active.append(Active(k, mesh, res))
+    return active
 
 
 def get(handle, build):

@@ -12,7 +12,6 @@ The GPU data of the world and of each anisotropy g are built once and cached.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
@@ -22,6 +21,7 @@ from ...bake.geocube import from_arrays
 from .. import shaders
 from ..targets import texture_from_array
 from . import bake_cache
+from .bake_cache import Active
 from . import geocube_data as gcd
 
 ENV_RES_RANGE = (16, 256)
@@ -56,13 +56,6 @@ class Resources:
         return b
 
 
-@dataclasses.dataclass
-class Active:
-    index: int
-    mesh: object
-    resources: Resources
-
-
 def environment(frame):
     """(EnvironmentChain, atlas texture) of the frame's world, built once per world image."""
     env = frame.environment
@@ -88,29 +81,20 @@ def transfer(g: float):
     cached = _transfer_cache.get(key)
     if cached is None:
         image, log_max = gcd.transfer_image(transfer_table(key))
-        cached = _transfer_cache[key] = (texture_from_array(image), log_max, image)
+        cached = _transfer_cache[key] = (texture_from_array(image), log_max)
     return cached
 
 
 def prepare(frame) -> list[Active]:
     """The GEOCUBE meshes of a frame whose bake is loaded (on first use) and matches the mesh."""
-    active = []
-    for k, mesh in enumerate(frame.meshes):
-        handle = getattr(mesh, "bake", None)
-        if mesh.method != "GEOCUBE" or handle is None or mesh.medium is None:
-            continue
-        res = bake_cache.get(handle, Resources)
-        if len(res.gset.start_cube) != mesh.triangle_count:
-            frame.warnings.append(f"'{mesh.name}': GEOCUBE bake does not match the mesh; press Bake")
-            continue
-        active.append(Active(k, mesh, res))
-    return active
+    return bake_cache.prepare(frame, "GEOCUBE", lambda arrays, mesh: Resources(arrays),
+                              lambda res, mesh: len(res.gset.start_cube) == mesh.triangle_count)
 
 
 def block_for(a: Active, frame, mode: int = 0) -> bytes:
     m = a.mesh.medium
     chain, _ = environment(frame)
-    _, log_max, _ = transfer(m.g)
+    _, log_max = transfer(m.g)
     g = a.resources.gset
     sigma_s = np.asarray(m.sigma_s_prime, np.float64) / max(1.0 - float(m.g), 1e-3)
     to_bake = gcd.bake_from_world(a.mesh.model, a.resources.stretch, m.mm_per_unit)
@@ -134,7 +118,7 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline) 
         shader.uniform_block("frame", frame_ubo)
         shader.uniform_sampler("env_atlas", env_tex)
         for a in actives:
-            table_tex, _, _ = transfer(a.mesh.medium.g)
+            table_tex, _ = transfer(a.mesh.medium.g)
             r = a.resources
             shader.uniform_block("object", objects[a.index])
             gc_ubo = gpu.types.GPUUniformBuf(block_for(a, frame, mode))  # referenced until drawn

@@ -16,7 +16,6 @@ edits need no bake. The maths is in ``physics/diffusion.py``; the CPU twin in ``
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
@@ -27,6 +26,7 @@ from ...physics.fresnel import F_dr as diffuse_fresnel
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
 from . import bake_cache
+from .bake_cache import Active
 from . import quadgraph_data as qgd
 from .texture_space import draw_illumination
 
@@ -101,26 +101,14 @@ class Resources:
         return batch
 
 
-@dataclasses.dataclass
-class Active:
-    index: int
-    mesh: object
-    resources: Resources
-
-
 def prepare(frame) -> list[Active]:
-    """The QUADGRAPH meshes of a frame whose bake is loaded (on first use) and current."""
-    active = []
-    for k, mesh in enumerate(frame.meshes):
-        handle = getattr(mesh, "bake", None)
-        if mesh.method != "QUADGRAPH" or handle is None or mesh.medium is None:
-            continue
-        res = bake_cache.get(handle, lambda arrays, mm=mesh.medium.mm_per_unit: Resources(arrays, mm))
-        if len(res.display_index) != len(mesh.positions):
-            frame.warnings.append(f"'{mesh.name}': QUADGRAPH bake does not match the mesh; press Bake")
-            continue
-        res.set_material(mesh.medium)
-        active.append(Active(k, mesh, res))
+    """The QUADGRAPH meshes of a frame whose bake is loaded (on first use) and current, with the
+    current material's kappa and mu."""
+    active = bake_cache.prepare(frame, "QUADGRAPH",
+                                lambda arrays, mesh: Resources(arrays, mesh.medium.mm_per_unit),
+                                lambda res, mesh: len(res.display_index) == len(mesh.positions))
+    for a in active:
+        a.resources.set_material(a.mesh.medium)
     return active
 
 

@@ -17,7 +17,6 @@ The maths and layouts are in ``texture_space_data.py``, the GLSL in ``gpu_shader
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
@@ -28,6 +27,7 @@ from ...physics.fresnel import hemispherical_transmittance
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
 from . import bake_cache
+from .bake_cache import Active
 from . import texture_space_data as tsd
 
 class Resources:
@@ -78,27 +78,12 @@ class Resources:
         return self._sparse
 
 
-@dataclasses.dataclass
-class Active:
-    index: int  # mesh index in the frame
-    mesh: object
-    resources: Resources
-
-
 def prepare(frame) -> list[Active]:
     """The TEXTURE_SPACE meshes of a frame whose bake is loaded (on first use) and current."""
-    active = []
-    for k, mesh in enumerate(frame.meshes):
-        handle = getattr(mesh, "bake", None)
-        if mesh.method != "TEXTURE_SPACE" or handle is None or mesh.medium is None:
-            continue
-        res = bake_cache.get(handle, lambda arrays, mm=mesh.medium.mm_per_unit: Resources(tsd.gpu_tables(arrays, mm),
-                                                                                             arrays))
-        if len(res.tables.display_uv) != len(mesh.positions) * 4 ** res.tables.display_subdivisions:
-            frame.warnings.append(f"'{mesh.name}': TEXTURE_SPACE bake does not match the mesh; press Bake")
-            continue
-        active.append(Active(k, mesh, res))
-    return active
+    return bake_cache.prepare(
+        frame, "TEXTURE_SPACE",
+        lambda arrays, mesh: Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays),
+        lambda res, mesh: len(res.tables.display_uv) == len(mesh.positions) * 4 ** res.tables.display_subdivisions)
 
 
 def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float) -> None:
