@@ -12,7 +12,6 @@ import numpy as np
 from ..bake import registry as bake_registry
 from ..bake import store as bake_store
 from ..bake.inputs import bake_status
-from . import methods
 from .lights import emitters_from_light
 from ..physics.lut import BLUR_MIN
 from .scene_data import BakeHandle, CameraView, Environment, FrameInputs, Medium, MeshInstance
@@ -194,10 +193,6 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
                 else:
                     handle = BakeHandle(f"{name}#{bake_store.stored_hash(original, method)}",
                                         lambda o=original, m=method: bake_store.read(o, m).arrays)
-            if not methods.has_passes(method):
-                frame_warnings.append(
-                    f"'{name}': method {method} is not available in this version; drawn with its base colour"
-                )
         medium = None
         if method != "OFF":
             s = original.translucent

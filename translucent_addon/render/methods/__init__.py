@@ -2,8 +2,7 @@
 
 A method module holds its GPU passes (``image_space.py``, ``texture_space.py``) and its pure
 maths (``*_data.py``); the pipeline calls it around the base pass. The method issues
-(QUADGRAPH, GEOCUBE) each added their module here. A mesh whose method had no module would be drawn
-by the base pass with a warning in the frame.
+(QUADGRAPH, GEOCUBE) each added their module here; every id below has its passes.
 """
 from __future__ import annotations
 
@@ -16,10 +15,3 @@ METHOD_DESCRIPTIONS = {
     "QUADGRAPH": "Diffusion equation on a tetrahedral QuadGraph (Wang 2010): thin parts, veins; edit without re-baking",
     "GEOCUBE": "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering",
 }
-
-# The methods whose passes exist (render/methods/<method>.py); the others draw as the base.
-AVAILABLE = frozenset(METHOD_IDS)
-
-
-def has_passes(method: str) -> bool:
-    return method in AVAILABLE
