@@ -52,3 +52,13 @@ struct GeocubeData {
   vec4 env_mean;       /* rgb: C_A, the environment's average */
   vec4 env_levels[16]; /* per key filtered level: x: sigma (rad), y: first atlas row, z: face texels */
 };
+
+struct CausticData {
+  mat4 grid_view_proj; /* world -> clip of the caster's vertex grid (Shah 5.3.2) */
+  vec4 grid;           /* x: grid texels G, y: half extent (tan, point; world, directional),
+                        * z: 0 reflective, 1 or 2 refracting surfaces, w: eta */
+  vec4 absorption;     /* rgb: K_a per scene unit (Shah Eq. 5.7), w: dispersion (eta spread per channel) */
+  vec4 tint;           /* rgb: mirror reflectance of a reflective caster */
+  vec4 estimate;       /* x: iterations, y: oscillation guard, z: atlas texels per face, w: channels (1, 3) */
+  vec4 splat;          /* x: smallest Gaussian sigma (texels), y: adaptive (1), z: largest sigma */
+};

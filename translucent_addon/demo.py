@@ -158,3 +158,86 @@ def build_default_scene(scene: bpy.types.Scene | None = None) -> bpy.types.Scene
     """The bundled default scene: a back-lit marble Stanford bunny (15 cm) on a ground plane."""
     scene = build_scene("bunny_backlit", scene or bpy.data.scenes.new("Translucent Demo"))
     return scene
+
+
+def glass_material(name: str, ior: float) -> bpy.types.Material:
+    """A clear Glass BSDF (what Cycles renders for a caustics caster)."""
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    tree = mat.node_tree
+    tree.nodes.clear()
+    glass = tree.nodes.new("ShaderNodeBsdfGlass")
+    glass.inputs["IOR"].default_value = ior
+    glass.inputs["Roughness"].default_value = 0.0
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(glass.outputs["BSDF"], out.inputs["Surface"])
+    mat.diffuse_color = (0.9, 0.95, 1.0, 0.3)
+    return mat
+
+
+def build_caustics_scene(scene: bpy.types.Scene | None = None, caster: str = "sphere", light: str = "POINT",
+                         ior: float = 1.5) -> bpy.types.Scene:
+    """A glass caster (a 5 cm radius ball 10 cm over the floor, or the bunny) over a white floor under
+    one small light straight above: the caustics scene of the bench (Shah Fig. 5.6, 5.9). Cycles' shadow
+    caustics (MNEE) are switched on for the same objects, so that "Compare with Cycles" sees caustics."""
+    scene = scene or bpy.data.scenes.new("Translucent Caustics")
+    coll = scene.collection
+    if caster == "sphere":
+        me = bpy.data.meshes.new("Glass ball")
+        ob = bpy.data.objects.new("Glass ball", me)
+        import bmesh
+
+        bm = bmesh.new()
+        bmesh.ops.create_uvsphere(bm, u_segments=96, v_segments=48, radius=0.05)
+        bm.to_mesh(me)
+        bm.free()
+        ob.location = (0.0, 0.0, 0.1)
+    else:
+        ob = bpy.data.objects.new("Glass bunny", bundled_mesh("bunny"))
+        ob.rotation_euler = (math.pi / 2, 0.0, 0.0)
+        extent = np.ptp(np.array([Vector(c) for c in ob.bound_box]), axis=0).max()
+        ob.scale = (0.1 / extent,) * 3
+        corners = np.array([ob.matrix_basis @ Vector(c) for c in ob.bound_box])
+        ob.location = (-corners[:, 0].mean(), -corners[:, 1].mean(), 0.05 - corners[:, 2].min())
+    ob.data.shade_smooth()
+    ob.data.materials.append(glass_material("Caustic glass", ior))
+    coll.objects.link(ob)
+    t = ob.translucent
+    t.mm_per_unit = 1000.0
+    t.caustics_caster = "REFRACTIVE"
+    t.caustics_ior = ior
+    ob.cycles.is_caustics_caster = True
+
+    floor = bpy.data.objects.new("Floor", bpy.data.meshes.new("Floor"))
+    g = 0.2
+    floor.data.from_pydata([(-g, -g, 0), (g, -g, 0), (g, g, 0), (-g, g, 0)], [], [(0, 1, 2, 3)])
+    floor.data.materials.append(_material("Floor", (0.8, 0.8, 0.8)))
+    coll.objects.link(floor)
+    floor.cycles.is_caustics_receiver = True
+
+    if light == "SUN":
+        lamp = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+        lamp.data.energy = 3.0
+        lamp.data.angle = math.radians(0.5)
+        lamp.location = (0.0, 0.0, 0.5)
+    else:
+        lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+        lamp.data.energy = 10.0
+        lamp.data.shadow_soft_size = 0.002
+        lamp.location = (0.0, 0.0, 0.5)
+    lamp.data.cycles.is_caustics_light = True
+    _aim(lamp, Vector((0.0, 0.0, 0.0)))
+    coll.objects.link(lamp)
+
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = 50
+    cam.location = (0.0, -0.3, 0.3)
+    _aim(cam, Vector((0.0, 0.0, 0.0)))
+    coll.objects.link(cam)
+    scene.camera = cam
+    uniform_world(scene, (0.0, 0.0, 0.0), "Dark")
+    scene.render.engine = "TRANSLUCENT_RT"
+    scene.render.resolution_x = scene.render.resolution_y = 512
+    scene.render.resolution_percentage = 100
+    return scene

@@ -137,6 +137,49 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
                     "5 to 10 there); a ray that reaches it exits early at the last surface point it saw",
         min=1, max=256, default=32,
     )
+    caustics_caster: bpy.props.EnumProperty(
+        name="Caustics",
+        description="Throw caustics onto the other objects (Shah ch. 5): every light with caustics on is "
+                    "refracted or mirrored by this object; it still casts its shadow",
+        items=(("NONE", "None", "Not a caustics caster (other casters' caustics land on it)"),
+               ("REFRACTIVE", "Refractive", "Glass, water: light refracts through the surface"),
+               ("REFLECTIVE", "Reflective", "Metal: light is mirrored off the surface")),
+        default="NONE",
+    )
+    caustics_ior: bpy.props.FloatProperty(
+        name="Caustics IOR", description="Index of refraction of a refractive caster", min=1.0, max=3.0,
+        default=1.5,
+    )
+    caustics_surfaces: bpy.props.EnumProperty(
+        name="Surfaces",
+        description="Refraction at one surface (a water surface over the receivers) or at two (a solid: in "
+                    "and out, through the back faces)",
+        items=(("ONE", "One", "One refraction: the light stays in the medium down to the receiver"),
+               ("TWO", "Two", "In through the front and out through the back faces (Wyman 2005)")),
+        default="TWO",
+    )
+    caustics_color: bpy.props.FloatVectorProperty(
+        name="Caustics colour",
+        description="Refractive: the colour light takes after travelling Colour distance through the medium "
+                    "(absorption, Shah Eq. 5.7); reflective: the mirror's reflectance",
+        subtype="COLOR", size=3, min=0.0, max=1.0, default=(1.0, 1.0, 1.0),
+    )
+    caustics_distance: bpy.props.FloatProperty(
+        name="Colour distance (mm)", description="Distance through the medium at which light has the caustics "
+                                                 "colour, in mm", min=1e-3, soft_max=1000.0, default=50.0,
+    )
+    caustics_dispersion: bpy.props.FloatProperty(
+        name="Dispersion",
+        description="Spread of the index of refraction over the colour channels: red eta - d, green eta, blue "
+                    "eta + d (Shah Fig. 5.13); 0 uses one index",
+        min=0.0, max=0.2, default=0.0, precision=3,
+    )
+
+
+class TranslucentLightSettings(bpy.types.PropertyGroup):
+    caustics: bpy.props.BoolProperty(
+        name="Caustics", description="Caustics casters refract or mirror this light (Translucent)", default=True,
+    )
 
 
 class TranslucentSceneSettings(bpy.types.PropertyGroup):
@@ -193,6 +236,33 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",
         default=False, options={"HIDDEN"},
     )
+    caustics_grid: bpy.props.IntProperty(
+        name="Caustics grid",
+        description="Vertex grid per caster and light, per side (Shah used 128: 64 leaves gaps between fixed "
+                    "splats, Fig. 5.11)", min=8, max=1024, default=128,
+    )
+    caustics_iterations: bpy.props.IntProperty(
+        name="Iterations", description="Look-ups of the intersection estimate (Shah 5.3.4: one suffices for "
+                                       "flat receivers, about five converge on rugged ones)",
+        min=1, max=16, default=2,
+    )
+    caustics_guard: bpy.props.BoolProperty(
+        name="Oscillation guard", description="Bisect once two estimates bracket the intersection (Shah 5.3.4)",
+        default=True,
+    )
+    caustics_map: bpy.props.IntProperty(
+        name="Caustic map", description="Texels per face of the caustic and receiver maps", min=64, max=4096,
+        default=1024,
+    )
+    caustics_splat: bpy.props.FloatProperty(
+        name="Splat width", description="Gaussian splat sigma in caustic-map texels (the smallest one with "
+                                        "adaptive splats)", min=0.5, max=16.0, default=1.0,
+    )
+    caustics_adaptive: bpy.props.BoolProperty(
+        name="Adaptive splats", description="Widen each splat to the spacing of its neighbours' landing points: "
+                                            "no gaps at coarse grids, sharp where light converges",
+        default=True,
+    )
     overlay_other_engines: bpy.props.BoolProperty(
         name="Draw in other engines",
         description="Draw objects with a translucency method over the viewport of other render engines",
@@ -200,14 +270,16 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     )
 
 
-classes = (TranslucentObjectSettings, TranslucentSceneSettings)
+classes = (TranslucentObjectSettings, TranslucentLightSettings, TranslucentSceneSettings)
 
 
 def register_pointers() -> None:
     bpy.types.Object.translucent = bpy.props.PointerProperty(type=TranslucentObjectSettings)
     bpy.types.Scene.translucent = bpy.props.PointerProperty(type=TranslucentSceneSettings)
+    bpy.types.Light.translucent = bpy.props.PointerProperty(type=TranslucentLightSettings)
 
 
 def unregister_pointers() -> None:
+    del bpy.types.Light.translucent
     del bpy.types.Scene.translucent
     del bpy.types.Object.translucent

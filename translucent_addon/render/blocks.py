@@ -126,3 +126,22 @@ def light_block(e: Emitter, faces: np.ndarray, origin, texels: int, radius: floa
     data[108:111] = (e.cos_half_angle, e.spot_smooth, 1.0 if e.cosine_lobe else 0.0)
     data[112:116] = (texels, radius, normal_offset_texels, 1.0 if shadows else 0.0)
     return data.tobytes()
+
+
+CAUSTIC_FLOATS = 16 + 5 * 4
+
+
+def caustic_block(grid_view_proj, grid_size: int, half_extent: float, caster, settings) -> bytes:
+    """CausticData (std140): the caster's grid projection and optics, the estimate and splat settings.
+    ``caster``: a scene_data.Caster; ``settings``: a scene_data.CausticSettings."""
+    data = np.zeros(CAUSTIC_FLOATS, np.float32)
+    data[0:16] = _mat(grid_view_proj)
+    surfaces = 0 if caster.mode == "REFLECTIVE" else int(caster.surfaces)
+    data[16:20] = (grid_size, half_extent, surfaces, caster.eta)
+    data[20:23] = caster.sigma_a
+    data[23] = caster.dispersion
+    data[24:27] = caster.tint
+    channels = 3 if (caster.dispersion > 0 and surfaces > 0) else 1
+    data[28:32] = (settings.iterations, 1.0 if settings.guard else 0.0, settings.texels, channels)
+    data[32:35] = (settings.splat_sigma, 1.0 if settings.adaptive else 0.0, settings.splat_sigma_max)
+    return data.tobytes()

@@ -5,6 +5,7 @@ the evaluated depsgraph (modifiers applied), instances included.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 
 import numpy as np
@@ -14,7 +15,8 @@ from ..bake import store as bake_store
 from ..bake.inputs import bake_status
 from .lights import emitters_from_light
 from ..physics.lut import BLUR_MIN
-from .scene_data import BakeHandle, CameraView, Environment, FrameInputs, Medium, MeshInstance
+from .scene_data import (BakeHandle, CameraView, Caster, CausticSettings, Environment, FrameInputs, Medium,
+                         MeshInstance)
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -164,6 +166,25 @@ def paint_arrays(ob, mesh, tri_loops, loop_vert):
     return paint, tint
 
 
+def caster_settings(s) -> Caster | None:
+    """The caustics caster of an object's settings (``Object.translucent``), or None."""
+    if s.caustics_caster == "NONE":
+        return None
+    color = np.clip(np.asarray(s.caustics_color, np.float64), 1e-6, 1.0)
+    if s.caustics_caster == "REFLECTIVE":
+        return Caster("REFLECTIVE", float(s.caustics_ior), 0, (0.0, 0.0, 0.0), 0.0, tuple(color))
+    # Absorption K_a per scene unit from the colour reached after caustics_distance mm (Eq. 5.7).
+    sigma_a = -np.log(color) / float(s.caustics_distance) * float(s.mm_per_unit)
+    return Caster("REFRACTIVE", float(s.caustics_ior), 1 if s.caustics_surfaces == "ONE" else 2,
+                  tuple(float(x) for x in sigma_a), float(s.caustics_dispersion))
+
+
+def caustic_settings(s) -> CausticSettings:
+    return CausticSettings(grid=int(s.caustics_grid), iterations=int(s.caustics_iterations),
+                           guard=bool(s.caustics_guard), texels=int(s.caustics_map),
+                           splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
+
+
 def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
     mesh = ob.to_mesh()
     try:
@@ -218,6 +239,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             paint=paint,
             tint=tint,
             bake=handle,
+            caster=caster_settings(original.translucent),
         )
     finally:
         ob.to_mesh_clear()
@@ -241,7 +263,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 meshes.append(m)
         elif ob.type == "LIGHT":
             light = ob.data
-            emitters += emitters_from_light(
+            lit = emitters_from_light(
                 ob.original.name,
                 light.type,
                 np.array(inst.matrix_world),
@@ -254,6 +276,9 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 size_y=getattr(light, "size_y", 0.0),
                 area_samples=settings.area_light_samples,
             )
+            if not light.translucent.caustics:
+                lit = [dataclasses.replace(x, caustics=False) for x in lit]
+            emitters += lit
     if not emitters and meshes:
         warnings.append("the scene has no lights: objects are lit by the world colour only")
     environment = world_environment(scene)
@@ -265,6 +290,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
         environment=environment,
         film_transparent=scene.render.film_transparent,
         shadow_resolution=settings.shadow_resolution,
+        caustics=caustic_settings(settings),
         warnings=warnings,
     )
 

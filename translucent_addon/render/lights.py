@@ -37,6 +37,7 @@ class Emitter:
     spot_smooth: float = 0.0  # width of the spot blend, in cosine units
     cosine_lobe: bool = False  # area-light sample: intensity scaled by cos to the axis
     source: str = ""  # the Blender light it came from
+    caustics: bool = True  # casters throw caustics of this emitter's light
 
 
 def _normalized(v) -> np.ndarray:

@@ -14,6 +14,8 @@ into the bound framebuffer). Passes:
    objects over the base; QUADGRAPH (``methods/quadgraph.py``) lights q(n_s) at its surface nodes in
    the same passes, relaxes the diffusion equation coarse to fine and draws its objects over the
    base; GEOCUBE (``methods/geocube.py``) draws its objects' refraction of the world over the base;
+   caustics (``caustics.py``, Shah ch. 5) follow each emitter's lighting pass and add the light
+   that casters refract or mirror onto the receivers;
    an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
@@ -22,7 +24,7 @@ import time
 
 import numpy as np
 
-from . import blocks, shaders
+from . import blocks, caustics, shaders
 from .methods import geocube, image_space, quadgraph, texture_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
@@ -127,6 +129,7 @@ class Pipeline:
         textured = texture_space.prepare(frame)
         graphs = quadgraph.prepare(frame)
         glass = geocube.prepare(frame)
+        caustic_plan = caustics.prepare(frame)
         slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
@@ -151,7 +154,7 @@ class Pipeline:
             quadgraph.illuminate(graphs, objects, frame_ubo, placeholder, atlas[1], mode=0)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
-        t_shadow = t_light = 0.0
+        t_shadow = t_light = t_caustics = 0.0
         for e in frame.emitters:
             t1 = time.perf_counter()
             faces, origin = blocks.shadow_projection(e, centre, radius)
@@ -170,10 +173,16 @@ class Pipeline:
                 texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1)
             if graphs:
                 quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1)
+            t3 = time.perf_counter()
+            if caustic_plan is not None and e.caustics:
+                caustics.draw_emitter(caustic_plan, frame, e, light_ubo, batches, objects, frame_ubo, fb, self)
             t_shadow += t2 - t1
-            t_light += time.perf_counter() - t2
+            t_light += t3 - t2
+            t_caustics += time.perf_counter() - t3
         timings["shadow_maps"] = t_shadow
         timings["lights"] = t_light
+        if caustic_plan is not None:
+            timings["caustics"] = t_caustics
         if subsurface.plan is not None:
             t1 = time.perf_counter()
             image_space.draw(subsurface, frame, batches, objects, frame_ubo, fb, self)

@@ -33,6 +33,32 @@ class Medium:
     max_steps: int = 32  # GEOCUBE: cap on the exit search's steps
 
 
+@dataclasses.dataclass(frozen=True)
+class Caster:
+    """A caustics caster (Shah ch. 5): it refracts (through one or two surfaces) or mirrors the light of
+    every emitter with caustics on, onto every other mesh."""
+
+    mode: str = "REFRACTIVE"  # or "REFLECTIVE"
+    eta: float = 1.5
+    surfaces: int = 2  # refracting surfaces: 1 (a water surface), 2 (a solid, Wyman 2005)
+    sigma_a: tuple = (0.0, 0.0, 0.0)  # absorption K_a per scene unit (Shah Eq. 5.7)
+    dispersion: float = 0.0  # eta - s, eta, eta + s for red, green, blue; 0: one index
+    tint: tuple = (1.0, 1.0, 1.0)  # reflectance of a reflective caster
+
+
+@dataclasses.dataclass(frozen=True)
+class CausticSettings:
+    """Scene-wide caustics mapping settings (Shah 5.3.3-5.3.6)."""
+
+    grid: int = 128  # vertex grid per caster, texels per side
+    iterations: int = 2  # look-ups of the intersection estimate
+    guard: bool = True  # oscillation guard: bisection once the estimates bracket the root
+    texels: int = 1024  # caustic and receiver-position map, texels per face
+    splat_sigma: float = 1.0  # Gaussian splat width, texels (the smallest with adaptive splats)
+    adaptive: bool = True  # widen each splat to the spacing of its neighbours' landing points
+    splat_sigma_max: float = 16.0
+
+
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
 # (blur), glow factor; the RGB tint is a separate array. Neutral: (1, 1, 1, 0) and tint (1, 1, 1).
 NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
@@ -62,6 +88,7 @@ class MeshInstance:
     paint: np.ndarray | None = None  # (3T, 4) float32: mask, M_d, glow, 0
     tint: np.ndarray | None = None  # (3T, 3) float32
     bake: object = None  # BakeHandle of an up-to-date bake (methods that bake), else None
+    caster: Caster | None = None  # a caustics caster, else a receiver
 
     def __post_init__(self):
         n = len(self.positions)
@@ -134,6 +161,7 @@ class FrameInputs:
     film_transparent: bool = False
     environment: Environment | None = None  # None: the uniform world_color in every direction
     shadow_resolution: int = 1024  # texels per shadow-map face
+    caustics: CausticSettings = dataclasses.field(default_factory=CausticSettings)
     warnings: list[str] = dataclasses.field(default_factory=list)
     _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
