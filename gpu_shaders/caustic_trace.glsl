@@ -42,7 +42,9 @@ bool positions_lookup(int which, vec3 p, out vec3 y, out ivec2 texel)
 
 /* Shah Eq. 5.1-5.4 with the oscillation guard of 5.3.4 (estimate_intersection in the twin):
  * d_0 = |y(v) - v|, d_{k+1} = |y(v + d_k r) - v|; once g(d) = d_{k+1} - d_k has changed sign the
- * two estimates bracket the root, and a step leaving the bracket or not shrinking |g| bisects. */
+ * two estimates bracket the root, and a step leaving the bracket or not shrinking |g| bisects.
+ * Secant steps (estimate.y >= 1.5) replace d_{k+1}, after the first, by the root of the line
+ * through the last two (d, g). */
 bool estimate_intersection(int which, vec3 v, vec3 r, out vec3 y, out ivec2 texel)
 {
   if (!positions_lookup(which, v, y, texel)) {
@@ -50,7 +52,9 @@ bool estimate_intersection(int which, vec3 v, vec3 r, out vec3 y, out ivec2 texe
   }
   float d = length(y - v);
   float lo = -1.0e30, hi = 1.0e30, g_prev = 1.0e30;
+  float d_last = 0.0, g_last = 0.0;
   bool guard = caustic.estimate.y > 0.5;
+  bool secant = caustic.estimate.y > 1.5;
   int iterations = max(int(caustic.estimate.x + 0.5), 1);
   for (int k = 0; k < iterations; k++) {
     vec3 y_k;
@@ -62,6 +66,14 @@ bool estimate_intersection(int which, vec3 v, vec3 r, out vec3 y, out ivec2 texe
     y = y_k;
     float d_new = length(y_k - v);
     float g = d_new - d;
+    if (secant) {
+      float slope = (k > 0 && d != d_last) ? (g - g_last) / (d - d_last) : 0.0;
+      if (abs(slope) > 1.0e-12) {
+        d_new = d - g / slope;
+      }
+      d_last = d;
+      g_last = g;
+    }
     if (guard) {
       if (g > 0.0) {
         lo = max(lo, d);

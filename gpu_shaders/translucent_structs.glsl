@@ -59,6 +59,6 @@ struct CausticData {
                         * z: 0 reflective, 1 or 2 refracting surfaces, w: eta */
   vec4 absorption;     /* rgb: K_a per scene unit (Shah Eq. 5.7), w: dispersion (eta spread per channel) */
   vec4 tint;           /* rgb: mirror reflectance of a reflective caster */
-  vec4 estimate;       /* x: iterations, y: oscillation guard, z: atlas texels per face, w: channels (1, 3) */
+  vec4 estimate;       /* x: iterations, y: 0 plain, 1 guard, 2 guard + secant, z: atlas texels per face, w: channels (1, 3) */
   vec4 splat;          /* x: smallest Gaussian sigma (texels), y: adaptive (1), z: largest sigma */
 };

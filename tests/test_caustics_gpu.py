@@ -35,7 +35,7 @@ def _twin(tr, cap, caster_name="Glass ball"):
     receivers = cm.atlas_lookup(e, faces, cap["caustic_receivers"][0], N)
     return cm.trace_grid(e, grid, mesh.caster, cap["caustic_front_position"][0], cap["caustic_front_normal"][0],
                          cap["caustic_back_position"][0], cap["caustic_back_normal"][0], receivers,
-                         frame.caustics.iterations, frame.caustics.guard), grid
+                         frame.caustics.iterations, frame.caustics.guard, frame.caustics.secant), grid
 
 
 def test_smoke(tr, scene):
@@ -61,3 +61,14 @@ def test_smoke(tr, scene):
                      caster=dataclasses.asdict(next(m.caster for m in frame.meshes if m.caster)), **{k: cap[k][0] for k in cap if k.startswith("caustic_")}),
                 open("/tmp/cx/cap.pkl", "wb"))
     assert np.isfinite(img).all()
+
+
+def test_explore(tr, scene):
+    _scene(tr, scene)
+    for est in ("SHAH", "SECANT"):
+        for it in (1, 2, 3, 5, 8):
+            scene.translucent.caustics_estimator = est
+            scene.translucent.caustics_iterations = it
+            render(scene, 32, 32)
+            cap = _capture(tr)
+            print(est, it, cap["caustic_trace_flux"][0][..., :3].sum() / 3 / 0.032703, (cap["caustic_landing"][0][..., 3] > .5).sum())

@@ -242,13 +242,22 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
                     "splats, Fig. 5.11)", min=8, max=1024, default=128,
     )
     caustics_iterations: bpy.props.IntProperty(
-        name="Iterations", description="Look-ups of the intersection estimate (Shah 5.3.4: one suffices for "
-                                       "flat receivers, about five converge on rugged ones)",
-        min=1, max=16, default=2,
+        name="Iterations", description="Look-ups of the intersection estimate, through the caster's back faces "
+                                       "and to the receivers (Shah 5.3.4: one for a flat floor, about five on "
+                                       "rugged receivers; light leaving a ball near its rim needs 4 with Secant)",
+        min=1, max=16, default=4,
     )
     caustics_guard: bpy.props.BoolProperty(
         name="Oscillation guard", description="Bisect once two estimates bracket the intersection (Shah 5.3.4)",
         default=True,
+    )
+    caustics_estimator: bpy.props.EnumProperty(
+        name="Estimator",
+        description="Root finding of the intersection estimate (Shah 5.3.4)",
+        items=(("SECANT", "Secant", "Shah's first step, then secant steps through the last two estimates: "
+                                    "converges in fewer look-ups where rays cross the surface obliquely"),
+               ("SHAH", "Shah", "Shah's fixed-point step d = |y(v + d r) - v| every time")),
+        default="SECANT",
     )
     caustics_map: bpy.props.IntProperty(
         name="Caustic map", description="Texels per face of the caustic and receiver maps", min=64, max=4096,

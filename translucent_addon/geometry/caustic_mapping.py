@@ -41,7 +41,8 @@ def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
     return d - 2.0 * np.sum(d * n, axis=-1, keepdims=True) * n
 
 
-def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int, guard: bool = True):
+def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int, guard: bool = True,
+                          secant: bool = False):
     """Where rays v + d r meet the receivers, by Shah's estimate (Eq. 5.1-5.3).
 
     ``lookup(points) -> (positions, valid)`` returns the receiver point the light sees in the
@@ -53,7 +54,9 @@ def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int,
     Oscillation guard (Shah 5.3.4: "detected by storing the last two estimates ... remedied by
     switching to ... bisection"): once g has changed sign between two estimates they bracket the
     root; a step that leaves the bracket or does not shrink |g| is replaced by the bracket's
-    midpoint. Returns (points y_k, valid, d, query) after ``iterations`` look-ups (``query``: the
+    midpoint. ``secant``: after the first step, the root of the line through the last two (d, g)
+    pairs (the Secant method the paper names as an alternative, same one look-up per step).
+    Returns (points y_k, valid, d, query) after ``iterations`` look-ups (``query``: the
     point of the last look-up); a ray whose look-up finds no receiver is invalid (its splat is lost,
     as in the paper).
     """
@@ -64,6 +67,8 @@ def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int,
     lo = np.full(len(v), -np.inf)  # largest d with g > 0
     hi = np.full(len(v), np.inf)  # smallest d with g < 0
     g_prev = np.full(len(v), np.inf)
+    d_prev = np.full(len(v), np.nan)
+    g_signed = np.full(len(v), np.nan)
     query = v
     for _ in range(max(int(iterations), 1)):
         query = np.where(valid[:, None], v + d[:, None] * r, query)
@@ -72,12 +77,19 @@ def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int,
         d_new = np.linalg.norm(y_k - v, axis=-1)
         g = d_new - d
         y = np.where(ok[:, None], y_k, y)
+        if secant:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                slope = (g - g_signed) / (d - d_prev)
+            use = np.isfinite(slope) & (np.abs(slope) > 1e-12)
+            d_new = np.where(use, d - g / np.where(use, slope, 1.0), d_new)
+            d_prev, g_signed = d, g
         if guard:
             lo = np.where(g > 0, np.maximum(lo, d), lo)
             hi = np.where(g < 0, np.minimum(hi, d), hi)
             bracketed = np.isfinite(lo) & np.isfinite(hi)
             bad = bracketed & ((d_new <= lo) | (d_new >= hi) | (np.abs(g) >= np.abs(g_prev)))
-            d_new = np.where(bad, 0.5 * (lo + hi), d_new)
+            mid = 0.5 * (np.where(bracketed, lo, 0.0) + np.where(bracketed, hi, 0.0))
+            d_new = np.where(bad, mid, d_new)
         g_prev = np.abs(g)
         d = np.where(ok, d_new, d)
     return y, valid, d, query
@@ -212,7 +224,7 @@ def grid_lookup(grid: CasterGrid, back_position: np.ndarray):
 
 
 def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_normal, back_position, back_normal,
-               receivers, iterations: int, guard: bool = True):
+               receivers, iterations: int, guard: bool = True, secant: bool = False):
     """The NumPy twin of ``caustic_trace.glsl`` (one channel, no dispersion): per grid texel the landing
     point (size, size, 3), its flux (size, size, 3) and validity (size, size)."""
     from ..physics.fresnel import fresnel_dielectric
@@ -240,7 +252,8 @@ def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_norma
         r, _ = refract(d, n, 1.0 / caster.eta)
         if caster.surfaces == 2:
             back = grid_lookup(grid, back_position)
-            exit_p, ok, _, query = estimate_intersection(v, r, lambda p: back(p)[:2], iterations, guard)
+            exit_p, ok, _, query = estimate_intersection(v, r, lambda p: back(p)[:2], iterations, guard or secant,
+                                                          secant)
             ij = back(query)[2]
             nb = back_normal[ij[:, 1], ij[:, 0], :3].astype(np.float64)
             nb /= np.maximum(np.linalg.norm(nb, axis=1, keepdims=True), 1e-12)
@@ -251,7 +264,7 @@ def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_norma
             flux *= T2[:, None] * np.exp(-np.outer(chord, np.asarray(caster.sigma_a)))
             valid &= ok & ok2
             v, r = exit_p, r2
-    y, ok, _, _ = estimate_intersection(v, r, receivers, iterations, guard)
+    y, ok, _, _ = estimate_intersection(v, r, receivers, iterations, guard or secant, secant)
     valid &= ok
     if caster.mode != "REFLECTIVE" and caster.surfaces == 1:
         flux *= np.exp(-np.outer(np.linalg.norm(y - v, axis=1), np.asarray(caster.sigma_a)))

@@ -142,6 +142,7 @@ def caustic_block(grid_view_proj, grid_size: int, half_extent: float, caster, se
     data[23] = caster.dispersion
     data[24:27] = caster.tint
     channels = 3 if (caster.dispersion > 0 and surfaces > 0) else 1
-    data[28:32] = (settings.iterations, 1.0 if settings.guard else 0.0, settings.texels, channels)
+    estimator = 2.0 if settings.secant else (1.0 if settings.guard else 0.0)  # secant steps keep the guard
+    data[28:32] = (settings.iterations, estimator, settings.texels, channels)
     data[32:35] = (settings.splat_sigma, 1.0 if settings.adaptive else 0.0, settings.splat_sigma_max)
     return data.tobytes()

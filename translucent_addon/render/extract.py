@@ -181,7 +181,8 @@ def caster_settings(s) -> Caster | None:
 
 def caustic_settings(s) -> CausticSettings:
     return CausticSettings(grid=int(s.caustics_grid), iterations=int(s.caustics_iterations),
-                           guard=bool(s.caustics_guard), texels=int(s.caustics_map),
+                           guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
+                           texels=int(s.caustics_map),
                            splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
 
 

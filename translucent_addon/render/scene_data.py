@@ -51,8 +51,9 @@ class CausticSettings:
     """Scene-wide caustics mapping settings (Shah 5.3.3-5.3.6)."""
 
     grid: int = 128  # vertex grid per caster, texels per side
-    iterations: int = 2  # look-ups of the intersection estimate
+    iterations: int = 4  # look-ups of the intersection estimate
     guard: bool = True  # oscillation guard: bisection once the estimates bracket the root
+    secant: bool = True  # secant steps after the first (with the guard); False: Shah's iteration only
     texels: int = 1024  # caustic and receiver-position map, texels per face
     splat_sigma: float = 1.0  # Gaussian splat width, texels (the smallest with adaptive splats)
     adaptive: bool = True  # widen each splat to the spacing of its neighbours' landing points
