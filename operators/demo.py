@@ -1,8 +1,8 @@
-"""translucent.add_demo_scene: the bundled back-lit marble bunny, in a new scene."""
+"""translucent.add_demo_scene: a bundled scene (the back-lit marble bunny, or caustics), in a new scene."""
 
 import bpy
 
-from ..translucent_addon.demo import build_default_scene
+from ..translucent_addon.demo import build_caustics_scene, build_default_scene
 
 
 class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
@@ -12,8 +12,19 @@ class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
     bl_label = "Add Demo Scene"
     bl_options = {"REGISTER", "UNDO"}
 
+    kind: bpy.props.EnumProperty(
+        name="Scene",
+        items=(("BUNNY", "Marble bunny", "A back-lit marble Stanford bunny on a ground plane"),
+               ("CAUSTICS", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
+               ("CAUSTICS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics")),
+        default="BUNNY",
+    )
+
     def execute(self, context):
-        scene = build_default_scene()
+        if self.kind == "BUNNY":
+            scene = build_default_scene()
+        else:
+            scene = build_caustics_scene(caster="bunny" if self.kind == "CAUSTICS_BUNNY" else "sphere")
         if context.window is not None:
             context.window.scene = scene
         self.report({"INFO"}, f"Added scene '{scene.name}'")

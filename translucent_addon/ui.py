@@ -24,6 +24,9 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         ob = context.active_object
+        if ob is not None and ob.type == "LIGHT":
+            layout.prop(ob.data.translucent, "caustics")
+            return
         if ob is None or ob.type != "MESH":
             layout.label(text="Select a mesh object", icon="INFO")
             return
@@ -66,6 +69,18 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("translucent.bake", icon="RENDER_STILL")
         row.operator("translucent.clear_bake", icon="TRASH")
+        box = layout.box()
+        box.prop(s, "caustics_caster")
+        if s.caustics_caster != "NONE":
+            col = box.column(align=True)
+            if s.caustics_caster == "REFRACTIVE":
+                col.prop(s, "caustics_ior")
+                col.prop(s, "caustics_surfaces")
+                col.prop(s, "caustics_dispersion")
+                col.prop(s, "caustics_color")
+                col.prop(s, "caustics_distance")
+            else:
+                col.prop(s, "caustics_color", text="Reflectance")
         if s.method == "IMAGE_SPACE":
             box = layout.box()
             box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
@@ -121,8 +136,19 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.label(text="QuadGraph solver")
         col.prop(s, "quadgraph_tolerance")
         col.prop(s, "quadgraph_iterations")
+        col = layout.column(align=True)
+        col.label(text="Caustics (Shah ch. 5)")
+        col.prop(s, "caustics_grid")
+        col.prop(s, "caustics_estimator")
+        col.prop(s, "caustics_iterations")
+        col.prop(s, "caustics_guard")
+        col.prop(s, "caustics_map")
+        col.prop(s, "caustics_splat")
+        col.prop(s, "caustics_adaptive")
         layout.prop(s, "overlay_other_engines")
-        layout.operator("translucent.add_demo_scene", icon="SCENE_DATA")
+        row = layout.row(align=True)
+        row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
+        row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "CAUSTICS"
 
 
 classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene)
