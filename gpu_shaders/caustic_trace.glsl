@@ -123,6 +123,7 @@ void main()
   if (dot(n, d) > 0.0) {
     n = -n;
   }
+  flux *= visibility(v, n); /* another object between the light and the caster (the shadow map) */
   float eta = caustic.grid.w;
   if (caustic.estimate.w > 1.5) { /* dispersion: this tile carries one channel at its own index */
     flux *= vec3(channel == 0, channel == 1, channel == 2);
@@ -161,6 +162,7 @@ void main()
   if (!estimate_intersection(1, v, r, y, landing_texel)) {
     return;
   }
+  y = v + length(y - v) * r; /* on the ray at the estimated distance, not snapped to the map's texel */
   if (surfaces == 1) { /* one surface (water): attenuated down to the receiver (Shah 5.3.5) */
     flux *= exp(-caustic.absorption.rgb * length(y - v));
   }

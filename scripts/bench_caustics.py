@@ -10,9 +10,10 @@
    the exact caustic (photons through the analytic ball, Fresnel in and out) and against Cycles' shadow
    caustics (MNEE, on minus off); Cycles at several sample counts and EEVEE (no caustics) timed in the
    same run. Relative RMSE over the floor around the shadow; centroid offset of the caustic on the floor.
-3. The glass bunny (double refraction through a complex caster) against Cycles, and the failure cases:
-   a mirror ball whose caustic falls beside it, caught by the cube map (a spot light's frustum would
-   miss it), and a shelf that hides part of the floor from the lamp (no caustic reaches it).
+3. The glass bunny (double refraction through a complex caster) against Cycles; a mirror ball whose
+   caustic falls beside and behind it, caught by the point light's cube map; a shelf over half of the
+   ball (no caustic from the blocked half); and the failure case: a receiver hidden from the light (the
+   underside of a shelf that a mirror ball lights from below) gets no caustic.
 Writes bench/results/caustics/ (summary.md, results.json, chart.png, images).
 """
 from __future__ import annotations
@@ -321,7 +322,7 @@ def scenes_phase(bpy, mod, args, out: Path) -> list[dict]:
     rows.append({"case": "mirror ball, caustic beside it (cube map)",
                  "caustic_sum": float(np.clip(on - off, 0, None)[..., :3].sum())})
 
-    # A shelf between the lamp and part of the floor: the floor under it is hidden from the light.
+    # A shelf over half of the ball: the light it blocks makes no caustic (the shadow map test in the trace).
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = demo.build_caustics_scene(bpy.context.scene)
     shelf = bpy.data.objects.new("Shelf", bpy.data.meshes.new("Shelf"))
@@ -331,8 +332,37 @@ def scenes_phase(bpy, mod, args, out: Path) -> list[dict]:
     bpy.data.objects["Lamp"].location = (-0.02, 0.0, 0.5)
     with runner.engine_setup(scene, "TRANSLUCENT_RT"):
         img, _ = runner.render_pixels(scene, w, h)
+    report.save_image_png(out / "occluded_caster.png", img)
+    rows.append({"case": "shelf over half of the ball: no caustic from the blocked half (image)"})
+
+    # Failure: a receiver hidden from the light. A mirror ball throws light up under a shelf that the lamp
+    # sees only from above; the underside gets nothing (Cycles: a bright reflected caustic there).
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = demo.build_caustics_scene(bpy.context.scene)
+    ball = bpy.data.objects["Glass ball"]
+    ball.translucent.caustics_caster = "REFLECTIVE"
+    ball.translucent.caustics_color = (0.9, 0.9, 0.9)
+    ball.location = (0.0, 0.0, 0.05)
+    mirror = bpy.data.materials.new("Mirror")
+    mirror.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0
+    mirror.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.0
+    ball.data.materials[0] = mirror
+    shelf = bpy.data.objects.new("Shelf", bpy.data.meshes.new("Shelf"))
+    shelf.data.from_pydata([(0.04, -0.2, 0.12), (0.2, -0.2, 0.12), (0.2, 0.2, 0.12), (0.04, 0.2, 0.12)], [],
+                           [(0, 1, 2, 3)])
+    scene.collection.objects.link(shelf)
+    bpy.data.objects["Lamp"].location = (-0.2, 0.0, 0.3)
+    cam = scene.camera
+    cam.location = (-0.05, -0.4, 0.06)
+    cam.rotation_euler = (np.radians(90), 0.0, 0.0)
+    with runner.engine_setup(scene, "TRANSLUCENT_RT"):
+        img, _ = runner.render_pixels(scene, w, h)
     report.save_image_png(out / "failure_hidden_receiver.png", img)
-    rows.append({"case": "shelf hides part of the floor from the lamp"})
+    ball.cycles.is_caustics_caster = False
+    with runner.engine_setup(scene, "CYCLES", **runner.cycles_options(args.cycles_samples[-1], 16)):
+        ref, _ = runner.render_pixels(scene, w, h)
+    report.save_image_png(out / "failure_hidden_receiver_cycles.png", ref)
+    rows.append({"case": "mirror ball under a shelf the lamp sees only from above: no caustic under it (images)"})
     return rows
 
 

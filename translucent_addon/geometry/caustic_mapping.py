@@ -225,8 +225,9 @@ def grid_lookup(grid: CasterGrid, back_position: np.ndarray):
 
 def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_normal, back_position, back_normal,
                receivers, iterations: int, guard: bool = True, secant: bool = False):
-    """The NumPy twin of ``caustic_trace.glsl`` (one channel, no dispersion): per grid texel the landing
-    point (size, size, 3), its flux (size, size, 3) and validity (size, size)."""
+    """The NumPy twin of ``caustic_trace.glsl`` (one channel, no dispersion, no occluder between the light
+    and the caster: the shader's shadow-map test is left out): per grid texel the landing point
+    (size, size, 3), its flux (size, size, 3) and validity (size, size)."""
     from ..physics.fresnel import fresnel_dielectric
 
     G = grid.size
@@ -266,6 +267,7 @@ def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_norma
             v, r = exit_p, r2
     y, ok, _, _ = estimate_intersection(v, r, receivers, iterations, guard or secant, secant)
     valid &= ok
+    y = v + np.linalg.norm(y - v, axis=1, keepdims=True) * r  # on the ray, not snapped to the map's texel
     if caster.mode != "REFLECTIVE" and caster.surfaces == 1:
         flux *= np.exp(-np.outer(np.linalg.norm(y - v, axis=1), np.asarray(caster.sigma_a)))
     return y.reshape(G, G, 3), np.where(valid[:, None], flux, 0.0).reshape(G, G, 3), valid.reshape(G, G)

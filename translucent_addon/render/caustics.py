@@ -83,8 +83,10 @@ def _capture(pipeline, name: str, fb, size, slot: int = 0) -> None:
         pipeline.capture.setdefault(name, []).append(read_pixels(fb, size[0], size[1], slot))
 
 
-def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects, frame_ubo, fb, pipeline) -> None:
-    """The caustics of every caster under one emitter, added to the bound target ``fb``."""
+def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects, frame_ubo, fb, pipeline,
+                 shadow_atlas) -> None:
+    """The caustics of every caster under one emitter, added to the bound target ``fb``; ``shadow_atlas``
+    (this emitter's, from the shadow pass) drops grid vertices that another object hides from the light."""
     import gpu
 
     from .pipeline import clear_target
@@ -159,6 +161,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
             trace_shader.uniform_sampler("back_position", maps[1][0])
             trace_shader.uniform_sampler("back_normal", maps[1][1])
             trace_shader.uniform_sampler("receiver_atlas", recv_tex)
+            trace_shader.uniform_sampler("shadow_atlas", shadow_atlas)
             screen_quad(pipeline, "caustic_trace").draw(trace_shader)
         _capture(pipeline, "caustic_landing", trace_fb, trace_size, 0)
         _capture(pipeline, "caustic_trace_flux", trace_fb, trace_size, 1)

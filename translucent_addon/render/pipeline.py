@@ -175,7 +175,8 @@ class Pipeline:
                 quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1)
             t3 = time.perf_counter()
             if caustic_plan is not None and e.caustics:
-                caustics.draw_emitter(caustic_plan, frame, e, light_ubo, batches, objects, frame_ubo, fb, self)
+                caustics.draw_emitter(caustic_plan, frame, e, light_ubo, batches, objects, frame_ubo, fb, self,
+                                      atlas[1])
             t_shadow += t2 - t1
             t_light += t3 - t2
             t_caustics += time.perf_counter() - t3

@@ -210,12 +210,12 @@ SPECS = {
     ),
     "caustic_trace": ShaderSpec(
         source="caustic_trace.glsl",
-        libraries=_LIGHT_LIBS + ("caustic_lookup.glsl",),
+        libraries=_SHADOW_LIBS + ("caustic_lookup.glsl",),
         vertex_in=(("VEC2", "corner"),),
         uniform_blocks=((2, "LightData", "light"), (4, "CausticData", "caustic")),
         samplers=((0, "FLOAT_2D", "front_position"), (1, "FLOAT_2D", "front_normal"),
                   (2, "FLOAT_2D", "back_position"), (3, "FLOAT_2D", "back_normal"),
-                  (4, "FLOAT_2D", "receiver_atlas")),
+                  (4, "FLOAT_2D", "receiver_atlas"), (5, "FLOAT_2D", "shadow_atlas")),
         fragment_out=((0, "VEC4", "out_landing"), (1, "VEC4", "out_flux")),
     ),
     "caustic_splat": ShaderSpec(
