@@ -33,6 +33,7 @@ bench: $(STAMP)
 	$(PY) scripts/bench.py
 	$(PY) scripts/bench_quadgraph.py
 	$(PY) scripts/bench_geocube.py
+	$(PY) scripts/bench_caustics.py
 
 clean:
 	rm -rf dist wheels out .pytest_cache

@@ -154,3 +154,21 @@ def test_dispersion_separates_the_channels(tr, scene):
     r_three = spread()
     print("dispersion spread", r_one, r_three)
     assert r_three[2] > r_three[1] * 1.02 and r_three[1] > r_three[0] * 1.02
+
+
+def test_an_open_refractive_caster_falls_back_to_one_surface_with_a_warning(tr, scene):
+    """Bad input (DESIGN.md 6): a single glass sheet set to refract through two surfaces has no back faces;
+    it is drawn with one surface and the frame says why. Its caustic is there and finite."""
+    _scene(tr, scene)
+    ball = bpy.data.objects["Glass ball"]
+    ball.translucent.caustics_caster = "NONE"
+    from blender_helpers import add_mesh
+
+    sheet = add_mesh(scene, "Sheet", [(-0.05, -0.05, 0.1), (0.05, -0.05, 0.1), (0.05, 0.05, 0.12),
+                                      (-0.05, 0.05, 0.12)], [(0, 1, 2, 3)])
+    sheet.translucent.caustics_caster = "REFRACTIVE"
+    img = render(scene, 32, 32)
+    cap = _capture(tr)
+    assert any("open mesh" in w and "Sheet" in w for w in cap["frame"].warnings), cap["frame"].warnings
+    assert np.isfinite(img).all()
+    assert cap["caustic_flux"][0][..., :3].sum() > 0

@@ -46,8 +46,32 @@ def bounding_sphere(mesh: MeshInstance) -> tuple[np.ndarray, float]:
     return centre, float(np.linalg.norm(p - centre, axis=1).max())
 
 
+_closed: dict[str, bool] = {}
+
+
+def is_closed(mesh: MeshInstance) -> bool:
+    """Whether the mesh (corners welded by position) is a closed manifold; cached per geometry key."""
+    closed = _closed.get(mesh.key)
+    if closed is None:
+        from ..geometry.mesh_checks import check_mesh
+
+        vertices, triangles = np.unique(mesh.positions, axis=0, return_inverse=True)
+        closed = _closed[mesh.key] = check_mesh(vertices, triangles.reshape(-1, 3)).closed_manifold
+        if len(_closed) > 256:
+            _closed.clear()
+    return closed
+
+
 def prepare(frame: FrameInputs) -> Plan | None:
-    casters = [(k, m, *bounding_sphere(m)) for k, m in enumerate(frame.meshes) if m.caster is not None]
+    casters = []
+    for k, m in enumerate(frame.meshes):
+        if m.caster is None:
+            continue
+        if m.caster.mode == "REFRACTIVE" and m.caster.surfaces == 2 and not is_closed(m):
+            frame.warnings.append(f"'{m.name}': an open mesh has no back faces to refract out of; its caustics "
+                                  "use one surface (set Surfaces to One, or close the mesh)")
+            m = dataclasses.replace(m, caster=dataclasses.replace(m.caster, surfaces=1))
+        casters.append((k, m, *bounding_sphere(m)))
     if not casters or not any(e.caustics for e in frame.emitters):
         return None
     receivers = [k for k, m in enumerate(frame.meshes) if m.caster is None]
