@@ -11,7 +11,7 @@ from conftest import ext_module  # noqa: E402
 
 OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT_clear_bake",
                "TRANSLUCENT_OT_add_demo_scene", "TRANSLUCENT_OT_compare_cycles", "TRANSLUCENT_OT_add_paint_layer", "VIEW3D_PT_translucent_object", "VIEW3D_PT_translucent_scene",
-               "TranslucentObjectSettings", "TranslucentSceneSettings")
+               "TranslucentObjectSettings", "TranslucentSceneSettings", "TranslucentLightSettings")
 _CLASSES = ()
 
 
@@ -27,6 +27,7 @@ def _footprint():
         "engine": _engine_selectable(),
         "object_prop": hasattr(T.Object, "translucent"),
         "scene_prop": hasattr(T.Scene, "translucent"),
+        "light_prop": hasattr(T.Light, "translucent"),
         "operators": "bake" in dir(bpy.ops.translucent),
         "draw_handler": bool(draw_handler and draw_handler.is_registered()),
         "compat_panels": len(compat) > 0,
@@ -58,7 +59,7 @@ def test_enable_disable_three_times_leaves_nothing(installed):
         bpy.ops.preferences.addon_disable(module=installed)
         off = _footprint()
         assert off == {"classes": [], "engine": False, "object_prop": False, "scene_prop": False,
-                       "operators": False, "draw_handler": False, "compat_panels": False}, off
+                       "light_prop": False, "operators": False, "draw_handler": False, "compat_panels": False}, off
         bpy.ops.preferences.addon_enable(module=installed)
         assert _footprint() == on
 
