@@ -347,9 +347,10 @@ def scenes_phase(bpy, mod, args, out: Path) -> list[dict]:
     mirror.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0
     mirror.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.0
     ball.data.materials[0] = mirror
-    shelf = bpy.data.objects.new("Shelf", bpy.data.meshes.new("Shelf"))
-    shelf.data.from_pydata([(0.04, -0.2, 0.12), (0.2, -0.2, 0.12), (0.2, 0.2, 0.12), (0.04, 0.2, 0.12)], [],
-                           [(0, 1, 2, 3)])
+    shelf = bpy.data.objects.new("Shelf", bpy.data.meshes.new("Shelf"))  # a solid board, 1 cm thick
+    box = [(x, y, z) for x in (0.04, 0.2) for y in (-0.2, 0.2) for z in (0.12, 0.13)]
+    shelf.data.from_pydata(box, [], [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4),
+                                     (1, 5, 7, 3)])
     scene.collection.objects.link(shelf)
     bpy.data.objects["Lamp"].location = (-0.2, 0.0, 0.3)
     cam = scene.camera
@@ -435,6 +436,7 @@ def main() -> int:
     parser.add_argument("--brute-samples", type=int, default=4096)
     parser.add_argument("--brute-radius", type=float, default=0.02)
     parser.add_argument("--skip-scenes", action="store_true")
+    parser.add_argument("--scenes-only", action="store_true", help="rerun phase 3 into the existing results")
     args = parser.parse_args()
     package = blender_env.start()
     import importlib
@@ -447,8 +449,12 @@ def main() -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    estimate_rows = estimate_phase(mod)
-    ball_rows, extra = ball_phase(bpy, mod, args, out)
+    if args.scenes_only:
+        previous = json.loads((out / "results.json").read_text())
+        estimate_rows, ball_rows, extra = previous["estimate"], previous["ball"], previous["ball_extra"]
+    else:
+        estimate_rows = estimate_phase(mod)
+        ball_rows, extra = ball_phase(bpy, mod, args, out)
     scene_rows = [] if args.skip_scenes else scenes_phase(bpy, mod, args, out)
     (out / "results.json").write_text(json.dumps({"ball": ball_rows, "ball_extra": extra, "estimate": estimate_rows,
                                                   "scenes": scene_rows}, indent=2, default=float))
