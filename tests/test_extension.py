@@ -65,27 +65,19 @@ def test_enable_disable_three_times_leaves_nothing(installed):
 
 
 def test_bundled_moderngl_wheel_gives_a_standalone_context(installed):
-    """The bake GPU: moderngl from the zip's wheels, on a headless EGL context (llvmpipe here)."""
-    import moderngl
-
-    # Installed by Blender from the zip's wheels into the (temporary) extensions folder,
-    # not taken from the test environment.
-    assert f"{os.sep}.local{os.sep}" in moderngl.__file__ and "extensions" in moderngl.__file__, moderngl.__file__
-    ctx = moderngl.create_standalone_context(backend="egl")
-    try:
-        assert ctx.version_code >= 430  # compute shaders for bakes
-        prog = ctx.compute_shader(
-            "#version 430\nlayout(local_size_x=64) in;\nlayout(std430, binding=0) buffer B { float v[]; };\n"
-            "void main(){ uint i = gl_GlobalInvocationID.x; v[i] = float(i) * 2.0; }"
-        )
-        buf = ctx.buffer(reserve=256 * 4)
-        buf.bind_to_storage_buffer(0)
-        prog.run(4)
-        import numpy as np
-
-        assert np.frombuffer(buf.read(), np.float32)[255] == 510.0
-    finally:
-        ctx.release()
+    """The bake GPU: moderngl from the zip's wheels, on a headless EGL context (llvmpipe here). The test
+    environment has its own moderngl (pure BTF tests), so the bundled copy runs in a child interpreter
+    with the extensions' site-packages first."""
+    _run_with_bundled_wheels(
+        "import numpy as np, moderngl; "
+        "ctx = moderngl.create_standalone_context(backend='egl'); "
+        "assert ctx.version_code >= 430, ctx.version_code; "  # compute shaders for bakes
+        "prog = ctx.compute_shader('#version 430\\nlayout(local_size_x=64) in;\\n"
+        "layout(std430, binding=0) buffer B { float v[]; };\\n"
+        "void main(){ uint i = gl_GlobalInvocationID.x; v[i] = float(i) * 2.0; }'); "
+        "buf = ctx.buffer(reserve=256 * 4); buf.bind_to_storage_buffer(0); prog.run(4); "
+        "assert np.frombuffer(buf.read(), np.float32)[255] == 510.0; ctx.release(); "
+        "print(moderngl.__file__)")
 
 
 def test_bundled_xatlas_wheel_imports(installed):
