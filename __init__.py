@@ -5,6 +5,7 @@ Registration only: every class comes from an explicit tuple of its module.
 from .operators import bake as _op_bake
 from .operators import compare as _op_compare
 from .operators import demo as _op_demo
+from .operators import grass as _op_grass
 from .operators import paint as _op_paint
 from .translucent_addon import props as _props
 from .translucent_addon import ui as _ui
@@ -20,6 +21,7 @@ _classes = (
     *_op_bake.classes,
     *_op_compare.classes,
     *_op_demo.classes,
+    *_op_grass.classes,
     *_op_paint.classes,
     *_engine.classes,
     *_ui.classes,

@@ -62,3 +62,9 @@ struct CausticData {
   vec4 estimate;       /* x: iterations, y: 0 plain, 1 guard, 2 guard + secant, z: atlas texels per face, w: channels (1, 3) */
   vec4 splat;          /* x: smallest Gaussian sigma (texels), y: adaptive (1), z: largest sigma */
 };
+
+struct GrassData {
+  vec4 scale;  /* x: tile side (scene units), y: layer height (tile units), z: BTF texels R, w: table res */
+  vec4 counts; /* x: views, y: lights, z: -, w: texels per pixel where fewer eigen-textures begin (0: off) */
+  vec4 groups; /* x, y, z: groups of four eigen-textures of Y, Cb, Cr; w: fewest Y groups far away */
+};

@@ -24,16 +24,86 @@ def _active_mesh(context):
     return ob, None
 
 
-class TRANSLUCENT_OT_bake(bpy.types.Operator):
+class ModalJob:
+    """A long job on the active object as a generator of (fraction, text): modal with a progress bar and
+    Esc in the UI, blocking with progress lines in background mode. Subclasses give ``_prepare``
+    (context -> (object, inputs) or None, having reported why), ``_job_for`` (inputs -> generator) and
+    ``_finish`` (object, inputs, result), which alone writes to the object."""
+
+    _timer = None
+    _job = None
+    _inputs = None
+    _title = "Translucent bake"
+
+    def _job_for(self, inputs):
+        return registry.run(inputs)
+
+    def execute(self, context):
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        ob, inputs = prepared
+        self._t0 = time.perf_counter()
+        job = self._job_for(inputs)
+        try:
+            while True:
+                fraction, text = next(job)
+                print(f"{self._title} '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
+        except StopIteration as done:
+            self._finish(ob, inputs, done.value)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {"CANCELLED"}
+        self._object, self._inputs = prepared
+        self._t0 = time.perf_counter()
+        self._job = self._job_for(self._inputs)
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._end(context, f"'{self._object.name}': bake cancelled, nothing changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, text = next(self._job)
+        except StopIteration as done:
+            self._finish(self._object, self._inputs, done.value)
+            self._end(context, None)
+            return {"FINISHED"}
+        except Exception as err:  # a failing stage must not leave the modal running
+            self._end(context, f"'{self._object.name}': bake failed: {err}", level="ERROR")
+            return {"CANCELLED"}
+        context.window_manager.progress_update(int(100 * fraction))
+        context.workspace.status_text_set(f"{self._title}: {100 * fraction:.0f} % {text} (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context, message, level="WARNING"):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        if message:
+            self.report({level}, message)
+
+
+class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
     """Precompute what the active object's translucency method needs and store it on the object"""
 
     bl_idname = "translucent.bake"
     bl_label = "Bake"
     bl_options = {"REGISTER", "UNDO"}
-
-    _timer = None
-    _job = None
-    _inputs = None
 
     def _prepare(self, context):
         ob, error = _active_mesh(context)
@@ -57,65 +127,6 @@ class TRANSLUCENT_OT_bake(bpy.types.Operator):
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
         store.write(ob, inputs.method, inputs.hash(), arrays, meta)
         self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
-
-    def execute(self, context):
-        prepared = self._prepare(context)
-        if prepared is None:
-            return {"CANCELLED"}
-        ob, inputs = prepared
-        self._t0 = time.perf_counter()
-        job = registry.run(inputs)
-        try:
-            while True:
-                fraction, text = next(job)
-                print(f"Translucent bake '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
-        except StopIteration as done:
-            self._finish(ob, inputs, done.value)
-        return {"FINISHED"}
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        prepared = self._prepare(context)
-        if prepared is None:
-            return {"CANCELLED"}
-        self._object, self._inputs = prepared
-        self._t0 = time.perf_counter()
-        self._job = registry.run(self._inputs)
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        self._timer = wm.event_timer_add(0.05, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._end(context, f"'{self._object.name}': bake cancelled, nothing changed")
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            fraction, text = next(self._job)
-        except StopIteration as done:
-            self._finish(self._object, self._inputs, done.value)
-            self._end(context, None)
-            return {"FINISHED"}
-        except Exception as err:  # a failing stage must not leave the modal running
-            self._end(context, f"'{self._object.name}': bake failed: {err}", level="ERROR")
-            return {"CANCELLED"}
-        context.window_manager.progress_update(int(100 * fraction))
-        context.workspace.status_text_set(f"Translucent bake: {100 * fraction:.0f} % {text} (Esc to cancel)")
-        return {"RUNNING_MODAL"}
-
-    def _end(self, context, message, level="WARNING"):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-        if message:
-            self.report({level}, message)
 
 
 class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):

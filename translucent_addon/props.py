@@ -174,6 +174,41 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
                     "eta + d (Shah Fig. 5.13); 0 uses one index",
         min=0.0, max=0.2, default=0.0, precision=3,
     )
+    grass: bpy.props.BoolProperty(
+        name="Grass field",
+        description="Grow a grass field on this mesh, drawn from a BTF (Shah ch. 4): the cost is set by pixels, "
+                    "not blades. Add it with Add Grass Field; bake the BTF with Bake Grass BTF",
+        default=False,
+    )
+    grass_tile: bpy.props.FloatProperty(
+        name="Tile", description="Side of the square patch of grass the BTF repeats", subtype="DISTANCE",
+        unit="LENGTH", min=1e-3, soft_max=10.0, default=0.1,
+    )
+    grass_blade_height: bpy.props.FloatProperty(
+        name="Blade height", description="Height of the tallest blades (5-60 % of the tile)", subtype="DISTANCE",
+        unit="LENGTH", min=1e-4, soft_max=1.0, default=0.045,
+    )
+    grass_blades: bpy.props.IntProperty(
+        name="Blades per tile", description="Blades in one tile of the patch", min=1, max=5000, default=500,
+    )
+    grass_seed: bpy.props.IntProperty(name="Seed", description="Random layout of the blades", min=0, default=7)
+    grass_resolution: bpy.props.EnumProperty(
+        name="BTF texels", description="Texels per side of each of the 1,701 BTF images",
+        items=(("64", "64", "Fast bake, soft blades"), ("128", "128", "As Shah"), ("256", "256", "Sharp, 4x the bake")),
+        default="128",
+    )
+    grass_target_error: bpy.props.FloatProperty(
+        name="Target error",
+        description="Relative reconstruction error of the compressed BTF; sets how many eigen-textures are "
+                    "kept (lower: sharper, more memory)",
+        min=0.01, max=0.9, default=0.5, precision=2,
+    )
+    grass_lod: bpy.props.FloatProperty(
+        name="Detail falloff",
+        description="BTF texels per pixel beyond which fewer eigen-textures are summed (far grass is cheaper); "
+                    "0 keeps all of them everywhere",
+        min=0.0, soft_max=8.0, default=1.0,
+    )
 
 
 class TranslucentLightSettings(bpy.types.PropertyGroup):

@@ -81,6 +81,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 col.prop(s, "caustics_distance")
             else:
                 col.prop(s, "caustics_color", text="Reflectance")
+        _grass_box(layout, ob)
         if s.method == "IMAGE_SPACE":
             box = layout.box()
             box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
@@ -89,6 +90,37 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                                  ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
                 op = grid.operator("translucent.add_paint_layer", text=label)
                 op.layer = layer
+
+
+def _grass_box(layout, ob) -> None:
+    """Grass field: settings, BTF status and statistics, bake."""
+    from .bake import grass_btf, store
+    from .render.extract import grass_status
+
+    s = ob.translucent
+    box = layout.box()
+    box.prop(s, "grass")
+    if not s.grass:
+        box.operator("translucent.add_grass_field", icon="OUTLINER_OB_CURVES")
+        return
+    col = box.column(align=True)
+    for name in ("grass_tile", "grass_blade_height", "grass_blades", "grass_seed", "grass_resolution",
+                 "grass_target_error", "grass_lod"):
+        col.prop(s, name)
+    status, detail = grass_status(ob)
+    if status == "INVALID":
+        box.label(text=detail, icon="ERROR")
+    else:
+        box.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
+    meta = store.read_meta(ob, grass_btf.BAKE_KEY)
+    if meta is not None:
+        col = box.column(align=True)
+        col.scale_y = 0.8
+        col.label(text=f"Eigen-textures: {meta['counts'][0]} Y, {meta['counts'][1]} Cb/Cr "
+                       f"(error {meta.get('total_error', 0.0):.2f})")
+        col.label(text=f"Stored: {meta['storage']['total'] / 2**20:.1f} MB of "
+                       f"{meta['uncompressed_bytes'] / 2**20:.0f} MB; baked in {meta.get('seconds', 0.0):.0f} s")
+    box.operator("translucent.bake_grass_btf", icon="RENDER_STILL")
 
 
 def _bake_statistics(layout, ob, method) -> None:

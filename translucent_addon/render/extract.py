@@ -15,8 +15,8 @@ from ..bake import store as bake_store
 from ..bake.inputs import bake_status
 from .lights import emitters_from_light
 from ..physics.lut import BLUR_MIN
-from .scene_data import (BakeHandle, CameraView, Caster, CausticSettings, Environment, FrameInputs, Medium,
-                         MeshInstance)
+from .scene_data import (BakeHandle, CameraView, Caster, CausticSettings, Environment, FrameInputs, GrassLayer,
+                         Medium, MeshInstance)
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -179,6 +179,39 @@ def caster_settings(s) -> Caster | None:
                   tuple(float(x) for x in sigma_a), float(s.caustics_dispersion))
 
 
+def grass_status(ob) -> tuple[str, str | None]:
+    """('OK' | 'STALE' | 'MISSING' | 'INVALID', hash or the settings' error) of an object's grass BTF."""
+    from ..bake import grass_btf
+
+    s = ob.translucent
+    try:
+        params = grass_btf.params_from_settings(s.grass_tile, s.grass_blade_height, s.grass_blades, s.grass_seed)
+    except grass_btf.GrassSettingsError as err:
+        return "INVALID", str(err)
+    digest = grass_btf.settings_hash(params, int(s.grass_resolution), s.grass_target_error)
+    return bake_store.status(ob, grass_btf.BAKE_KEY, digest), digest
+
+
+def grass_layer(original, frame_warnings) -> GrassLayer | None:
+    """The grass field of an object, if it has one with a current BTF (else a warning says why not)."""
+    from ..bake import grass_btf
+
+    s = original.translucent
+    if not s.grass:
+        return None
+    status, detail = grass_status(original)
+    if status != "OK":
+        why = detail if status == "INVALID" else f"grass BTF is {status.lower()}"
+        frame_warnings.append(f"'{original.name}': {why}; no grass drawn. Press Bake Grass BTF")
+        return None
+
+    def load(o=original):
+        record = bake_store.read(o, grass_btf.BAKE_KEY)
+        return record.arrays, record.meta
+
+    return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
+
+
 def caustic_settings(s) -> CausticSettings:
     return CausticSettings(grid=int(s.caustics_grid), iterations=int(s.caustics_iterations),
                            guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
@@ -241,6 +274,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             tint=tint,
             bake=handle,
             caster=caster_settings(original.translucent),
+            grass=grass_layer(original, frame_warnings),
         )
     finally:
         ob.to_mesh_clear()

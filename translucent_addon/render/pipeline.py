@@ -15,7 +15,9 @@ into the bound framebuffer). Passes:
    the same passes, relaxes the diffusion equation coarse to fine and draws its objects over the
    base; GEOCUBE (``methods/geocube.py``) draws its objects' refraction of the world over the base;
    caustics (``caustics.py``, Shah ch. 5) follow each emitter's lighting pass and add the light
-   that casters refract or mirror onto the receivers;
+   that casters refract or mirror onto the receivers; grass fields (``grass.py``, Shah ch. 4) are
+   drawn right after the base in the world pass and in each emitter's pass, writing the depth of
+   the blades;
    an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
@@ -24,7 +26,7 @@ import time
 
 import numpy as np
 
-from . import blocks, caustics, shaders
+from . import blocks, caustics, grass, shaders
 from .methods import geocube, image_space, quadgraph, texture_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
@@ -130,6 +132,7 @@ class Pipeline:
         graphs = quadgraph.prepare(frame)
         glass = geocube.prepare(frame)
         caustic_plan = caustics.prepare(frame)
+        fields = grass.prepare(frame)
         slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
@@ -148,6 +151,8 @@ class Pipeline:
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
         base_inputs = (batches, objects, frame_ubo, subsurface.materials, subsurface.near_lut, atlas[1])
         self._draw_base(base_shader, *base_inputs, placeholder, mode=0)
+        if fields:
+            grass.draw(fields, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
         if textured:
             texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0)
         if graphs:
@@ -167,6 +172,8 @@ class Pipeline:
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
                 self._draw_base(base_shader, *base_inputs, light_ubo, mode=1)
+                if fields:
+                    grass.draw(fields, self, frame_ubo, objects, light_ubo, atlas[1], mode=1)
                 gpu.state.blend_set("NONE")
                 gpu.state.depth_mask_set(True)
             if textured:

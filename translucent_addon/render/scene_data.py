@@ -60,6 +60,16 @@ class CausticSettings:
     splat_sigma_max: float = 16.0
 
 
+@dataclasses.dataclass(frozen=True)
+class GrassLayer:
+    """A grass field on a ground mesh (Shah ch. 4): its BTF bake and how it is laid on the ground."""
+
+    bake: object  # BakeHandle of the GRASS bake; load() -> (arrays, meta)
+    tile: float  # side of one BTF tile, scene units
+    lod: float = 1.0  # texels per pixel above which fewer luminance eigen-textures are summed; 0: never
+    min_groups: int = 2  # the fewest luminance groups of four eigen-textures kept far away
+
+
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
 # (blur), glow factor; the RGB tint is a separate array. Neutral: (1, 1, 1, 0) and tint (1, 1, 1).
 NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
@@ -90,6 +100,7 @@ class MeshInstance:
     tint: np.ndarray | None = None  # (3T, 3) float32
     bake: object = None  # BakeHandle of an up-to-date bake (methods that bake), else None
     caster: Caster | None = None  # a caustics caster, else a receiver
+    grass: GrassLayer | None = None  # a grass field grows on this mesh
 
     def __post_init__(self):
         n = len(self.positions)

@@ -28,6 +28,7 @@ class ShaderSpec:
     samplers: tuple = ()  # (slot, type, name)
     push_constants: tuple = ()  # (type, name)
     fragment_out: tuple = ()  # (slot, type, name)
+    depth_write: str = "UNCHANGED"  # "ANY": the fragment stage writes gl_FragDepth
 
 
 _LIGHT_LIBS = ("translucent_common.glsl", "translucent_light.glsl")
@@ -193,6 +194,20 @@ SPECS = {
                   (3, "FLOAT_2D", "env_atlas"), (4, "FLOAT_2D", "transfer_table")),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
+    "grass_btf": ShaderSpec(
+        source="grass_btf.glsl",
+        libraries=_SHADOW_LIBS,
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC2", "v_uv"),
+                  ("smooth", "VEC3", "v_tangent")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),
+                        (4, "GrassData", "grass")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "btf_basis"), (2, "FLOAT_2D", "btf_coeffs"),
+                  (3, "FLOAT_2D", "btf_depth"), (4, "FLOAT_2D", "btf_tables")),
+        push_constants=(("INT", "mode"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+        depth_write="ANY",
+    ),
     "caustic_receiver": ShaderSpec(
         source="caustic_receiver.glsl",
         vertex_in=(("VEC3", "pos"),),
@@ -269,6 +284,8 @@ def create_info(name: str, spec: ShaderSpec):
         info.vertex_out(iface)
     for slot, kind, out in spec.fragment_out:
         info.fragment_out(slot, kind, out)
+    if spec.depth_write != "UNCHANGED":
+        info.depth_write(spec.depth_write)
     source = "\n".join(read_source(lib) for lib in spec.libraries) + "\n" + read_source(spec.source)
     info.vertex_source(source)
     info.fragment_source(source)
