@@ -63,6 +63,8 @@ void main()
   }
 
   vec3 N = normalize(v_normal);
+  /* Screen derivatives before any discard (defined only in uniform control flow). */
+  vec3 dP_dx = dFdx(v_world), dP_dy = dFdy(v_world), dN_dx = dFdx(N), dN_dy = dFdy(N);
   vec3 Tg = normalize(v_tangent - N * dot(v_tangent, N));
   vec3 Bg = cross(N, Tg);
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
@@ -103,6 +105,22 @@ void main()
     discard; /* a gap between blades: silhouette (Shah 4.3.3) */
   }
   float depth = depth_sum / coverage;
+  /* Curved ground (ours; the BTF was taken over a plane): along the view the ground falls away from
+   * the tangent plane by s^2 kappa / 2 at a distance s, so the ray, at height h - d cos(theta) in the
+   * plane's frame, passes over the blade the plane would give it once d sin^2(theta) kappa / 2 >
+   * cos(theta): it leaves the layer first. kappa: the normal's change along the view's tangential
+   * direction, from screen derivatives (least squares over x and y). Crests get their silhouette. */
+  vec3 t_v = to_eye - N * dot(to_eye, N);
+  if (dot(t_v, t_v) > 1e-8) {
+    t_v = normalize(t_v);
+    float px = dot(dP_dx, t_v), py = dot(dP_dy, t_v);
+    float nx = dot(dN_dx, t_v), ny = dot(dN_dy, t_v);
+    float kappa = (nx * px + ny * py) / max(px * px + py * py, 1e-20);
+    float sin2 = 1.0 - wv.z * wv.z;
+    if (kappa > 0.0 && depth * grass.scale.x * sin2 * kappa * 0.5 > wv.z) {
+      discard;
+    }
+  }
   vec3 hit = v_world - to_eye * depth * grass.scale.x;
   vec4 clip = frame.view_proj * vec4(hit, 1.0);
   gl_FragDepth = clip.z / clip.w * 0.5 + 0.5; /* external occlusion by the blade */

@@ -53,6 +53,9 @@ class TRANSLUCENT_OT_bake_grass_btf(ModalJob, bpy.types.Operator):
         store.write(ob, grass_btf.BAKE_KEY, grass_btf.settings_hash(*inputs), arrays, meta)
         ob.translucent.grass = True
         mb = meta["storage"]["total"] / 2**20
+        if not meta["target_met"]:
+            self.report({"WARNING"}, f"'{ob.name}': the target error {inputs[2]:.2f} is out of reach; kept "
+                                     f"the most eigen-textures, error {meta['total_error']:.2f}")
         self.report({"INFO"}, f"'{ob.name}': grass BTF baked in {meta['seconds']:.1f} s "
                               f"({meta['counts'][0]} + 2 x {meta['counts'][1]} eigen-textures, {mb:.1f} MB)")
 

@@ -109,6 +109,30 @@ def test_patch_render_shadows_and_gaps(renderer_of):
     assert np.all(depth2[:, x > 0.52] == SENTINEL) and np.all(depth2[:, x < 0.48] > 0)
 
 
+def test_bake_gpu_leaves_the_hosts_context_current(renderer_of):
+    """Blender draws with its own context on the thread that bakes: creating, using and releasing the
+    bake's context must leave the host's current (else Blender aborts when it next frees a shader)."""
+    import moderngl
+
+    from translucent_addon.bake.gl_context import _EGL, preserve_current_context
+
+    egl = _EGL()
+    with preserve_current_context():  # this test's own stand-in must not leave pytest's host context off
+        host = moderngl.create_standalone_context(backend="egl")  # stands in for Blender's context
+        try:
+            with host:
+                before = egl.save()
+                assert before is not None
+                r = renderer_of(_plane_patch(0.2))
+                assert egl.save() == before
+                r.render([0, 0, 1.0], [0, 0, 1.0])
+                assert egl.save() == before
+                r.release()
+                assert egl.save() == before
+        finally:
+            host.release()
+
+
 def test_patch_is_periodic(renderer_of):
     """Every blade drawn one tile over gives the same image: the render covers the neighbouring tiles
     that reach into the tile, so the BTF tiles without seams."""

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..geometry import hemisphere
 from ..geometry.grass_patch import GrassPatch
+from .gl_context import preserve_current_context
 
 SENTINEL = -1.0
 
@@ -125,6 +126,10 @@ class PatchRenderer:
     """Renders a patch at any view and light direction (the acquisition and its checks share it)."""
 
     def __init__(self, patch: GrassPatch, resolution: int = 128, supersample: int = 2, shadow_resolution: int = 512):
+        with preserve_current_context():
+            self._create(patch, resolution, supersample, shadow_resolution)
+
+    def _create(self, patch, resolution, supersample, shadow_resolution):
         import moderngl
 
         self.patch = patch
@@ -154,7 +159,8 @@ class PatchRenderer:
         self._shadow_for = None
 
     def release(self) -> None:
-        self.ctx.release()
+        with preserve_current_context():
+            self.ctx.release()
 
     def _tiles(self, omega: np.ndarray) -> tuple[np.ndarray, int]:
         """Tile offsets whose blades can project into the unit square along omega."""
@@ -198,6 +204,10 @@ class PatchRenderer:
         """(radiance (R, R, 3) float32, depth (R, R) float32 with SENTINEL) of one view and light.
         Supersampled ss x ss: a pixel is a blade pixel when at least half its samples hit one; its
         radiance and depth are the means over the samples that hit."""
+        with preserve_current_context(), self.ctx:
+            return self._render(omega_v, omega_l)
+
+    def _render(self, omega_v, omega_l):
         import moderngl
 
         omega_v = np.asarray(omega_v, np.float64) / np.linalg.norm(omega_v)

@@ -71,6 +71,7 @@ def bake(params: GrassParams = GrassParams(), resolution: int = DEFAULT_RESOLUTI
     meta = {"params": params.as_dict(), "resolution": int(resolution), "target_error": float(target_error),
             "height": float(cb.height), "counts": list(cb.counts), "errors": cb.errors,
             "total_error": btf_compress.total_error(curves, *cb.counts), "storage": cb.storage_bytes(),
+            "target_met": btf_compress.total_error(curves, *cb.counts) <= target_error,
             "uncompressed_bytes": int(images.images.size * 2), "acquisition_s": images.seconds,
             "bake_s": time.perf_counter() - t0, "blades": int(params.blades),
             "images": int(images.images.shape[0] * images.images.shape[1])}

@@ -80,7 +80,7 @@ def _batch(pipeline, mesh):
         batch = pipeline.targets[key] = batch_for_shader(
             shaders.get("grass_btf"), "TRIS",
             {"pos": np.ascontiguousarray(mesh.positions, np.float32),
-             "nor": np.ascontiguousarray(mesh.normals, np.float32)})
+             "nor": grass_data.smooth_corner_normals(mesh.positions)})
     return batch
 
 

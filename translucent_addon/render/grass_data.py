@@ -102,9 +102,23 @@ def shade(cb: CompressedBTF, uv: np.ndarray, omega_v: np.ndarray, omega_l: np.nd
             coef = sum(l_w[:, m, None] * C[:k, v, l_idx[:, m]].T for m in range(3))  # (N, k)
             ycc[:, c] += wv * (Ub * coef).sum(axis=1)
     safe = np.maximum(coverage, 1e-9)
-    rgb = to_rgb(ycc / safe[:, None])
+    rgb = np.maximum(to_rgb(ycc / safe[:, None]), 0.0)  # truncation can dip a dim channel below zero
     depth = np.where(coverage > 0, depth_sum / safe, SENTINEL)
     return rgb, coverage, depth
+
+
+def smooth_corner_normals(positions: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals at triangle corners (3T, 3), corners at the same position sharing
+    one: the grass layer is the ground moved out along these, so that flat-shaded ground does not crack
+    the layer open along its edges."""
+    p = np.asarray(positions, np.float64).reshape(-1, 3, 3)
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # length = 2 area
+    _, vertex = np.unique(np.round(p.reshape(-1, 3), 7), axis=0, return_inverse=True)
+    vertex = vertex.reshape(-1)
+    acc = np.zeros((vertex.max() + 1, 3))
+    np.add.at(acc, vertex, np.repeat(face, 3, axis=0))
+    n = acc[vertex]
+    return (n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)).astype(np.float32)
 
 
 # -- GPU layout (render/grass.py uploads these; the shader indexes them the same way) --------------
