@@ -62,18 +62,23 @@ def bake(params: GrassParams = GrassParams(), resolution: int = DEFAULT_RESOLUTI
     for c in range(3):
         spectra.append(btf_compress.spectrum(F[c]))
         yield 0.92 + 0.025 * (c + 1), f"grass BTF: SVD of {CHANNELS[c]}"
+    return package(images, spectra, params, resolution, target_error, time.perf_counter() - t0)
+
+
+def package(images, spectra, params: GrassParams, resolution: int, target_error: float, seconds: float):
+    """(arrays, meta) to store, from acquired images and their channels' spectra."""
     cb = btf_compress.compress(images, target_error, spectra=spectra)
     curves = btf_compress.error_curve(spectra)
     arrays = {f"basis_{n}": cb.basis[c].astype(np.float16) for c, n in enumerate(CHANNELS)}
     arrays.update({f"coeffs_{n}": cb.coeffs[c] for c, n in enumerate(CHANNELS)})
     arrays.update({"depth": cb.depth.astype(np.float32), "views": cb.views.astype(np.float32),
                    "lights": cb.lights.astype(np.float32), "error_curves": curves[:, :401].astype(np.float32)})
+    total = btf_compress.total_error(curves, *cb.counts)
     meta = {"params": params.as_dict(), "resolution": int(resolution), "target_error": float(target_error),
             "height": float(cb.height), "counts": list(cb.counts), "errors": cb.errors,
-            "total_error": btf_compress.total_error(curves, *cb.counts), "storage": cb.storage_bytes(),
-            "target_met": btf_compress.total_error(curves, *cb.counts) <= target_error,
+            "total_error": total, "storage": cb.storage_bytes(), "target_met": total <= target_error,
             "uncompressed_bytes": int(images.images.size * 2), "acquisition_s": images.seconds,
-            "bake_s": time.perf_counter() - t0, "blades": int(params.blades),
+            "bake_s": seconds, "blades": int(params.blades),
             "images": int(images.images.shape[0] * images.images.shape[1])}
     return arrays, meta
 
