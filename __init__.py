@@ -15,6 +15,7 @@ from .translucent_addon.render import shaders as _shaders
 from .translucent_addon.render.methods import image_space as _image_space
 from .translucent_addon.render.methods import bake_cache as _bake_cache
 from .translucent_addon.render.methods import geocube as _geocube
+from .translucent_addon.render import relief as _relief
 
 _classes = (
     *_props.classes,
@@ -45,6 +46,7 @@ def unregister():
     _image_space.clear_history()
     _bake_cache.clear()
     _geocube.clear_caches()
+    _relief.clear_cache()
     _shaders.free_all()
     _ui.unregister_compat_panels()
     _props.unregister_pointers()

@@ -4,8 +4,9 @@
 // steps; tests/test_interval_mapping.py checks that they agree).
 //
 // Conventions:
-//   hmap    height in [0, 1] in .r, 1 = top of the layer; bind it with LINEAR filtering (no mipmaps
-//           needed: textureLod level 0) and REPEAT wrapping. Texel i covers [i/N, (i+1)/N), centre (i+0.5)/N.
+//   hmap    height in [0, 1] in .r, 1 = top of the layer. Sampled bilinearly with wrap by hf_depth itself
+//           (texelFetch: any sampler state, full-precision weights, as the NumPy twin). Texel i covers
+//           [i/N, (i+1)/N), centre (i+0.5)/N.
 //   depth   D(uv) = 1 - height(uv), downward from the top of the layer, in layer thicknesses, in [0, 1].
 //   ray     enters the layer at its top (depth 0) at uv0; at ray depth t in [0, 1] it is at uv0 + t * dir_uv.
 //           dir_uv = -V.xy / V.z * depth_scale for a tangent-space V from the surface to the eye.
@@ -15,7 +16,17 @@
 
 float hf_depth(sampler2D hmap, vec2 uv)
 {
-    return 1.0 - textureLod(hmap, uv, 0.0).r;
+    ivec2 size = textureSize(hmap, 0);
+    vec2 t = uv * vec2(size) - 0.5;
+    vec2 f = t - floor(t);
+    ivec2 i0 = ivec2(floor(t));
+    ivec2 a = ((i0 % size) + size) % size;
+    ivec2 b = (((i0 + 1) % size) + size) % size;
+    float h00 = texelFetch(hmap, ivec2(a.x, a.y), 0).r;
+    float h10 = texelFetch(hmap, ivec2(b.x, a.y), 0).r;
+    float h01 = texelFetch(hmap, ivec2(a.x, b.y), 0).r;
+    float h11 = texelFetch(hmap, ivec2(b.x, b.y), 0).r;
+    return 1.0 - mix(mix(h00, h10, f.x), mix(h01, h11, f.x), f.y);
 }
 
 // Uniform linear search (Shah 3.3 step 1, as relief mapping): ray depths t_k = k / steps, k = 1..steps; the

@@ -68,3 +68,8 @@ struct GrassData {
   vec4 counts; /* x: views, y: lights, z: -, w: texels per pixel where fewer eigen-textures begin (0: off) */
   vec4 groups; /* x, y, z: groups of four eigen-textures of Y, Cb, Cr; w: fewest Y groups far away */
 };
+
+struct ReliefData {
+  vec4 params; /* x: depth (scene units, height 1 to 0), y: linear steps, z: most refinements, w: output 1 */
+  vec4 mode;   /* x: 0 interval mapping, 1 relief mapping; y: self-shadowing on */
+};

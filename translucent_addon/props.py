@@ -210,6 +210,36 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         min=0.0, soft_max=8.0, default=1.0,
     )
 
+    relief: bpy.props.EnumProperty(
+        name="Height field",
+        description="Per-pixel displacement by a height map over the object's UVs (Shah ch. 3): occlusion, "
+                    "self-shadowing and correct depth without extra geometry",
+        items=(("OFF", "Off", "No height field"),
+               ("INTERVAL", "Interval mapping", "Linear search, then interval (secant) refinement (Shah 2007)"),
+               ("RELIEF", "Relief mapping", "Linear search, then binary search (Policarpo 2005), for comparison")),
+        default="OFF",
+    )
+    relief_image: bpy.props.PointerProperty(
+        name="Height map", type=bpy.types.Image,
+        description="Image whose brightness is the height (white: the surface, black: the deepest point)",
+    )
+    relief_depth: bpy.props.FloatProperty(
+        name="Depth", description="How deep the black of the height map lies under the surface",
+        subtype="DISTANCE", unit="LENGTH", min=0.0, soft_max=0.2, default=0.02,
+    )
+    relief_linear_steps: bpy.props.IntProperty(
+        name="Linear steps", description="Uniform steps that find the first interval the ray enters (Shah: 5)",
+        min=2, max=64, default=8,
+    )
+    relief_iterations: bpy.props.IntProperty(
+        name="Refinements", description="Most refinement steps after the linear search (Shah: 10)",
+        min=1, max=32, default=10,
+    )
+    relief_shadows: bpy.props.BoolProperty(
+        name="Self-shadowing", description="The height field shadows itself (a search toward each light)",
+        default=True,
+    )
+
 
 class TranslucentLightSettings(bpy.types.PropertyGroup):
     caustics: bpy.props.BoolProperty(
@@ -266,6 +296,11 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         name="GEOCUBE output", description="GEOCUBE pass output (tests, debugging): 0 colour, 1 entry point, "
                                            "2 exit point, 3 refracted direction (bake frame)",
         min=0, max=3, default=0, options={"HIDDEN"},
+    )
+    relief_output: bpy.props.IntProperty(
+        name="Height-field output", description="Height-field pass output (tests, debugging): 0 colour, 1 hit "
+                                                "uv, depth and refinement count",
+        min=0, max=1, default=0, options={"HIDDEN"},
     )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",

@@ -82,6 +82,15 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
             else:
                 col.prop(s, "caustics_color", text="Reflectance")
         _grass_box(layout, ob)
+        box = layout.box()
+        box.prop(s, "relief")
+        if s.relief != "OFF":
+            col = box.column(align=True)
+            col.template_ID(s, "relief_image", open="image.open")
+            for name in ("relief_depth", "relief_linear_steps", "relief_iterations", "relief_shadows"):
+                col.prop(s, name)
+            if not ob.data.uv_layers:
+                box.label(text="Needs a UV map", icon="ERROR")
         if s.method == "IMAGE_SPACE":
             box = layout.box()
             box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")

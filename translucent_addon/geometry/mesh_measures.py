@@ -37,3 +37,19 @@ def subtriangle_centroids(n: int) -> np.ndarray:
     cu = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
     cv = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
     return np.stack([cu, cv], axis=1)
+
+
+def uv_tangents(positions: np.ndarray, uvs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per corner (3T, 3) the derivatives dP/du and dP/dv of each triangle's affine map from its UVs to
+    its positions (the tangent frame of a height field, with lengths in scene units per UV unit).
+    A triangle with degenerate UVs gets zero tangents."""
+    p = np.asarray(positions, np.float64).reshape(-1, 3, 3)
+    t = np.asarray(uvs, np.float64).reshape(-1, 3, 2)
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    ok = np.abs(det) > 1e-14
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
+    dpdu = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * inv
+    dpdv = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * inv
+    return (np.repeat(dpdu, 3, axis=0).astype(np.float32), np.repeat(dpdv, 3, axis=0).astype(np.float32))

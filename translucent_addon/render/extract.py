@@ -15,8 +15,9 @@ from ..bake import store as bake_store
 from ..bake.inputs import bake_status
 from .lights import emitters_from_light
 from ..physics.lut import BLUR_MIN
+from ..geometry.mesh_measures import uv_tangents
 from .scene_data import (BakeHandle, CameraView, Caster, CausticSettings, Environment, FrameInputs, GrassLayer,
-                         Medium, MeshInstance)
+                         Medium, MeshInstance, ReliefSurface)
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -212,6 +213,44 @@ def grass_layer(original, frame_warnings) -> GrassLayer | None:
     return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
 
 
+def height_image(image) -> np.ndarray:
+    """(H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0 at the bottom
+    (Blender's pixel order, so v = 0 is row 0)."""
+    w, h = image.size
+    if w == 0 or h == 0:
+        raise ValueError(f"height map '{image.name}' has no pixels (is the file missing?)")
+    px = np.empty(w * h * image.channels, np.float32)
+    image.pixels.foreach_get(px)
+    px = px.reshape(h, w, image.channels)
+    rgb = px[..., :3] if image.channels >= 3 else px[..., :1]
+    return np.clip(rgb.mean(axis=-1), 0.0, 1.0).astype(np.float32)
+
+
+def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> ReliefSurface | None:
+    """The height field of an object (Shah ch. 3), or None (with a warning when it cannot be drawn)."""
+    s = original.translucent
+    if s.relief == "OFF":
+        return None
+    if s.relief_image is None:
+        frame_warnings.append(f"'{original.name}': height field has no height map; drawn flat")
+        return None
+    if mesh.uv_layers.active is None:
+        frame_warnings.append(f"'{original.name}': a height field needs a UV map; drawn flat")
+        return None
+    try:
+        height = height_image(s.relief_image)
+    except ValueError as err:
+        frame_warnings.append(f"'{original.name}': {err}; drawn flat")
+        return None
+    uv_loops = np.empty(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", uv_loops)
+    uv = uv_loops.reshape(-1, 2)[tri_loops]
+    du, dv = uv_tangents(positions, uv)
+    key = f"{s.relief_image.name}:{hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest()}"
+    return ReliefSurface(key, height, float(s.relief_depth), 0 if s.relief == "INTERVAL" else 1,
+                         int(s.relief_linear_steps), int(s.relief_iterations), bool(s.relief_shadows), uv, du, dv)
+
+
 def caustic_settings(s) -> CausticSettings:
     return CausticSettings(grid=int(s.caustics_grid), iterations=int(s.caustics_iterations),
                            guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
@@ -275,6 +314,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             bake=handle,
             caster=caster_settings(original.translucent),
             grass=grass_layer(original, frame_warnings),
+            relief=relief_surface(original, mesh, tri_loops, positions, frame_warnings),
         )
     finally:
         ob.to_mesh_clear()

@@ -17,7 +17,8 @@ into the bound framebuffer). Passes:
    caustics (``caustics.py``, Shah ch. 5) follow each emitter's lighting pass and add the light
    that casters refract or mirror onto the receivers; grass fields (``grass.py``, Shah ch. 4) are
    drawn right after the base in the world pass and in each emitter's pass, writing the depth of
-   the blades;
+   the blades; meshes with a height field (``relief.py``, Shah ch. 3) are drawn by their own pass
+   instead of the base, in the same world and emitter passes, writing the displaced depth;
    an object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
@@ -26,7 +27,7 @@ import time
 
 import numpy as np
 
-from . import blocks, caustics, grass, shaders
+from . import blocks, caustics, grass, relief, shaders
 from .methods import geocube, image_space, quadgraph, texture_space
 from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
@@ -60,6 +61,7 @@ class Pipeline:
         self.coherence_frame = 0
         self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
         self.quadgraph_solver = (2e-5, 1000)
+        self.relief_mode = 0  # height-field output: 0 colour; 1 hit uv, depth, refinements (tests)
         self.geocube_mode = 0  # GEOCUBE output: 0 colour; 1-3 intermediate values for tests (gc_refract.glsl)  # QUADGRAPH: (relative change per step, iteration cap per level)
 
     def free(self) -> None:
@@ -133,6 +135,7 @@ class Pipeline:
         glass = geocube.prepare(frame)
         caustic_plan = caustics.prepare(frame)
         fields = grass.prepare(frame)
+        reliefs = relief.indices(frame)
         slots = subsurface.plan.slot_of if subsurface.plan else {}
         objects = [
             gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
@@ -150,7 +153,9 @@ class Pipeline:
         # A light block is bound in every mode; the world pass ignores it.
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
         base_inputs = (batches, objects, frame_ubo, subsurface.materials, subsurface.near_lut, atlas[1])
-        self._draw_base(base_shader, *base_inputs, placeholder, mode=0)
+        self._draw_base(base_shader, *base_inputs, placeholder, mode=0, skip=reliefs)
+        if reliefs:
+            relief.draw(frame, reliefs, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
         if fields:
             grass.draw(fields, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
         if textured:
@@ -171,7 +176,9 @@ class Pipeline:
                 gpu.state.depth_mask_set(False)
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
-                self._draw_base(base_shader, *base_inputs, light_ubo, mode=1)
+                self._draw_base(base_shader, *base_inputs, light_ubo, mode=1, skip=reliefs)
+                if reliefs:
+                    relief.draw(frame, reliefs, self, frame_ubo, objects, light_ubo, atlas[1], mode=1)
                 if fields:
                     grass.draw(fields, self, frame_ubo, objects, light_ubo, atlas[1], mode=1)
                 gpu.state.blend_set("NONE")
@@ -230,7 +237,7 @@ class Pipeline:
 
     @staticmethod
     def _draw_base(shader, batches, objects, frame_ubo, materials_ubo, near_lut, atlas_texture, light_ubo,
-                   mode: int) -> None:
+                   mode: int, skip=()) -> None:
         shader.bind()
         shader.uniform_block("frame", frame_ubo)
         shader.uniform_block("light", light_ubo)
@@ -238,7 +245,9 @@ class Pipeline:
         shader.uniform_sampler("shadow_atlas", atlas_texture)
         shader.uniform_sampler("near_lut", near_lut)
         shader.uniform_int("mode", mode)
-        for (base, _), obj in zip(batches, objects):
+        for k, ((base, _), obj) in enumerate(zip(batches, objects)):
+            if k in skip:
+                continue  # drawn by its own pass (height fields)
             shader.uniform_block("object", obj)
             base.draw(shader)
 

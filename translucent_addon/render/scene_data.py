@@ -70,6 +70,22 @@ class GrassLayer:
     min_groups: int = 2  # the fewest luminance groups of four eigen-textures kept far away
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class ReliefSurface:
+    """A height field over a mesh's UVs (Shah ch. 3): interval or relief mapping."""
+
+    key: str  # names the height image (GPU cache)
+    height: np.ndarray  # (H, W) float32 in [0, 1], row 0 at v = 0; 1 is the surface
+    depth: float  # scene units from height 1 down to height 0
+    mode: int = 0  # 0 interval mapping, 1 relief mapping (gpu_shaders/interval_search.glsl)
+    linear_steps: int = 8
+    iterations: int = 10
+    shadows: bool = True
+    uv: np.ndarray | None = None  # (3T, 2) per corner
+    tangent_u: np.ndarray | None = None  # (3T, 3) object-space dP/du per corner
+    tangent_v: np.ndarray | None = None  # (3T, 3) dP/dv
+
+
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
 # (blur), glow factor; the RGB tint is a separate array. Neutral: (1, 1, 1, 0) and tint (1, 1, 1).
 NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
@@ -101,6 +117,7 @@ class MeshInstance:
     bake: object = None  # BakeHandle of an up-to-date bake (methods that bake), else None
     caster: Caster | None = None  # a caustics caster, else a receiver
     grass: GrassLayer | None = None  # a grass field grows on this mesh
+    relief: ReliefSurface | None = None  # a height field displaces this mesh per pixel (drawn by its pass)
 
     def __post_init__(self):
         n = len(self.positions)
