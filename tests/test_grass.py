@@ -216,3 +216,6 @@ def test_grass_settings_errors():
     p = grass_btf.params_from_settings(0.1, 0.045, 300, 3)
     assert p.height == pytest.approx(0.45) and p.blades == 300
     assert grass_btf.settings_hash(p, 128, 0.5) != grass_btf.settings_hash(p, 64, 0.5)
+    # The same proportions at another size, in single floats as Blender stores them: the same BTF.
+    q = grass_btf.params_from_settings(float(np.float32(0.2)), float(np.float32(0.09)), 300, 3)
+    assert grass_btf.settings_hash(q, 128, 0.5) == grass_btf.settings_hash(p, 128, 0.5)

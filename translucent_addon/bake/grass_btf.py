@@ -34,7 +34,8 @@ def params_from_settings(tile: float, blade_height: float, blades: int, seed: in
                                  f"taller blades reach beyond the tiles the BTF renders around each tile")
     if not 1 <= blades <= 5000:
         raise GrassSettingsError(f"blades per tile must be 1-5000 (is {blades})")
-    return GrassParams(blades=int(blades), height=float(ratio), seed=int(seed))
+    # Rounded: the settings are single floats, and 0.045 / 0.1 must name the same BTF as 0.09 / 0.2.
+    return GrassParams(blades=int(blades), height=round(float(ratio), 4), seed=int(seed))
 
 
 def settings_hash(params: GrassParams, resolution: int, target_error: float) -> str:
