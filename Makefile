@@ -34,6 +34,8 @@ bench: $(STAMP)
 	$(PY) scripts/bench_quadgraph.py
 	$(PY) scripts/bench_geocube.py
 	$(PY) scripts/bench_caustics.py
+	$(PY) scripts/bench_grass.py
+	$(PY) scripts/bench_interval.py
 
 clean:
 	rm -rf dist wheels out .pytest_cache
