@@ -7,6 +7,8 @@ from .operators import compare as _op_compare
 from .operators import demo as _op_demo
 from .operators import grass as _op_grass
 from .operators import paint as _op_paint
+from .operators import workflow as _op_workflow
+from .translucent_addon import preferences as _preferences
 from .translucent_addon import props as _props
 from .translucent_addon import ui as _ui
 from .translucent_addon.render import draw_handler as _draw_handler
@@ -18,12 +20,14 @@ from .translucent_addon.render.methods import geocube as _geocube
 from .translucent_addon.render import relief as _relief
 
 _classes = (
+    *_preferences.classes,
     *_props.classes,
     *_op_bake.classes,
     *_op_compare.classes,
     *_op_demo.classes,
     *_op_grass.classes,
     *_op_paint.classes,
+    *_op_workflow.classes,
     *_engine.classes,
     *_ui.classes,
 )

@@ -51,6 +51,9 @@ class ModalJob:
                 print(f"{self._title} '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
         except StopIteration as done:
             self._finish(ob, inputs, done.value)
+        except registry.BakeInputError as err:  # found by a stage (e.g. tetrahedra): one line, object unchanged
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
         return {"FINISHED"}
 
     def invoke(self, context, event):

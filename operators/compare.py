@@ -1,6 +1,7 @@
 """translucent.compare_cycles: our engine against Cycles and EEVEE, with report and chart."""
 import bpy
 
+from ..translucent_addon import preferences
 from ..translucent_addon.compare import runner
 
 
@@ -14,11 +15,14 @@ class TRANSLUCENT_OT_compare_cycles(bpy.types.Operator):
     output_dir: bpy.props.StringProperty(name="Output folder", subtype="DIR_PATH", default="//translucent_compare")
     quick: bpy.props.BoolProperty(name="Quick", description="Few samples: a first look in minutes", default=False)
     cache_dir: bpy.props.StringProperty(name="Cache folder", subtype="DIR_PATH", default="",
-                                        description="Where reference renders are cached (default: output/cache)")
+                                        description="Where reference renders are cached (default: the preferences' "
+                                                    "cache folder, else output/cache)")
 
     def execute(self, context):
         settings = runner.CompareSettings.quick() if self.quick else runner.CompareSettings()
-        settings.cache_dir = bpy.path.abspath(self.cache_dir) if self.cache_dir else ""
+        prefs = preferences.get(context)
+        cache = self.cache_dir or (prefs.cache_folder if prefs is not None else "")
+        settings.cache_dir = bpy.path.abspath(cache) if cache else ""
         try:
             entries, meta = runner.run(context.scene, self.output_dir, settings,
                                        progress=lambda text: print(f"Translucent compare: {text}", flush=True))

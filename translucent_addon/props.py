@@ -36,6 +36,15 @@ def apply_preset(props, name: str) -> None:
     props.g = mat.g
 
 
+def _on_method(self, context):
+    """A method chosen: its resolutions at the preferences' default quality."""
+    from . import preferences, quality
+
+    prefs = preferences.get(context)
+    if prefs is not None and prefs.default_quality != "STANDARD":
+        quality.apply(self, quality.OBJECT, prefs.default_quality)
+
+
 def _on_preset(self, context):
     apply_preset(self, self.preset)
 
@@ -46,6 +55,7 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         description="How this object's translucency is rendered",
         items=[(m, _METHOD_LABELS[m], METHOD_DESCRIPTIONS[m]) for m in METHOD_IDS],
         default="OFF",
+        update=_on_method,
     )
     preset: bpy.props.EnumProperty(
         name="Preset",

@@ -40,6 +40,12 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         col.prop(s, "eta")
         col.prop(s, "g")
         layout.prop(s, "mm_per_unit")
+        longest = max(ob.dimensions)
+        if longest > 0:  # the size helper: scattering depends on the real size
+            row = layout.row(align=True)
+            size_mm = [d * s.mm_per_unit for d in ob.dimensions]
+            row.label(text="Size: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
+            row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
         if s.method == "IMAGE_SPACE":
             layout.prop(s, "profile")
             if s.profile == "MULTIPOLE":
@@ -69,6 +75,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("translucent.bake", icon="RENDER_STILL")
         row.operator("translucent.clear_bake", icon="TRASH")
+        layout.operator("translucent.compare_cycles", icon="IMAGE_REFERENCE")
         box = layout.box()
         box.prop(s, "caustics_caster")
         if s.caustics_caster != "NONE":
@@ -132,6 +139,15 @@ def _grass_box(layout, ob) -> None:
     box.operator("translucent.bake_grass_btf", icon="RENDER_STILL")
 
 
+def _length(mm: float) -> str:
+    """A length in the unit an artist would say it in."""
+    if mm >= 1000.0:
+        return f"{mm / 1000.0:.3g} m"
+    if mm >= 10.0:
+        return f"{mm / 10.0:.3g} cm"
+    return f"{mm:.3g} mm"
+
+
 def _bake_statistics(layout, ob, method) -> None:
     """What the bake holds, from its metadata (read without loading the arrays)."""
     from .bake import store
@@ -141,17 +157,40 @@ def _bake_statistics(layout, ob, method) -> None:
         return
     col = layout.column(align=True)
     col.scale_y = 0.8
+    mb = meta.get("bytes", 0) / 2**20
     if method == "QUADGRAPH":
         col.label(text=f"Nodes: {meta.get('surface_nodes', 0):,} surface, {meta.get('inner_nodes', 0):,} inner "
-                       f"({len(meta.get('levels', []))} levels, edge {meta.get('edge_mm', 0.0):.1f} mm)")
-        col.label(text=f"Proxy: {meta.get('proxy_triangles', 0):,} triangles; baked in "
+                       f"({len(meta.get('levels', []))} levels, link {meta.get('link_mm', 0.0):.1f} mm)")
+        col.label(text=f"Proxy: {meta.get('proxy_triangles', 0):,} triangles; {mb:.0f} MB; baked in "
                        f"{meta.get('seconds', 0.0):.1f} s")
+        return
+    if method == "GEOCUBE":
+        col.label(text=f"Cubes: {meta.get('geocube_cubes', 0)} of {meta.get('geocube_res', 0)}^2 texels a face, "
+                       f"{100 * meta.get('geocube_coverage', 0.0):.1f} % of the surface seen")
+        col.label(text=f"Stored: {mb:.1f} MB, baked in {meta.get('seconds', meta.get('geocube_seconds', 0.0)):.1f} s")
         return
     col.label(text=f"Proxy: {meta.get('proxy_vertices', 0):,} vertices, atlas {meta.get('atlas', ['?', '?'])[0]}"
                    f" x {meta.get('atlas', ['?', '?'])[1]}")
     col.label(text=f"Texels: {meta.get('surface_texels', 0):,} ({meta.get('texel_mm', 0.0):.2f} mm), "
                    f"form factors: {meta.get('form_factors', 0):,}")
-    col.label(text=f"Stored: {meta.get('bytes', 0) / 2**20:.0f} MB, baked in {meta.get('seconds', 0.0):.1f} s")
+    col.label(text=f"Stored: {mb:.0f} MB, baked in {meta.get('seconds', 0.0):.1f} s")
+
+
+def _last_frame(layout) -> None:
+    """The last frame's milliseconds per pass (F12 or viewport)."""
+    from .render.draw_handler import timing_lines
+    from .render.engine import LAST_TIMINGS
+
+    lines = timing_lines(LAST_TIMINGS)
+    box = layout.box()
+    if not lines:
+        box.label(text="Last frame: none drawn yet", icon="TIME")
+        return
+    box.label(text=lines[0].strip(), icon="TIME")
+    col = box.column(align=True)
+    col.scale_y = 0.75
+    for line in lines[1:9]:
+        col.label(text=line.strip())
 
 
 class VIEW3D_PT_translucent_scene(bpy.types.Panel):
@@ -187,6 +226,8 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.prop(s, "caustics_splat")
         col.prop(s, "caustics_adaptive")
         layout.prop(s, "overlay_other_engines")
+        layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")
+        _last_frame(layout)
         row = layout.row(align=True)
         row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
         row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "CAUSTICS"

@@ -444,6 +444,7 @@ def bake(inputs):
     arrays = to_arrays(g)
     arrays["stretch"] = inputs.stretch_matrix().astype(np.float32).ravel()
     meta = {"geocube_cubes": g.count, "geocube_res": res, "geocube_coverage": round(g.coverage, 5),
-            "geocube_seconds": round(time.perf_counter() - t0, 2)}
+            "geocube_seconds": round(time.perf_counter() - t0, 2),
+            "bytes": int(sum(a.nbytes for a in arrays.values()))}
     yield 1.0, f"geocube: {g.count} cubes cover {100 * g.coverage:.1f} % of the surface"
     return arrays, meta

@@ -10,6 +10,14 @@ from .pipeline import Pipeline, render_offscreen
 
 # Read-backs of the last F12's intermediate passes when Scene.translucent.capture_passes is on.
 LAST_CAPTURE: dict = {}
+# Seconds per pass of the last frame drawn (F12 or viewport), for the sidebar and the timing overlay.
+LAST_TIMINGS: dict = {}
+
+
+def _keep_timings(pipeline, source: str) -> None:
+    LAST_TIMINGS.clear()
+    LAST_TIMINGS.update(pipeline.last_timings)
+    LAST_TIMINGS["source"] = source
 
 
 def sampling_settings(scene) -> SamplingSettings:
@@ -65,6 +73,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
         pipeline.coherence_frame = scene.frame_current
         pixels = render_offscreen(pipeline, frame)
+        _keep_timings(pipeline, "F12")
         for message in frame.warnings:  # after drawing: the passes add their own
             self.report({"WARNING"}, f"Translucent: {message}")
         LAST_CAPTURE.clear()
@@ -102,6 +111,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             off = self._viewport_offscreen = gpu.types.GPUOffScreen(*size, format="RGBA16F")
         with off.bind():
             pipeline.draw(frame)
+        _keep_timings(pipeline, "viewport")
         gpu.state.blend_set("ALPHA_PREMULT")
         self.bind_display_space_shader(depsgraph.scene)
         draw_texture_2d(off.texture_color, (0, 0), *size)

@@ -1,0 +1,64 @@
+"""translucent.set_physical_size and translucent.apply_quality: the size helper and quality tiers."""
+import bpy
+
+from ..translucent_addon import preferences, quality
+
+
+class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
+    """Say how big the active object really is: sets millimetres per scene unit so that its longest side
+    measures this size (scattering depends on real size: a 5 cm bunny is not a 5 m one)"""
+
+    bl_idname = "translucent.set_physical_size"
+    bl_label = "Set Real Size"
+    bl_options = {"REGISTER", "UNDO"}
+
+    size_mm: bpy.props.FloatProperty(name="Longest side (mm)", min=1e-3, soft_max=10000.0, default=50.0)
+
+    def invoke(self, context, event):
+        ob = context.active_object
+        if ob is not None and max(ob.dimensions) > 0:
+            self.size_mm = max(ob.dimensions) * ob.translucent.mm_per_unit
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        ob = context.active_object
+        if ob is None or ob.type != "MESH":
+            self.report({"ERROR"}, "no active mesh: select the object whose size you know")
+            return {"CANCELLED"}
+        longest = max(ob.dimensions)
+        if longest <= 0.0:
+            self.report({"ERROR"}, f"'{ob.name}' has no extent (all its vertices are in one point)")
+            return {"CANCELLED"}
+        ob.translucent.mm_per_unit = self.size_mm / longest
+        self.report({"INFO"}, f"'{ob.name}': {ob.translucent.mm_per_unit:.4g} mm per unit, longest side "
+                              f"{self.size_mm:g} mm")
+        return {"FINISHED"}
+
+
+class TRANSLUCENT_OT_apply_quality(bpy.types.Operator):
+    """Set the scene's and the active object's resolutions to a quality tier (Draft, Standard, High)"""
+
+    bl_idname = "translucent.apply_quality"
+    bl_label = "Apply Quality"
+    bl_options = {"REGISTER", "UNDO"}
+
+    tier: bpy.props.EnumProperty(
+        name="Quality", items=[(t, t.capitalize(), "") for t in quality.TIERS] + [("DEFAULT", "Default",
+                                                                                    "The preferences' default")],
+        default="DEFAULT",
+    )
+
+    def execute(self, context):
+        tier = self.tier
+        if tier == "DEFAULT":
+            prefs = preferences.get(context)
+            tier = prefs.default_quality if prefs is not None else "STANDARD"
+        quality.apply(context.scene.translucent, quality.SCENE, tier)
+        ob = context.active_object
+        if ob is not None and ob.type == "MESH":
+            quality.apply(ob.translucent, quality.OBJECT, tier)
+        self.report({"INFO"}, f"quality {tier.capitalize()} applied")
+        return {"FINISHED"}
+
+
+classes = (TRANSLUCENT_OT_set_physical_size, TRANSLUCENT_OT_apply_quality)

@@ -1,0 +1,78 @@
+"""The artist's workflow: the size helper, quality tiers and the preferences' default, last-frame
+timings, a bake that fails inside a stage reporting one line and leaving the object as it was."""
+from __future__ import annotations
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import add_camera, add_cube, add_light, add_mesh, render, set_world  # noqa: E402
+from conftest import ext_module  # noqa: E402
+
+
+def _select(ob):
+    bpy.context.view_layer.objects.active = ob
+    ob.select_set(True)
+
+
+def test_size_helper_sets_millimetres_per_unit(tr, scene):
+    cube = add_cube(scene, size=2.0)
+    _select(cube)
+    assert bpy.ops.translucent.set_physical_size(size_mm=50.0) == {"FINISHED"}
+    assert cube.translucent.mm_per_unit == pytest.approx(25.0)
+    point = add_mesh(scene, "Point", [(0, 0, 0), (0, 0, 0), (0, 0, 0)], [(0, 1, 2)])
+    _select(point)
+    with pytest.raises(RuntimeError, match="'Point' has no extent"):
+        bpy.ops.translucent.set_physical_size(size_mm=10.0)
+
+
+def test_quality_tiers_and_the_preferences_default(tr, scene):
+    quality = ext_module(tr, "translucent_addon.quality")
+    cube = add_cube(scene)
+    _select(cube)
+    assert bpy.ops.translucent.apply_quality(tier="DRAFT") == {"FINISHED"}
+    assert scene.translucent.shadow_resolution == 512 and cube.translucent.atlas_resolution == 256
+    assert bpy.ops.translucent.apply_quality(tier="HIGH") == {"FINISHED"}
+    assert scene.translucent.caustics_grid == 256 and cube.translucent.quadgraph_K == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="unknown quality 'ULTRA'"):
+        quality.apply(scene.translucent, quality.SCENE, "ULTRA")
+    prefs = ext_module(tr, "translucent_addon.preferences").get()
+    assert prefs is not None and prefs.default_quality == "STANDARD"
+    prefs.default_quality = "DRAFT"
+    try:
+        other = add_cube(scene, name="Other")
+        other.translucent.method = "TEXTURE_SPACE"  # choosing a method applies the default quality
+        assert other.translucent.atlas_resolution == 256
+        assert bpy.ops.translucent.apply_quality() == {"FINISHED"}  # DEFAULT: the preferences' tier
+        assert scene.translucent.shadow_resolution == 512
+    finally:
+        prefs.default_quality = "STANDARD"
+
+
+def test_last_frame_timings_per_pass(tr, scene):
+    set_world(scene, (0.1, 0.1, 0.1))
+    add_cube(scene)
+    add_light(scene, "SUN", (1, -1, 2), energy=2.0)
+    add_camera(scene, (3, -3, 3), (0, 0, 0))
+    render(scene, 32, 32)
+    engine = ext_module(tr, "translucent_addon.render.engine")
+    draw_handler = ext_module(tr, "translucent_addon.render.draw_handler")
+    t = dict(engine.LAST_TIMINGS)
+    assert t["source"] == "F12" and t["total"] > 0 and {"world", "lights", "shadow_maps"} <= set(t)
+    lines = draw_handler.timing_lines(t)
+    assert lines[0].startswith("Translucent (F12): ") and lines[0].endswith(" ms")
+    assert len(lines) == len([k for k in t if k not in {"total", "source"}]) + 1
+
+
+def test_a_stage_failure_reports_one_line_and_changes_nothing(tr, scene):
+    """A bake whose stage refuses the mesh (here: no volume for the tetrahedra) ends with one line and
+    no bake stored; in batch mode the operator does not raise a traceback."""
+    store = ext_module(tr, "translucent_addon.bake.store")
+    sheet = add_mesh(scene, "Sheet", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2, 3)])
+    _select(sheet)
+    sheet.translucent.method = "QUADGRAPH"
+    with pytest.raises(RuntimeError) as err:
+        bpy.ops.translucent.bake()
+    message = str(err.value)
+    assert "Traceback" not in message and "'Sheet'" in message and message.count("\n") <= 1, message
+    assert store.read_meta(sheet, "QUADGRAPH") is None
