@@ -1,7 +1,8 @@
 """translucent.set_physical_size and translucent.apply_quality: the size helper and quality tiers."""
 import bpy
 
-from ..translucent_addon import preferences, quality
+from ..translucent_addon import preferences, props, quality
+from ..translucent_addon.physics import presets
 
 
 class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
@@ -61,4 +62,54 @@ class TRANSLUCENT_OT_apply_quality(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (TRANSLUCENT_OT_set_physical_size, TRANSLUCENT_OT_apply_quality)
+class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
+    """Save the active object's coefficients as your own preset (kept in Blender's user configuration,
+    listed under Preset in every file)"""
+
+    bl_idname = "translucent.save_preset"
+    bl_label = "Save Preset"
+
+    name: bpy.props.StringProperty(name="Name", default="My material")
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        ob = context.active_object
+        if ob is None or ob.type != "MESH":
+            self.report({"ERROR"}, "no active mesh: select the object whose material to save")
+            return {"CANCELLED"}
+        s = ob.translucent
+        mat = presets.Material(self.name.strip(), tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g))
+        try:
+            presets.save_user_preset(props.user_presets_path(), mat)
+        except presets.CoefficientError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        props.refresh_preset_items()
+        s.preset = presets.USER_PREFIX + mat.name
+        self.report({"INFO"}, f"preset '{mat.name}' saved in {props.user_presets_path()}")
+        return {"FINISHED"}
+
+
+class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
+    """Remove the active object's user preset from the list (its coefficients stay on the object)"""
+
+    bl_idname = "translucent.remove_preset"
+    bl_label = "Remove Preset"
+
+    def execute(self, context):
+        ob = context.active_object
+        name = ob.translucent.preset if ob is not None and ob.type == "MESH" else ""
+        if not name.startswith(presets.USER_PREFIX):
+            self.report({"ERROR"}, "the object's preset is not one of yours: only user presets can be removed")
+            return {"CANCELLED"}
+        presets.remove_user_preset(props.user_presets_path(), name[len(presets.USER_PREFIX):])
+        ob.translucent.preset = "CUSTOM"  # before the list changes under it
+        props.refresh_preset_items()
+        self.report({"INFO"}, f"preset '{name[len(presets.USER_PREFIX):]}' removed")
+        return {"FINISHED"}
+
+
+classes = (TRANSLUCENT_OT_set_physical_size, TRANSLUCENT_OT_apply_quality, TRANSLUCENT_OT_save_preset,
+           TRANSLUCENT_OT_remove_preset)

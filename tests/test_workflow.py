@@ -76,3 +76,45 @@ def test_a_stage_failure_reports_one_line_and_changes_nothing(tr, scene):
     message = str(err.value)
     assert "Traceback" not in message and "'Sheet'" in message and message.count("\n") <= 1, message
     assert store.read_meta(sheet, "QUADGRAPH") is None
+
+
+def test_user_presets_are_saved_listed_applied_and_removed(tr, scene):
+    cube = add_cube(scene)
+    _select(cube)
+    s = cube.translucent
+    s.sigma_a, s.sigma_s_prime, s.eta, s.g = (0.01, 0.02, 0.03), (1.0, 1.5, 2.0), 1.4, 0.1
+    assert bpy.ops.translucent.save_preset(name="Wax test") == {"FINISHED"}
+    assert s.preset == "USER:Wax test"
+    other = add_cube(scene, name="Other")
+    other.translucent.preset = "USER:Wax test"  # listed, and applied like a measured one
+    assert tuple(other.translucent.sigma_s_prime) == pytest.approx((1.0, 1.5, 2.0))
+    assert other.translucent.eta == pytest.approx(1.4) and other.translucent.g == pytest.approx(0.1)
+    _select(other)
+    assert bpy.ops.translucent.remove_preset() == {"FINISHED"}
+    props = ext_module(tr, "translucent_addon.props")
+    assert "USER:Wax test" not in [i[0] for i in props._preset_items(None, None)]
+    with pytest.raises(RuntimeError, match="only user presets can be removed"):
+        bpy.ops.translucent.remove_preset()
+    s.sigma_s_prime = (1.0, 1.0, 1.0)
+    _select(cube)
+    with pytest.raises(RuntimeError, match="a preset needs a name"):
+        bpy.ops.translucent.save_preset(name="  ")
+
+
+def test_user_presets_file_skips_entries_that_are_not_media(tmp_path):
+    """A hand-edited presets file with a bad entry still lists the good ones (pure)."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from translucent_addon.physics import presets
+
+    path = tmp_path / "presets.json"
+    path.write_text(json.dumps({"good": {"sigma_a": [0, 0, 0], "sigma_s_prime": [1, 1, 1], "eta": 1.3},
+                                "negative": {"sigma_a": [-1, 0, 0], "sigma_s_prime": [1, 1, 1], "eta": 1.3},
+                                "broken": {"eta": 1.3}}))
+    assert list(presets.load_user_presets(path)) == ["good"]
+    with pytest.raises(presets.CoefficientError, match="sigma_s_prime.R = 0.0 mm\\^-1, must be > 0"):
+        presets.save_user_preset(path, presets.Material("zero", (0, 0, 0), (0.0, 1, 1), 1.3))
+    assert presets.remove_user_preset(path, "good") and not presets.remove_user_preset(path, "good")

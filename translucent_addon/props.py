@@ -17,17 +17,39 @@ _METHOD_LABELS = {
 _PRESET_ITEMS: list = []
 
 
+def user_presets_path():
+    """The user presets' JSON file in Blender's user configuration (created on first save)."""
+    from pathlib import Path
+
+    return Path(bpy.utils.user_resource("CONFIG", path="translucent")) / "presets.json"
+
+
+def refresh_preset_items() -> None:
+    """Rebuild the preset list (after a user preset is saved or removed). Blender keeps pointers into these
+    strings: the list object stays the same and stays alive."""
+    from .physics.presets import USER_PREFIX, load_user_presets
+
+    _PRESET_ITEMS.clear()
+    _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand"))
+    for name in sorted(load_presets()):
+        _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)"))
+    for name in sorted(load_user_presets(user_presets_path())):
+        _PRESET_ITEMS.append((USER_PREFIX + name, name, f"Your preset '{name}'"))
+
+
 def _preset_items(self, context):
-    # Blender keeps pointers into these strings: build the list once and keep it alive.
     if not _PRESET_ITEMS:
-        _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand"))
-        for name in sorted(load_presets()):
-            _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)"))
+        refresh_preset_items()
     return _PRESET_ITEMS
 
 
 def apply_preset(props, name: str) -> None:
-    mat = load_presets().get(name)
+    from .physics.presets import USER_PREFIX, load_user_presets
+
+    if name.startswith(USER_PREFIX):
+        mat = load_user_presets(user_presets_path()).get(name[len(USER_PREFIX):])
+    else:
+        mat = load_presets().get(name)
     if mat is None:
         return
     props.sigma_a = mat.sigma_a

@@ -76,3 +76,55 @@ def load_presets(path: Path = PRESETS_CSV) -> dict[str, Material]:
         validate_coefficients(mat.sigma_a, mat.sigma_s_prime, mat.eta, name=name)
         presets[name] = mat
     return presets
+
+
+# -- user presets: the artist's own materials, in a JSON file of Blender's user configuration --------
+USER_PREFIX = "USER:"
+
+
+def load_user_presets(path: Path | str) -> dict[str, Material]:
+    """User presets from a JSON file ({name: {sigma_a, sigma_s_prime, eta, g}}); none when it is absent.
+    An entry that is not a physical medium is skipped (a hand-edited file must not break the list)."""
+    import json
+
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    out = {}
+    for name, entry in json.loads(path.read_text()).items():
+        try:
+            mat = Material(str(name), tuple(float(x) for x in entry["sigma_a"]),
+                           tuple(float(x) for x in entry["sigma_s_prime"]), float(entry["eta"]),
+                           float(entry.get("g", 0.0)))
+            validate_coefficients(mat.sigma_a, mat.sigma_s_prime, mat.eta, mat.g, name=mat.name)
+        except (KeyError, TypeError, ValueError):
+            continue
+        out[mat.name] = mat
+    return out
+
+
+def save_user_preset(path: Path | str, mat: Material) -> None:
+    """Add or replace one user preset (validated first: CoefficientError says why not)."""
+    import json
+
+    if not mat.name.strip():
+        raise CoefficientError("a preset needs a name")
+    validate_coefficients(mat.sigma_a, mat.sigma_s_prime, mat.eta, mat.g, name=mat.name)
+    path = Path(path)
+    data = json.loads(path.read_text()) if path.is_file() else {}
+    data[mat.name] = {"sigma_a": list(mat.sigma_a), "sigma_s_prime": list(mat.sigma_s_prime), "eta": mat.eta,
+                      "g": mat.g}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=2, sort_keys=True))
+
+
+def remove_user_preset(path: Path | str, name: str) -> bool:
+    import json
+
+    path = Path(path)
+    data = json.loads(path.read_text()) if path.is_file() else {}
+    if name not in data:
+        return False
+    del data[name]
+    path.write_text(json.dumps(data, indent=2, sort_keys=True))
+    return True
