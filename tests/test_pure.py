@@ -265,6 +265,33 @@ def test_bake_warns_on_open_mesh_and_zero_area_faces():
     assert any("1 zero-area faces" in w for w in warnings)
 
 
+def _cube(offset=(0.0, 0.0, 0.0), size=1.0):
+    h = size / 2
+    v = np.array([(x, y, z) for x in (-h, h) for y in (-h, h) for z in (-h, h)], np.float64) + offset
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return v, np.array([(a, b, c) for a, b, c, d in quads] + [(a, c, d) for a, b, c, d in quads], np.int32)
+
+
+def test_self_intersections_are_found_and_touching_is_not():
+    from translucent_addon.geometry.mesh_checks import self_intersections
+
+    def two(offset):
+        (v1, t1), (v2, t2) = _cube(), _cube(offset)
+        return np.vstack([v1, v2]), np.vstack([t1, t2 + 8])
+
+    assert self_intersections(*_cube()) == 0
+    assert self_intersections(*two((0.5, 0.2, 0.1))) > 0  # interpenetrating
+    assert self_intersections(*two((3.0, 0.0, 0.0))) == 0  # apart
+    assert self_intersections(*two((1.0, 0.0, 0.0))) == 0  # face to face, touching only
+    v, t = load_npz(MESHES / "spot.npz")
+    assert self_intersections(v, t) == 0  # a clean scan
+    v, t = two((0.5, 0.2, 0.1))
+    n = self_intersections(v, t)
+    warnings = validate(_inputs(vertices=v.astype(np.float32), triangles=t))
+    assert f"'Spot': the surface intersects itself ({n} pairs of faces cross); its inside is ambiguous, so light " \
+           "may leak or be trapped there" in warnings
+
+
 def test_bake_refuses_huge_meshes_and_names_the_count():
     from translucent_addon.bake.registry import MAX_BAKE_TRIANGLES
 

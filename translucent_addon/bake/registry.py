@@ -11,7 +11,7 @@ import dataclasses
 
 import numpy as np
 
-from ..geometry.mesh_checks import check_mesh
+from ..geometry.mesh_checks import check_mesh, self_intersections
 from ..physics.presets import validate_coefficients
 from . import store
 
@@ -131,6 +131,10 @@ def validate(inputs: BakeInputs) -> list[str]:
                         "light leaks where the surface has holes")
     if report.non_manifold_edges:
         warnings.append(f"'{inputs.name}': {report.non_manifold_edges} non-manifold edges")
+    crossing = self_intersections(inputs.vertices, inputs.triangles)
+    if crossing:
+        warnings.append(f"'{inputs.name}': the surface intersects itself ({crossing} pairs of faces cross); "
+                        "its inside is ambiguous, so light may leak or be trapped there")
     return warnings
 
 
