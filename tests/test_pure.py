@@ -272,6 +272,14 @@ def _cube(offset=(0.0, 0.0, 0.0), size=1.0):
     return v, np.array([(a, b, c) for a, b, c, d in quads] + [(a, c, d) for a, b, c, d in quads], np.int32)
 
 
+def test_bake_warns_on_non_manifold_edges_with_the_count():
+    v, t = _cube()
+    fin = np.array([[0, 1, 8]], np.int32)  # a third face on the edge (0, 1)
+    v = np.vstack([v, [[-0.5, -1.5, -0.5]]]).astype(np.float32)
+    warnings = validate(_inputs(vertices=v, triangles=np.vstack([t, fin])))
+    assert "'Spot': 1 non-manifold edges" in warnings
+
+
 def test_self_intersections_are_found_and_touching_is_not():
     from translucent_addon.geometry.mesh_checks import self_intersections
 
