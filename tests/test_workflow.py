@@ -118,3 +118,14 @@ def test_user_presets_file_skips_entries_that_are_not_media(tmp_path):
     with pytest.raises(presets.CoefficientError, match="sigma_s_prime.R = 0.0 mm\\^-1, must be > 0"):
         presets.save_user_preset(path, presets.Material("zero", (0, 0, 0), (0.0, 1, 1), 1.3))
     assert presets.remove_user_preset(path, "good") and not presets.remove_user_preset(path, "good")
+
+
+def test_editing_a_coefficient_makes_the_preset_custom(tr, scene):
+    cube = add_cube(scene)
+    s = cube.translucent
+    s.preset = "marble"
+    assert s.preset == "marble"  # applying the preset's own values keeps its name
+    s.preset = "skin1"
+    assert s.preset == "skin1"
+    s.eta = 1.45
+    assert s.preset == "CUSTOM" and s.eta == pytest.approx(1.45)

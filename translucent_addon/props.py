@@ -43,19 +43,42 @@ def _preset_items(self, context):
     return _PRESET_ITEMS
 
 
-def apply_preset(props, name: str) -> None:
+def _preset_material(name: str):
     from .physics.presets import USER_PREFIX, load_user_presets
 
     if name.startswith(USER_PREFIX):
-        mat = load_user_presets(user_presets_path()).get(name[len(USER_PREFIX):])
-    else:
-        mat = load_presets().get(name)
+        return load_user_presets(user_presets_path()).get(name[len(USER_PREFIX):])
+    return load_presets().get(name)
+
+
+_applying = [False]  # set while a preset writes its coefficients
+
+
+def apply_preset(props, name: str) -> None:
+    mat = _preset_material(name)
     if mat is None:
         return
-    props.sigma_a = mat.sigma_a
-    props.sigma_s_prime = mat.sigma_s_prime
-    props.eta = mat.eta
-    props.g = mat.g
+    _applying[0] = True
+    try:
+        props.sigma_a = mat.sigma_a
+        props.sigma_s_prime = mat.sigma_s_prime
+        props.eta = mat.eta
+        props.g = mat.g
+    finally:
+        _applying[0] = False
+
+
+def _on_coefficients(self, context):
+    """A coefficient edited by hand: the preset no longer describes the object, so it says Custom."""
+    if _applying[0] or self.preset == "CUSTOM":
+        return
+    mat = _preset_material(self.preset)
+    if mat is None:
+        return
+    same = all(abs(a - b) <= 1e-5 * max(1.0, abs(b)) for a, b in zip(
+        (*self.sigma_a, *self.sigma_s_prime, self.eta, self.g), (*mat.sigma_a, *mat.sigma_s_prime, mat.eta, mat.g)))
+    if not same:
+        self.preset = "CUSTOM"
 
 
 def _on_method(self, context):
@@ -88,18 +111,20 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
     sigma_a: bpy.props.FloatVectorProperty(
         name="Absorption (mm⁻¹)",
         description="Absorption coefficient sigma_a per RGB channel, in 1/mm",
-        size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071),
+        size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071), update=_on_coefficients,
     )
     sigma_s_prime: bpy.props.FloatVectorProperty(
         name="Reduced scattering (mm⁻¹)",
         description="Reduced scattering coefficient sigma_s' = (1 - g) sigma_s per RGB channel, in 1/mm",
-        size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00),
+        size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00), update=_on_coefficients,
     )
     eta: bpy.props.FloatProperty(
-        name="IOR", description="Relative index of refraction eta", min=1.0, max=3.0, default=1.3
+        name="IOR", description="Relative index of refraction eta", min=1.0, max=3.0, default=1.3,
+        update=_on_coefficients,
     )
     g: bpy.props.FloatProperty(
-        name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99, max=0.99, default=0.0
+        name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99, max=0.99, default=0.0,
+        update=_on_coefficients,
     )
     profile: bpy.props.EnumProperty(
         name="Profile",
