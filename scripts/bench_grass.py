@@ -282,6 +282,7 @@ def chart(comp: dict, unsampled: list, scenes: dict, out: Path) -> None:
                      label=f"BTF layer ({'fewer eigen-textures far' if lod else 'all eigen-textures'})")
     axes[2].plot([r["blades"] for r in ee], [r["seconds"] for r in ee], "s-", label="EEVEE 16, blades as geometry")
     axes[2].set_xscale("log")
+    axes[2].set_yscale("log")
     axes[2].set_xlabel("blades in the field")
     axes[2].set_ylabel("seconds per frame (llvmpipe, 256^2)")
     axes[2].legend(fontsize=8)
