@@ -34,6 +34,8 @@ class ModalJob:
     _job = None
     _inputs = None
     _title = "Translucent bake"
+    _what = "bake"
+    _errors = (registry.BakeInputError,)  # raised by a job step: reported in one line, nothing written
 
     def _job_for(self, inputs):
         return registry.run(inputs)
@@ -51,7 +53,7 @@ class ModalJob:
                 print(f"{self._title} '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
         except StopIteration as done:
             self._finish(ob, inputs, done.value)
-        except registry.BakeInputError as err:  # found by a stage (e.g. tetrahedra): one line, object unchanged
+        except self._errors as err:  # found by a step (e.g. tetrahedra): one line, object unchanged
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
         return {"FINISHED"}
@@ -73,7 +75,8 @@ class ModalJob:
 
     def modal(self, context, event):
         if event.type == "ESC":
-            self._end(context, f"'{self._object.name}': bake cancelled, nothing changed")
+            self._job.close()  # runs the job's cleanup (restores what a step changed) now
+            self._end(context, f"'{self._object.name}': {self._what} cancelled, nothing changed")
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
@@ -84,7 +87,7 @@ class ModalJob:
             self._end(context, None)
             return {"FINISHED"}
         except Exception as err:  # a failing stage must not leave the modal running
-            self._end(context, f"'{self._object.name}': bake failed: {err}", level="ERROR")
+            self._end(context, f"'{self._object.name}': {self._what} failed: {err}", level="ERROR")
             return {"CANCELLED"}
         context.window_manager.progress_update(int(100 * fraction))
         context.workspace.status_text_set(f"{self._title}: {100 * fraction:.0f} % {text} (Esc to cancel)")

@@ -72,3 +72,29 @@ def test_compare_operator_bad_input(tr, scene, tmp_path):
     scene.camera = None
     with pytest.raises(RuntimeError, match="no active camera"):
         bpy.ops.translucent.compare_cycles(output_dir=str(tmp_path), quick=True)
+
+
+def test_compare_steps_report_progress_and_stop_cleanly(tr, scene, tmp_path):
+    """The comparison as steps (what the modal operator drives): one step per render with rising
+    fractions ending at 1; stopped after a step (Esc), the scene keeps its engine and materials."""
+    ob = _scene(tr, scene)
+    runner = ext_module(tr, "translucent_addon.compare.runner")
+    settings = runner.CompareSettings(our_quality=({"label": "k=8", "splat_overlap": 8.0},),
+                                      cycles_random_walk_samples=(2,), cycles_brute_force_samples=(),
+                                      eevee_samples=(), reference_samples=4, brute_force_reference_samples=0,
+                                      model_reference_samples=0, texture_space_atlas=())
+    job = runner.run_steps(scene, tmp_path / "a", settings)
+    fractions = []
+    while True:
+        try:
+            fractions.append(next(job)[0])
+        except StopIteration as done:
+            entries, _ = done.value
+            break
+    assert len(fractions) == 4 and fractions == sorted(fractions) and fractions[-1] == 1.0  # ref, 2 spp, ours, report
+    assert len(entries) == 3
+    engine, materials = scene.render.engine, [s.material for s in ob.material_slots]
+    job = runner.run_steps(scene, tmp_path / "b", settings)
+    next(job)
+    job.close()
+    assert scene.render.engine == engine and [s.material for s in ob.material_slots] == materials

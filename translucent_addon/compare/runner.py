@@ -200,6 +200,19 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
 
     ``objects``: the objects whose medium is compared (default: every visible mesh with a method).
     """
+    job = run_steps(scene, output_dir, settings, objects)
+    while True:
+        try:
+            _, text = next(job)
+        except StopIteration as done:
+            return done.value
+        progress(text)
+
+
+def run_steps(scene, output_dir, settings: CompareSettings | None = None, objects=None):
+    """The comparison as a generator of (fraction done, text), one step per render, so that an operator
+    can show progress and cancel between renders (no scene setting is left changed between steps);
+    returns (entries, meta)."""
     settings = settings or CompareSettings()
     out = Path(bpy.path.abspath(str(output_dir)))
     out.mkdir(parents=True, exist_ok=True)
@@ -222,6 +235,14 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
     description = scene_description(depsgraph, frame, objects)
     images: dict[str, np.ndarray] = {}
     entries: list[Entry] = []
+    total = (1 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
+             + len(settings.cycles_brute_force_samples) + len(settings.eevee_samples) + len(settings.our_quality)
+             + 2 * len(settings.texture_space_atlas) + bool(settings.model_reference_samples) + 1)
+    steps = [0]
+
+    def step(text):
+        steps[0] += 1
+        return min(steps[0] / total, 0.99), text
 
     def add(series, engine, label, seconds, image, cached=False, **extra):
         key = f"{series} {label}".strip()
@@ -234,52 +255,54 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
                 "bounces": settings.cycles_bounces}
         hit = cache.load(cache_dir, desc)
         if hit is not None:
-            progress(f"Cycles {kind} {samples} spp: from the cache")
+            yield step(f"Cycles {kind} {samples} spp: from the cache")
             return hit[0], hit[1], True
+        yield step(f"Cycles {kind} {samples} spp ...")
         with twin_materials_applied(objects, kind), \
                 engine_setup(scene, "CYCLES", **cycles_options(samples, settings.cycles_bounces)):
-            progress(f"Cycles {kind} {samples} spp ...")
             image, seconds = render_pixels(scene, width, height)
         cache.store(cache_dir, desc, image, seconds)
         return image, seconds, False
 
     # The reference first, so that every other render is measured against it.
     ref_name = f"Cycles random walk {settings.reference_samples} spp"
-    ref_image, ref_seconds, ref_cached = cached_cycles("random_walk", settings.reference_samples)
+    ref_image, ref_seconds, ref_cached = yield from cached_cycles("random_walk", settings.reference_samples)
     add("Cycles random walk (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
         ref_cached, samples=settings.reference_samples)
     brute_image = None
     if settings.brute_force_reference_samples:
-        brute_image, sec, hit = cached_cycles("brute_force", settings.brute_force_reference_samples)
+        brute_image, sec, hit = yield from cached_cycles("brute_force", settings.brute_force_reference_samples)
         add("Cycles brute force (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp", sec, brute_image,
             hit, samples=settings.brute_force_reference_samples)
     for spp in settings.cycles_random_walk_samples:
-        img, sec, hit = cached_cycles("random_walk", spp)
+        img, sec, hit = yield from cached_cycles("random_walk", spp)
         add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
     for spp in settings.cycles_brute_force_samples:
-        img, sec, hit = cached_cycles("brute_force", spp)
+        img, sec, hit = yield from cached_cycles("brute_force", spp)
         add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
     for spp in settings.eevee_samples:
+        yield step(f"EEVEE {spp} samples ...")
         with twin_materials_applied(objects, "random_walk"), engine_setup(scene, "BLENDER_EEVEE", **eevee_options(spp)):
-            progress(f"EEVEE {spp} samples ...")
             img, sec = render_pixels(scene, width, height)
         add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
     methods = sorted({ob.translucent.method for ob in objects})
     for quality in settings.our_quality:
         options = {f"translucent_{k}": v for k, v in quality.items() if k != "label"}
+        yield step(f"Translucent ({', '.join(methods)}) {quality['label']} ...")
         with engine_setup(scene, "TRANSLUCENT_RT", **options):
-            progress(f"Translucent ({', '.join(methods)}) {quality['label']} ...")
             img, sec = render_pixels(scene, width, height)
         add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
             methods=methods, **{k: v for k, v in quality.items() if k != "label"})
     for res, product, bake_seconds, _, img, sec in texture_space_series(scene, objects, settings.texture_space_atlas,
-                                                                      width, height, progress):
+                                                                      width, height, lambda text: None):
+        yield step(f"Translucent (TEXTURE_SPACE) {res} texels, {product} product: done")
         add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", f"{res} texels, {product} product", sec, img,
             methods=["TEXTURE_SPACE"], atlas_resolution=res, product=product, bake_seconds=bake_seconds)
     model_image = None
     if settings.model_reference_samples:
+        yield step(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
         model_image, sec, hit = model_reference(frame, objects, tracer, settings.model_reference_samples, description,
-                                                cache_dir, progress)
+                                                cache_dir, lambda text: None)
         add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{settings.model_reference_samples // 1000}k samples", sec,
             model_image, hit, samples=settings.model_reference_samples)
 
@@ -311,7 +334,7 @@ def run(scene, output_dir, settings: CompareSettings | None = None, progress=pri
     write_report(out / "report.json", entries, meta)
     speed_accuracy_chart(entries, out / "chart.png", f"{scene.name}: speed against accuracy ({width}x{height}); "
                                                       f"reference {ref_name}")
-    progress(f"wrote {out / 'report.json'} and {out / 'chart.png'}")
+    yield 1.0, f"wrote {out / 'report.json'} and {out / 'chart.png'}"
     return entries, meta
 
 
