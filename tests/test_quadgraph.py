@@ -66,6 +66,17 @@ def _homogeneous(graph, sigma_a, sigma_s_prime, kappa_of=df.kappa):
 
 
 # -- tetrahedra and graph (Sec. 4.1) ------------------------------------------------------------
+def test_a_surface_wound_inward_fills_the_same_volume():
+    """Flipped normals (triangles wound inward): fTetWild alone returns an empty volume; ours orients the
+    surface first, so the tetrahedra fill the sphere either way."""
+    v, f = icosphere(2, 20.0)
+    volume = lambda p, t: float(np.abs(np.einsum("ij,ij->i", p[t[:, 1]] - p[t[:, 0]],  # noqa: E731
+                                                 np.cross(p[t[:, 2]] - p[t[:, 0]], p[t[:, 3]] - p[t[:, 0]]))).sum() / 6)
+    out = volume(*tetra.tetrahedralize(v, f))
+    inward = volume(*tetra.tetrahedralize(v, f[:, ::-1]))
+    assert inward == pytest.approx(out, rel=1e-3) and out > 0.9 * 4 / 3 * np.pi * 20.0 ** 3
+
+
 def test_split_leaves_no_tetrahedron_with_two_boundary_faces_and_keeps_the_volume(tmp_path, monkeypatch):
     v, f = icosphere(2, 10.0)
     monkeypatch.chdir(tmp_path)

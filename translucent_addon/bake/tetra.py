@@ -37,6 +37,11 @@ def tetrahedralize(vertices_mm: np.ndarray, triangles: np.ndarray, edge_fraction
                               "Linux x86-64 or Windows x64 wheels)") from None
     v = np.ascontiguousarray(vertices_mm, np.float64)
     t = np.ascontiguousarray(triangles, np.int32)
+    # fTetWild keeps what its winding number calls inside: a surface wound inward (flipped normals) gives
+    # an empty volume. Orient it outward by the sign of its enclosed volume (divergence theorem).
+    p = v[t]
+    if np.einsum("ij,ij->", p[:, 0], np.cross(p[:, 1], p[:, 2])) < 0.0:
+        t = np.ascontiguousarray(t[:, [0, 2, 1]])
     # fTetWild writes a ``__tracked_surface.stl`` into the working directory: run it in a temporary one
     # so nothing lands in the user's folder (or fails where that folder is read-only).
     cwd = os.getcwd()
