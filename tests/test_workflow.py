@@ -129,3 +129,27 @@ def test_editing_a_coefficient_makes_the_preset_custom(tr, scene):
     assert s.preset == "skin1"
     s.eta = 1.45
     assert s.preset == "CUSTOM" and s.eta == pytest.approx(1.45)
+
+
+def test_undo_after_bake_and_after_clear(tr, scene):
+    """Ctrl+Z after Bake leaves the object unbaked; after Clear it has its bake back."""
+    store = ext_module(tr, "translucent_addon.bake.store")
+    cube = add_cube(scene, name="Undo cube")
+    _select(cube)
+    cube.translucent.method = "GEOCUBE"
+    cube.translucent.geocube_resolution = 16
+    bpy.ops.ed.undo_push(message="before bake")
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="baked")
+    assert store.read_meta(bpy.data.objects["Undo cube"], "GEOCUBE") is not None
+    bpy.ops.ed.undo()
+    assert store.read_meta(bpy.data.objects["Undo cube"], "GEOCUBE") is None
+    bpy.ops.ed.redo()
+    cube = bpy.data.objects["Undo cube"]
+    assert store.read_meta(cube, "GEOCUBE") is not None
+    _select(cube)
+    assert bpy.ops.translucent.clear_bake() == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="cleared")
+    assert store.read_meta(bpy.data.objects["Undo cube"], "GEOCUBE") is None
+    bpy.ops.ed.undo()
+    assert store.read_meta(bpy.data.objects["Undo cube"], "GEOCUBE") is not None
