@@ -257,9 +257,12 @@ def test_bake_refuses_bad_input_with_one_line(kw, message):
 
 
 def test_bake_warns_on_open_mesh_and_zero_area_faces():
+    from translucent_addon.geometry.mesh_checks import check_mesh
+
     v, t = load_npz(MESHES / "teapot.npz")
     warnings = validate(_inputs(vertices=v, triangles=t))
-    assert any("the mesh is open" in w for w in warnings)
+    n = check_mesh(v, t).boundary_edges
+    assert f"'Spot': the mesh is open ({n} boundary edges); light leaks where the surface has holes" in warnings
     t2 = np.vstack([load_npz(MESHES / "spot.npz")[1], [[0, 0, 1]]]).astype(np.int32)
     warnings = validate(_inputs(triangles=t2))
     assert any("1 zero-area faces" in w for w in warnings)
@@ -304,7 +307,8 @@ def test_bake_refuses_huge_meshes_and_names_the_count():
     from translucent_addon.bake.registry import MAX_BAKE_TRIANGLES
 
     huge = np.zeros((MAX_BAKE_TRIANGLES + 1, 3), np.int32)
-    with pytest.raises(BakeInputError, match="2,000,001 triangles is more than a bake takes"):
+    with pytest.raises(BakeInputError, match=r"^'Spot': 2,000,001 triangles is more than a bake takes \(2,000,000\); "
+                                             r"decimate it or bake a proxy$"):
         validate(_inputs(triangles=huge))
 
 

@@ -153,3 +153,21 @@ def test_undo_after_bake_and_after_clear(tr, scene):
     assert store.read_meta(bpy.data.objects["Undo cube"], "GEOCUBE") is None
     bpy.ops.ed.undo()
     assert store.read_meta(bpy.data.objects["Undo cube"], "GEOCUBE") is not None
+
+
+def test_stale_bake_and_modifiers_are_said_in_full(tr, scene, capfd):
+    """DESIGN.md section 6, exact messages: a bake made before the mesh changed is not drawn and the
+    frame says so; baking an object with modifiers says that editing them stales the bake."""
+    extract = ext_module(tr, "translucent_addon.render.extract")
+    cube = add_cube(scene, name="Stale cube")
+    _select(cube)
+    cube.translucent.method = "GEOCUBE"
+    cube.translucent.geocube_resolution = 16
+    cube.modifiers.new("Bevel", "BEVEL")
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    assert "'Stale cube': baked with its modifiers applied; editing them marks the bake stale" in capfd.readouterr().out
+    cube.modifiers["Bevel"].width = 0.2
+    add_camera(scene, (3, -3, 3), (0, 0, 0))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, 16, 16))
+    assert "'Stale cube': GEOCUBE bake is stale; drawn with its base colour. Press Bake" in frame.warnings
