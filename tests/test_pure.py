@@ -57,19 +57,20 @@ def test_presets_load_with_units_mm():
 
 
 @pytest.mark.parametrize(
-    "sigma_a, sigma_s_prime, eta, g, fragment",
+    "sigma_a, sigma_s_prime, eta, g, message",
     [
-        ((-0.1, 0, 0), (1, 1, 1), 1.3, 0.0, "sigma_a.R = -0.1"),
-        ((0, 0, 0), (1, 0, 1), 1.3, 0.0, "sigma_s_prime.G = 0"),
-        ((0, 0, 0), (1, 1, -2), 1.3, 0.0, "sigma_s_prime.B = -2"),
-        ((0, math.nan, 0), (1, 1, 1), 1.3, 0.0, "not a finite number"),
-        ((0, 0, 0), (1, 1, 1), 0.0, 0.0, "eta = 0.0"),
-        ((0, 0, 0), (1, 1, 1), 1.3, 1.0, "g = 1.0"),
+        ((-0.1, 0, 0), (1, 1, 1), 1.3, 0.0, "material: sigma_a.R = -0.1 mm^-1, must be >= 0"),
+        ((0, 0, 0), (1, 0, 1), 1.3, 0.0, "material: sigma_s_prime.G = 0 mm^-1, must be > 0"),
+        ((0, 0, 0), (1, 1, -2), 1.3, 0.0, "material: sigma_s_prime.B = -2 mm^-1, must be > 0"),
+        ((0, math.nan, 0), (1, 1, 1), 1.3, 0.0, "material: sigma_a.G is nan, not a finite number"),
+        ((0, 0, 0), (1, 1, 1), 0.0, 0.0, "material: eta = 0.0, must be a positive index of refraction"),
+        ((0, 0, 0), (1, 1, 1), 1.3, 1.0, "material: g = 1.0, must lie in (-1, 1)"),
     ],
 )
-def test_unphysical_coefficients_are_refused_with_reason(sigma_a, sigma_s_prime, eta, g, fragment):
-    with pytest.raises(CoefficientError, match=fragment.replace(".", r"\.").replace("(", r"\(")):
+def test_unphysical_coefficients_are_refused_with_reason(sigma_a, sigma_s_prime, eta, g, message):
+    with pytest.raises(CoefficientError) as err:
         validate_coefficients(sigma_a, sigma_s_prime, eta, g)
+    assert str(err.value) == message
 
 
 # -- lights ----------------------------------------------------------------------
