@@ -129,3 +129,17 @@ def test_height_field_without_uvs_or_image_says_so(tr, scene):
     frame = extract.frame_inputs(bpy.context.evaluated_depsgraph_get(), extract.render_camera(
         bpy.context.evaluated_depsgraph_get(), 16, 16))
     assert "'NoUV': a height field needs a UV map; drawn flat" in frame.warnings
+
+
+def test_height_map_is_read_once_until_it_changes(tr, scene):
+    """The viewport does not re-read a large height map every frame; a changed (dirty) image is read again."""
+    extract = ext_module(tr, "translucent_addon.render.extract")
+    img = _height_image(np.full((8, 8), 0.25, np.float32))
+    a = extract.height_image(img)
+    if not img.is_dirty:
+        assert extract.height_image(img) is a  # cached
+    rgba = np.ones(8 * 8 * 4, np.float32)
+    img.pixels.foreach_set(rgba)
+    img.update()
+    b = extract.height_image(img)
+    assert np.allclose(a, 0.25) and np.allclose(b, 1.0)

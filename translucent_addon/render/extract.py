@@ -213,9 +213,29 @@ def grass_layer(original, frame_warnings) -> GrassLayer | None:
     return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
 
 
+_height_cache: dict = {}
+
+
 def height_image(image) -> np.ndarray:
     """(H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0 at the bottom
-    (Blender's pixel order, so v = 0 is row 0)."""
+    (Blender's pixel order, so v = 0 is row 0). Read once per image and kept while the image is unchanged
+    (not dirty: a painted image is read again every frame, so the relief follows the brush)."""
+    import os
+
+    path = image.filepath_from_user() if image.source == "FILE" else ""
+    stamp = os.path.getmtime(path) if path and os.path.isfile(path) else 0.0  # a file changed on disk
+    key = (image.name, image.as_pointer(), tuple(image.size), path, stamp)
+    cached = _height_cache.get(key)
+    if cached is not None and not image.is_dirty:
+        return cached
+    height = _read_height(image)
+    if len(_height_cache) > 16:
+        _height_cache.clear()
+    _height_cache[key] = height
+    return height
+
+
+def _read_height(image) -> np.ndarray:
     w, h = image.size
     if w == 0 or h == 0:
         raise ValueError(f"height map '{image.name}' has no pixels (is the file missing?)")
