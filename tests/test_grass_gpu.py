@@ -59,21 +59,6 @@ def test_bake_records_what_it_made(btf_record):
     assert meta["storage"]["total"] < meta["uncompressed_bytes"]
 
 
-def _pixel_rays(camera):
-    """World origin and unit direction of each pixel centre's ray (rows from the bottom)."""
-    inv = np.linalg.inv(camera.view_proj)
-    w, h = camera.width, camera.height
-    x = (np.arange(w) + 0.5) / w * 2 - 1
-    y = (np.arange(h) + 0.5) / h * 2 - 1
-    X, Y = np.meshgrid(x, y, indexing="xy")
-    def unproject(z):
-        p = np.stack([X, Y, np.full_like(X, z), np.ones_like(X)], -1) @ inv.T
-        return p[..., :3] / p[..., 3:]
-    a, b = unproject(-1.0), unproject(1.0)
-    d = b - a
-    return a, d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-
 def test_grass_pass_equals_its_numpy_twin(tr, scene, btf_record):
     """Flat field under a sun, black world: every blade pixel equals E * BTF(uv, w_v, w_l) of the twin
     (three nearest views and lights, hit-weighted wrapped bilinear) within 1 % for 98 % of the pixels
@@ -88,7 +73,8 @@ def test_grass_pass_equals_its_numpy_twin(tr, scene, btf_record):
     grass_btf = ext_module(tr, "translucent_addon.bake.grass_btf")
     grass_data = ext_module(tr, "translucent_addon.render.grass_data")
     cb = grass_btf.from_arrays(btf_record.arrays, btf_record.meta)
-    origin, d = _pixel_rays(frame.camera)
+    camera = ext_module(tr, "translucent_addon.geometry.camera")
+    origin, d = camera.pixel_rays(frame.camera.view_proj, frame.camera.width, frame.camera.height)
     h = cb.height * TILE
     t = (h - origin[..., 2]) / d[..., 2]
     shell = origin + t[..., None] * d

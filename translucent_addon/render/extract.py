@@ -216,10 +216,11 @@ def grass_layer(original, frame_warnings) -> GrassLayer | None:
 _height_cache: dict = {}
 
 
-def height_image(image) -> np.ndarray:
-    """(H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0 at the bottom
-    (Blender's pixel order, so v = 0 is row 0). Read once per image and kept while the image is unchanged
-    (not dirty: a painted image is read again every frame, so the relief follows the brush)."""
+def height_image(image) -> tuple[np.ndarray, str]:
+    """(heights, digest): (H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0
+    at the bottom (Blender's pixel order, so v = 0 is row 0), and a digest of them (the GPU texture's
+    cache key). Read once per image and kept while the image is unchanged (not dirty: a painted image is
+    read again every frame, so the relief follows the brush)."""
     import os
 
     path = image.filepath_from_user() if image.source == "FILE" else ""
@@ -229,10 +230,11 @@ def height_image(image) -> np.ndarray:
     if cached is not None and not image.is_dirty:
         return cached
     height = _read_height(image)
+    entry = (height, hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest())
     if len(_height_cache) > 16:
         _height_cache.clear()
-    _height_cache[key] = height
-    return height
+    _height_cache[key] = entry
+    return entry
 
 
 def _read_height(image) -> np.ndarray:
@@ -258,7 +260,7 @@ def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> Reli
         frame_warnings.append(f"'{original.name}': a height field needs a UV map; drawn flat")
         return None
     try:
-        height = height_image(s.relief_image)
+        height, digest = height_image(s.relief_image)
     except ValueError as err:
         frame_warnings.append(f"'{original.name}': {err}; drawn flat")
         return None
@@ -266,7 +268,7 @@ def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> Reli
     mesh.uv_layers.active.data.foreach_get("uv", uv_loops)
     uv = uv_loops.reshape(-1, 2)[tri_loops]
     du, dv = uv_tangents(positions, uv)
-    key = f"{s.relief_image.name}:{hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest()}"
+    key = f"{s.relief_image.name}:{digest}"
     return ReliefSurface(key, height, float(s.relief_depth), 0 if s.relief == "INTERVAL" else 1,
                          int(s.relief_linear_steps), int(s.relief_iterations), bool(s.relief_shadows), uv, du, dv)
 

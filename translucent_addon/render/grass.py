@@ -89,12 +89,7 @@ def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_
     emitter's light where the depth of mode 0 is matched (the caller sets blending and depth writes)."""
     import gpu
 
-    shader = shaders.get("grass_btf")
-    shader.bind()
-    shader.uniform_block("frame", frame_ubo)
-    shader.uniform_block("light", light_ubo)
-    shader.uniform_sampler("shadow_atlas", shadow_atlas)
-    shader.uniform_int("mode", mode)
+    shader = shaders.bind_lit("grass_btf", frame_ubo, light_ubo, shadow_atlas, mode)
     blocks = []
     for a in actives:
         r = a.resources

@@ -127,7 +127,6 @@ class Pipeline:
         if not frame.meshes:
             self.last_timings = {"total": time.perf_counter() - t0}
             return
-        base_shader = shaders.get("base_lighting")
         batches = [self._batch(m) for m in frame.meshes]
         subsurface = image_space.prepare(frame, self.sampling)
         textured = texture_space.prepare(frame)
@@ -153,7 +152,7 @@ class Pipeline:
         # A light block is bound in every mode; the world pass ignores it.
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
         base_inputs = (batches, objects, frame_ubo, subsurface.materials, subsurface.near_lut, atlas[1])
-        self._draw_base(base_shader, *base_inputs, placeholder, mode=0, skip=reliefs)
+        self._draw_base(*base_inputs, placeholder, mode=0, skip=reliefs)
         if reliefs:
             relief.draw(frame, reliefs, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
         if fields:
@@ -176,7 +175,7 @@ class Pipeline:
                 gpu.state.depth_mask_set(False)
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
-                self._draw_base(base_shader, *base_inputs, light_ubo, mode=1, skip=reliefs)
+                self._draw_base(*base_inputs, light_ubo, mode=1, skip=reliefs)
                 if reliefs:
                     relief.draw(frame, reliefs, self, frame_ubo, objects, light_ubo, atlas[1], mode=1)
                 if fields:
@@ -236,15 +235,11 @@ class Pipeline:
         gpu.state.depth_mask_set(True)
 
     @staticmethod
-    def _draw_base(shader, batches, objects, frame_ubo, materials_ubo, near_lut, atlas_texture, light_ubo,
+    def _draw_base(batches, objects, frame_ubo, materials_ubo, near_lut, atlas_texture, light_ubo,
                    mode: int, skip=()) -> None:
-        shader.bind()
-        shader.uniform_block("frame", frame_ubo)
-        shader.uniform_block("light", light_ubo)
+        shader = shaders.bind_lit("base_lighting", frame_ubo, light_ubo, atlas_texture, mode)
         shader.uniform_block("materials", materials_ubo)
-        shader.uniform_sampler("shadow_atlas", atlas_texture)
         shader.uniform_sampler("near_lut", near_lut)
-        shader.uniform_int("mode", mode)
         for k, ((base, _), obj) in enumerate(zip(batches, objects)):
             if k in skip:
                 continue  # drawn by its own pass (height fields)

@@ -65,12 +65,7 @@ def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shado
     """Draw the height-field meshes into the bound target (the caller sets blending and depth writes)."""
     import gpu
 
-    shader = shaders.get("relief")
-    shader.bind()
-    shader.uniform_block("frame", frame_ubo)
-    shader.uniform_block("light", light_ubo)
-    shader.uniform_sampler("shadow_atlas", shadow_atlas)
-    shader.uniform_int("mode", mode)
+    shader = shaders.bind_lit("relief", frame_ubo, light_ubo, shadow_atlas, mode)
     output = int(getattr(pipeline, "relief_mode", 0))
     keep = []
     for k in which:

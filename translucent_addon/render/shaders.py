@@ -317,5 +317,17 @@ def get(name: str):
     return shader
 
 
+def bind_lit(name: str, frame_ubo, light_ubo, shadow_atlas, mode: int):
+    """Bind a pass drawn in the world pass (mode 0) and each emitter's pass (mode 1) with what those
+    passes share: the frame and light blocks, the shadow atlas and the mode. Returns the shader."""
+    shader = get(name)
+    shader.bind()
+    shader.uniform_block("frame", frame_ubo)
+    shader.uniform_block("light", light_ubo)
+    shader.uniform_sampler("shadow_atlas", shadow_atlas)
+    shader.uniform_int("mode", mode)
+    return shader
+
+
 def free_all() -> None:
     _cache.clear()

@@ -93,7 +93,6 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
 
     from ..pipeline import clear_target
 
-    shader = shaders.get("ts_illumination")
     with fb.bind():
         if mode == 0:
             clear_target(fb, depth=None)
@@ -101,12 +100,8 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         gpu.state.depth_mask_set(False)
         gpu.state.blend_set("ADDITIVE_PREMULT")
         gpu.state.point_size_set(1.0)
-        shader.bind()
-        shader.uniform_block("frame", frame_ubo)
+        shader = shaders.bind_lit("ts_illumination", frame_ubo, light_ubo, shadow_atlas, mode)
         shader.uniform_block("object", obj_ubo)
-        shader.uniform_block("light", light_ubo)
-        shader.uniform_sampler("shadow_atlas", shadow_atlas)
-        shader.uniform_int("mode", mode)
         shader.uniform_float("eta", float(eta))
         shader.uniform_float("world_transmittance", float(hemispherical_transmittance(eta)))
         shader.uniform_float("atlas_size", tuple(float(x) for x in size))
