@@ -15,6 +15,7 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
+const float MIN_FACET_COS = 0.05;
 void main()
 {
   int slot = int(object.shading.x + 0.5) - 1;
@@ -27,7 +28,13 @@ void main()
   vec3 n = normalize(v_normal);
   vec3 to_light;
   vec3 radiance = emitter_irradiance(v_world, to_light);
-  float cos_i = abs(dot(n, to_light));
+  /* The texel's power passes through the true (flat) surface, of area dw d^2 / cos_g; it enters
+   * with the shading normal's cosine, as the near field and the dipole model take it:
+   * E dA = (I / d^2) cos_s (d^2 dw / cos_g). Facets nearly edge-on are capped (sparse there). */
+  float cos_s = dot(n, to_light);
+  float cos_g = abs(dot(normalize(cross(dFdx(v_world), dFdy(v_world))), to_light));
+  float cos_i = max(cos_s, 0.0);
+  float shading = cos_i / max(cos_g, MIN_FACET_COS);
   float measure;
   if (light.position_kind.w < 0.5) {
     measure = light.shadow.y; /* texel area, world units^2 */
@@ -43,7 +50,7 @@ void main()
     vec3 d = light.position_kind.xyz - v_world;
     radiance *= dot(d, d);
   }
-  vec3 phi = radiance * (1.0 - fresnel_dielectric(cos_i, mat.w)) * measure * mat.x * mat.x;
+  vec3 phi = radiance * (1.0 - fresnel_dielectric(cos_i, mat.w)) * shading * measure * mat.x * mat.x;
   phi *= v_paint.x * v_paint.z * v_tint;
   out_pos_id = vec4(v_world, object.shading.x);
   out_flux = vec4(phi, clamp(v_paint.y, 0.25, 1.0));
