@@ -1,6 +1,8 @@
 /* Base pass. Lambert objects: rho * L_world (mode 0), rho / pi * E * V per emitter (mode 1).
- * Subsurface objects (shading.x > 0): the world term F_r L_w + F_t(w_o) L_w R_d (1 - F_dr,in)
- * M_i (a uniform world over a locally flat surface), and per emitter the near field of the
+ * Subsurface objects (shading.x > 0): the world term F_r L_w + F_t(w_o) / pi E_sh(n) near_w(M_d) M_i,
+ * E_sh the world's transmitted irradiance in spherical harmonics (Shah 6.4.2) and near_w the world
+ * splats' near field (or the whole profile R_d when the world is not peeled: a locally flat
+ * surface), and per emitter the near field of the
  * profile F_t(w_o) / pi * E F_t(w_i) V * near(M_d) * M_i (the far field is splatted by
  * IMAGE_SPACE). The painted mask m blends subsurface (m = 1) and Lambert (m = 0). */
 #ifdef GPU_VERTEX_SHADER
@@ -17,7 +19,8 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
-/* near(M) of a slot, linear in M over [0.25, 1] (physics/lut.py image_space_tables). */
+/* near(M) of a row (a slot's lights; the world's at slot + slots), linear in M over [0.25, 1]
+ * (physics/lut.py image_space_tables). */
 vec3 near_field(int slot, float M)
 {
   int n = textureSize(near_lut, 0).x;
@@ -45,7 +48,10 @@ void main()
     if (slot >= 0) {
       float eta = materials.params[2 * slot].w;
       float F_r = fresnel_dielectric(cos_o, eta);
-      sss = frame.world_color.rgb * (F_r + (1.0 - F_r) * materials.params[2 * slot + 1].rgb * modulation);
+      int slots = textureSize(near_lut, 0).y / 2;
+      float M = clamp(v_paint.y, 0.25, 1.0);
+      sss = frame.world_color.rgb * F_r +
+            (1.0 - F_r) / PI * world_irradiance(n, slot) * near_field(slots + slot, M) * modulation;
     }
     out_color = vec4(mix(lambert, sss, m), 1.0);
     return;

@@ -1,5 +1,5 @@
 /* IMAGE_SPACE pass 2 (Shah 6.4.1): camera-view world positions x_o and subsurface slot + 1
- * (0 for other surfaces, which occlude). */
+ * (0 for other surfaces, which occlude), and the facet normal at x_o (for the splats' partition). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -13,5 +13,6 @@ void main()
 void main()
 {
   out_pos_id = vec4(v_world, object.shading.x);
+  out_normal = vec4(normalize(cross(dFdx(v_world), dFdy(v_world))), 0.0);
 }
 #endif

@@ -1,6 +1,6 @@
 /* IMAGE_SPACE pass 3 (Shah 6.4.1): one camera-facing quad per light-view sample x_i, radius
  * r_max / M_d, accumulating R_d(M_d r) M_d^2 w(r) Phi into the scatter texture at every x_o of
- * the same object (id clipping, Shah 6.4.3). The quad is moved toward the camera by its radius
+ * the same object (id clipping, Shah 6.4.3). Light-view and world (depth-peeled) samples alike. The quad is moved toward the camera by its radius
  * so that its projection covers the whole sphere of influence. */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -51,6 +51,9 @@ void main()
     discard;
   }
   vec3 R = far_profile(slot, sqrt(s / mat.y));
-  out_color = vec4(R * (M * M * partition_weight(r_mm, mat.z)) * v_flux.rgb, 1.0);
+  float rho = (world_pass == 1) ? materials.world_kernel[slot].w : mat.z; /* world samples: their rho */
+  vec3 n_o = texelFetch(gbuffer_normal, ivec2(gl_FragCoord.xy), 0).xyz;
+  float w = partition_weight_off_plane(r_mm, rho, abs(dot(n_o, xo.xyz - v_xi)) * mat.x);
+  out_color = vec4(R * (M * M * w) * v_flux.rgb, 1.0);
 }
 #endif

@@ -40,3 +40,12 @@ float partition_weight(float r, float rho)
   float x = clamp((r - rho) / rho, 0.0, 1.0);
   return x * x * (3.0 - 2.0 * x);
 }
+
+/* The near field stands for the tangent disk at x_o: a sample off that plane (the far side of a
+ * thin part) is not in it and keeps its whole share. h: its height over the plane, in r's units
+ * (physics/lut.py partition_off_plane). */
+float partition_weight_off_plane(float r, float rho, float h)
+{
+  float s = 1.0 - smoothstep(0.5, 0.8, h / max(r, 1e-12));
+  return 1.0 - (1.0 - partition_weight(r, rho)) * s;
+}

@@ -327,6 +327,19 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         description="IMAGE_SPACE: light-view samples per face side, at most",
         min=16, max=4096, default=1024,
     )
+    splat_world_layers: bpy.props.IntProperty(
+        name="World layers",
+        description="IMAGE_SPACE: depth-peeled layers per axis that receive world light, splatted like the "
+                    "lights' samples (Shah 6.4.2); 0 takes the world over a locally flat surface (cheaper, "
+                    "no light through thin parts)",
+        min=0, max=16, default=4,
+    )
+    splat_world_overlap: bpy.props.FloatProperty(
+        name="World overlap",
+        description="IMAGE_SPACE: world samples per splat radius (fewer than the lights' suffice: world light is "
+                    "smooth)",
+        min=2.0, max=64.0, default=16.0,
+    )
     temporal_coherence: bpy.props.BoolProperty(
         name="Temporal coherence",
         description="IMAGE_SPACE: reuse the previous frame's light samples to reduce flicker in animation and "

@@ -213,6 +213,8 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.prop(s, "splat_threshold")
         col.prop(s, "splat_overlap")
         col.prop(s, "splat_max_grid")
+        col.prop(s, "splat_world_layers")
+        col.prop(s, "splat_world_overlap")
         col.prop(s, "temporal_coherence")
         layout.prop(s, "texture_product")
         col = layout.column(align=True)

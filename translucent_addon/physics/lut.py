@@ -48,6 +48,16 @@ def partition(r, rho):
     return x * x * (3.0 - 2.0 * x)
 
 
+def partition_off_plane(r, rho, h):
+    """w(r) for a sample at height h over x_o's tangent plane: samples well off the plane (h > 0.8 r,
+    e.g. the far side of a thin part) are not in the near field's disk and keep their whole share;
+    in the plane (h < 0.5 r) the usual w(r); smoothstep between."""
+    r = np.asarray(r, dtype=np.float64)
+    x = np.clip((np.asarray(h, dtype=np.float64) / np.maximum(r, 1e-12) - 0.5) / 0.3, 0.0, 1.0)
+    s = 1.0 - x * x * (3.0 - 2.0 * x)
+    return 1.0 - (1.0 - partition(r, rho)) * s
+
+
 @dataclasses.dataclass(frozen=True)
 class ImageSpaceTables:
     """What the IMAGE_SPACE shaders need of one material.

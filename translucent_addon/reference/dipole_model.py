@@ -4,13 +4,15 @@ For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, J
 
     L_o(x_o) = F_t(eta, w_o) / pi * int_A R_d(|x_i - x_o|) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
     E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
+               (an environment image: its irradiance E_sh(n) in spherical harmonics, Shah Eq. 6.19)
 
 The integral is split by a smooth partition of unity w(r) (0 below rho, 1 above 2 rho): the near
 part takes E as E(x_o) and integrates R_d (1 - w) radially (1-D quadrature, so the sharp peak at
 r = 0 costs nothing); the far part is a midpoint quadrature over the surface, each triangle cut into
 n x n equal sub-triangles no larger than the target sample area, gathered with a KD-tree up to
 r_max (99.9 % of the profile's energy). rho is two sample spacings, so the far integrand is smooth
-on the sample grid. This measures a GPU method's discretisation
+on the sample grid. The near part stands for x_o's tangent disk: points well off that plane (the far
+side of a thin part) keep their whole share in the far part (``partition_off_plane``), as in IMAGE_SPACE. This measures a GPU method's discretisation
 error apart from the dipole's own model error. Light crosses only within one mesh (no bleeding
 between objects), as in the GPU methods.
 """
@@ -25,7 +27,8 @@ from ..geometry.mesh_measures import subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
 from ..physics.dipole import R_d, r_max
 from ..physics.fresnel import fresnel_dielectric, hemispherical_transmittance
-from ..physics.lut import near_integral, partition
+from ..physics.lut import near_integral, partition_off_plane
+from ..physics.sh_irradiance import irradiance, project_environment, transmittance_kernel
 from ..render.scene_data import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-exported)
 from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 
@@ -61,7 +64,11 @@ def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, 
     for E_e, to_light in shadowed_irradiance(frame.emitters, p_off, normals, tracer):
         cos_i = np.einsum("ij,ij->i", normals, to_light)
         E += E_e * (1.0 - fresnel_dielectric(cos_i, medium.eta))[:, None]
-    E += math.pi * np.asarray(frame.world_color) * hemispherical_transmittance(medium.eta)
+    if frame.environment is None:
+        E += math.pi * np.asarray(frame.world_color) * hemispherical_transmittance(medium.eta)
+    else:  # the environment's irradiance through the boundary, unoccluded, to SH order 2 (Shah Eq. 6.19)
+        env = frame.environment
+        E += irradiance(project_environment(env.key, env.image), transmittance_kernel(float(medium.eta)), normals)
     return E
 
 
@@ -117,10 +124,12 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             stop = min(start + chunk, len(x_o))
             pairs = cKDTree(x_o[start:stop]).sparse_distance_matrix(tree_i, reach, output_type="coo_matrix")
             r_mm = pairs.data * mm
-            far = r_mm > rho
-            rows, cols = pairs.row[far], pairs.col[far]
-            weight = partition(r_mm[far], rho) * area_mm2[cols]
-            contrib = R_d(r_mm[far, None], sa, ss, medium.eta) * (E_i[cols] * weight[:, None])
+            rows, cols = pairs.row, pairs.col
+            h_mm = np.abs(np.einsum("ij,ij->i", x_i[cols] - x_o[start + rows], n_o[start + rows])) * mm
+            weight = partition_off_plane(r_mm, rho, h_mm) * area_mm2[cols]
+            far = weight > 0
+            rows, cols = rows[far], cols[far]
+            contrib = R_d(r_mm[far, None], sa, ss, medium.eta) * (E_i[cols] * weight[far, None])
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]

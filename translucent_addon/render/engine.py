@@ -22,7 +22,8 @@ def _keep_timings(pipeline, source: str) -> None:
 
 def sampling_settings(scene) -> SamplingSettings:
     s = scene.translucent
-    return SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid)
+    return SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid,
+                            world_layers=s.splat_world_layers, world_overlap=s.splat_world_overlap)
 
 
 class TranslucentRenderEngine(bpy.types.RenderEngine):

@@ -3,7 +3,8 @@
 Per frame: material tables (``image_space_data.plan``); the base pass adds the near field of the
 profile; then a camera-view G-buffer of positions and object slots (pass 2), and per emitter the
 light-view samples (pass 1, a 3x2 cube atlas for point emitters) and one camera-facing splat per
-sample (pass 3) accumulating the far field into a scatter texture; with temporal coherence on, the
+sample (pass 3) accumulating the far field into a scatter texture; world light the same way from
+depth-peeled samples along the three axes (Shah 6.4.2, ``_draw_world``); with temporal coherence on, the
 far field is blended with the previous frame's, reprojected through each object's motion
 (``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects. Blender-facing (``gpu``), the maths is in
 ``image_space_data`` and the GLSL in ``gpu_shaders/is_*.glsl``.
@@ -16,7 +17,7 @@ import numpy as np
 
 from .. import blocks, shaders
 from ..targets import new_target, screen_quad, texture_from_array
-from .image_space_data import ImageSpacePlan, SamplingSettings, plan  # noqa: F401  (SamplingSettings re-exported)
+from .image_space_data import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
 
 
 # Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
@@ -43,8 +44,9 @@ def prepare(frame, settings: SamplingSettings) -> Prepared:
 
     p = plan(frame, settings)
     if p is None:
-        empty = np.zeros((1, 2, 4), np.float32)
-        return Prepared(None, gpu.types.GPUUniformBuf(bytes(64 * 16)), texture_from_array(empty), texture_from_array(empty))
+        empty = np.zeros((2, 2, 4), np.float32)
+        return Prepared(None, gpu.types.GPUUniformBuf(materials_block(None)), texture_from_array(empty),
+                        texture_from_array(empty))
     return Prepared(p, gpu.types.GPUUniformBuf(p.materials_block()), texture_from_array(p.near_lut()), texture_from_array(p.far_lut()))
 
 
@@ -73,7 +75,7 @@ def _history_for(pipeline, frame, p: ImageSpacePlan, size):
     if history is None or history["signature"] != signature:
         history = _history[pipeline.coherence_key] = {
             "signature": signature, "parity": 0, "frame": None, "view_proj": None, "models": None,
-            "gbuffer": [new_target(size, depth=True) for _ in range(2)],
+            "gbuffer": [new_target(size, depth=True, attachments=2) for _ in range(2)],
             "accum": [new_target(size, depth=False) for _ in range(2)],
         }
     return history
@@ -97,7 +99,7 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
         [max(p.rho_world), 0.0, 0.0, 0.0]]).astype(np.float32)
     out_fb, (out,), _ = history["accum"][1 - parity]
     _, (previous_accum,), _ = history["accum"][parity]
-    _, (previous_gbuffer,), _ = history["gbuffer"][parity]
+    _, (previous_gbuffer, _), _ = history["gbuffer"][parity]
     shader = shaders.get("is_temporal")
     temporal_ubo = gpu.types.GPUUniformBuf(data.tobytes())  # referenced until the draw: a freed UBO reads as 0
     with out_fb.bind():
@@ -116,6 +118,70 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
     return out
 
 
+def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool, quad) -> None:
+    """Pass 3: one splat per sample of a (pos_id, flux) pair into the bound scatter target; ``gbuf`` is
+    the camera view's (positions and slots, facet normals)."""
+    import gpu
+
+    gpu.state.depth_test_set("NONE")
+    gpu.state.depth_mask_set(False)
+    gpu.state.blend_set("ADDITIVE_PREMULT")
+    shader = shaders.get("is_splat")
+    shader.bind()
+    shader.uniform_block("frame", frame_ubo)
+    shader.uniform_block("materials", prepared.materials)
+    shader.uniform_sampler("sample_pos_id", pos_id)
+    shader.uniform_sampler("sample_flux", flux)
+    shader.uniform_sampler("gbuffer", gbuf[0])
+    shader.uniform_sampler("gbuffer_normal", gbuf[1])
+    shader.uniform_sampler("far_lut", prepared.far_lut)
+    shader.uniform_int("samples_per_row", size[0])
+    shader.uniform_int("world_pass", 1 if world else 0)
+    quad.draw_instanced(shader, instance_start=0, instance_count=size[0] * size[1])
+    gpu.state.blend_set("NONE")
+
+
+def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, scatter_fb, gbuf, pipeline,
+                quad) -> None:
+    """World light (Shah 6.4.2): depth peel the subsurface meshes along each axis, ``layers`` deep,
+    and splat every layer's samples. Two sample targets in turn: a layer reads the previous one's
+    positions to skip what is peeled already."""
+    import gpu
+
+    from ..pipeline import clear_target, read_pixels
+
+    w = prepared.plan.world
+    size = (w.grid, w.grid)
+    targets = [_target(pipeline, f"world_samples_{i}", size, depth=True, attachments=2) for i in range(2)]
+    peel = shaders.get("is_world_samples")
+    for axis in range(3):
+        for layer in range(w.layers):
+            fb, (pos_id, flux) = targets[layer % 2]
+            previous = targets[(layer + 1) % 2][1][0]
+            with fb.bind():
+                clear_target(fb)
+                gpu.state.viewport_set(0, 0, w.grid, w.grid)
+                gpu.state.depth_test_set("LESS")
+                gpu.state.depth_mask_set(True)
+                gpu.state.blend_set("NONE")
+                peel.bind()
+                peel.uniform_block("materials", prepared.materials)
+                peel.uniform_sampler("previous_pos_id", previous)
+                peel.uniform_float("view_proj", [float(x) for x in w.faces[axis].T.ravel()])
+                peel.uniform_int("layer", layer)
+                peel.uniform_float("depth_epsilon", float(w.depth_epsilon))
+                peel.uniform_float("texel_area", float(w.texel_area))
+                for (full, _), obj, sss in zip(batches, objects, is_subsurface):
+                    if sss:
+                        peel.uniform_block("object", obj)
+                        full.draw(peel)
+                if pipeline.capture is not None:
+                    pipeline.capture.setdefault("world_samples", []).append(
+                        (read_pixels(fb, *size, slot=0), read_pixels(fb, *size, slot=1)))
+            with scatter_fb.bind():
+                _splat(prepared, frame_ubo, pos_id, flux, gbuf, size, True, quad)
+
+
 def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipeline) -> None:
     import gpu
 
@@ -129,9 +195,9 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
     history = _history_for(pipeline, frame, p, size)
     # Pass 2: camera-view positions and slots of every surface (others occlude with slot 0).
     if history is not None:
-        gbuf_fb, (gbuf,), _ = history["gbuffer"][1 - history["parity"]]
+        gbuf_fb, (gbuf, gbuf_normal), _ = history["gbuffer"][1 - history["parity"]]
     else:
-        gbuf_fb, (gbuf,) = _target(pipeline, "gbuffer", size, depth=True)
+        gbuf_fb, (gbuf, gbuf_normal) = _target(pipeline, "gbuffer", size, depth=True, attachments=2)
     shader = shaders.get("is_gbuffer")
     with gbuf_fb.bind():
         clear_target(gbuf_fb)
@@ -145,13 +211,13 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
             pos_only.draw(shader)
         if pipeline.capture is not None:
             pipeline.capture["gbuffer"] = read_pixels(gbuf_fb, *size)
+            pipeline.capture["gbuffer_normal"] = read_pixels(gbuf_fb, *size, slot=1)
 
     scatter_fb, (scatter,) = _target(pipeline, "scatter", size, depth=False)
     with scatter_fb.bind():
         clear_target(scatter_fb, depth=None)
 
     samples_shader = shaders.get("is_samples")
-    splat_shader = shaders.get("is_splat")
     quad = screen_quad(pipeline, "is_splat")
     for sampling in p.samplings:
         n = sampling.grid
@@ -180,19 +246,10 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
                     (read_pixels(samples_fb, *atlas_size, slot=0), read_pixels(samples_fb, *atlas_size, slot=1)))
         # Pass 3: a splat per sample into the scatter texture.
         with scatter_fb.bind():
-            gpu.state.depth_test_set("NONE")
-            gpu.state.depth_mask_set(False)
-            gpu.state.blend_set("ADDITIVE_PREMULT")
-            splat_shader.bind()
-            splat_shader.uniform_block("frame", frame_ubo)
-            splat_shader.uniform_block("materials", prepared.materials)
-            splat_shader.uniform_sampler("sample_pos_id", pos_id)
-            splat_shader.uniform_sampler("sample_flux", flux)
-            splat_shader.uniform_sampler("gbuffer", gbuf)
-            splat_shader.uniform_sampler("far_lut", prepared.far_lut)
-            splat_shader.uniform_int("samples_per_row", atlas_size[0])
-            quad.draw_instanced(splat_shader, instance_start=0, instance_count=atlas_size[0] * atlas_size[1])
-            gpu.state.blend_set("NONE")
+            _splat(prepared, frame_ubo, pos_id, flux, (gbuf, gbuf_normal), atlas_size, False, quad)
+    if p.world is not None:
+        _draw_world(prepared, frame_ubo, batches, objects, is_subsurface, scatter_fb, (gbuf, gbuf_normal), pipeline,
+                    quad)
     if pipeline.capture is not None:
         with scatter_fb.bind():
             pipeline.capture["scatter"] = read_pixels(scatter_fb, *size)

@@ -22,7 +22,9 @@ import math
 
 import numpy as np
 
-from ...physics.lut import BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition, profile_tables
+from ...physics.lut import (BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition_off_plane,
+                             profile_tables)
+from ...physics.sh_irradiance import project_environment, shader_coefficients, transmittance_kernel
 from ..blocks import look_at, orthographic, perspective, shadow_projection
 from ..lights import DIRECTIONAL, Emitter
 from ..scene_data import FrameInputs, MeshInstance
@@ -40,6 +42,24 @@ class SamplingSettings:
     epsilon: float = 0.01  # Shah Eq. 6.16: the share of R_d's integral beyond the splat radius
     overlap: float = 32.0  # k: sample spacing = r_max / k at the object (bench: 5 % against the model)
     max_grid: int = 1024  # texels per light-view face side, at most
+    world_layers: int = 4  # depth-peeled layers per axis for world light (Shah 6.4.2); 0: locally flat closed form
+    world_overlap: float = 16.0  # k of the world samples (a thin marble slab: 47 % off at 4, 26 % at 8, 3.4 % at 16)
+
+
+@dataclasses.dataclass
+class WorldSampling:
+    """World light (Shah 6.4.2): every surface receives it, so the IMAGE_SPACE meshes are depth peeled
+    along the three axes (orthographic, ``layers`` each). A texel on a facet of normal n_g stands for
+    texel_area / |n_g . a| of surface; weighting the three axes by |n_g . a| / sum_b |n_g . b| (a
+    partition of unity) gives each sample the power E_sh(n) texel_area / sum_b |n_g . b|, bounded."""
+
+    faces: np.ndarray  # (6, 4, 4) view-projection per axis +X, +Y, +Z in faces 0-2
+    origin: np.ndarray
+    grid: int
+    texel_area: float  # world units^2
+    layers: int
+    depth_epsilon: float  # NDC depth a layer must lie beyond the previous one
+    rho_mm: list  # the world splats' partition radius per material slot
 
 
 @dataclasses.dataclass
@@ -64,15 +84,15 @@ class ImageSpacePlan:
     media: list
     samplings: list[EmitterSampling]
     rho_world: list[float]
+    world: WorldSampling | None = None
+    world_sh: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((9, 3)))  # L_lm of the world
+    epsilon: float = 0.01  # the profile share beyond the splat radius (SamplingSettings.epsilon)
 
     def materials_block(self) -> bytes:
-        """std140 array of 2 vec4 per slot: (mm_per_unit, r_max_mm, rho_mm, eta), (R_d T_hemi rgb, slot)."""
-        data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
-        for k, (t, m) in enumerate(zip(self.tables, self.media)):
-            data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
-            data[k, 1, :3] = t.total * t.hemispherical_transmittance
-            data[k, 1, 3] = k
-        return data.tobytes()
+        """The MaterialsData block (translucent_structs.glsl): 2 vec4 per slot, (mm_per_unit, r_max_mm,
+        rho_mm, eta), (R_d T_hemi rgb, slot); then the world's 9 SH coefficients L_lm, per slot the
+        transmittance kernel (A_0, A_1, A_2, world rho mm), and (world peeled, -, -, -)."""
+        return materials_block(self)
 
     def far_lut(self) -> np.ndarray:
         """(rows, FAR_SAMPLES, 4) float32."""
@@ -82,10 +102,64 @@ class ImageSpacePlan:
         return out
 
     def near_lut(self) -> np.ndarray:
-        out = np.zeros((max(1, len(self.tables)), NEAR_SAMPLES, 4), np.float32)
-        for k, t in enumerate(self.tables):
+        """(2 rows per slot, NEAR_SAMPLES, 4): rows 0..n-1 the lights' near field near(M) at rho, rows n..2n-1
+        the world's: near(M) at the world splats' rho, or the whole profile (closed form) when not peeled."""
+        n = max(1, len(self.tables))
+        out = np.zeros((2 * n, NEAR_SAMPLES, 4), np.float32)
+        for k, (t, med) in enumerate(zip(self.tables, self.media)):
             out[k, :, :3] = t.near
+            if self.world is None:
+                out[n + k, :, :3] = t.total
+            else:
+                out[n + k, :, :3] = material_tables(med, self.world.rho_mm[k], self.epsilon).near
         return out
+
+
+MATERIAL_VEC4 = 2 * MAX_MATERIALS + 9 + MAX_MATERIALS + 1  # vec4 count of the MaterialsData block
+
+
+def materials_block(p: "ImageSpacePlan | None") -> bytes:
+    data = np.zeros((MATERIAL_VEC4, 4), np.float32)
+    if p is None:
+        return data.tobytes()
+    for k, (t, m) in enumerate(zip(p.tables, p.media)):
+        data[2 * k] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
+        data[2 * k + 1, :3] = t.total * t.hemispherical_transmittance
+        data[2 * k + 1, 3] = k
+        data[2 * MAX_MATERIALS + 9 + k, :3] = transmittance_kernel(round(float(m.eta), 6))
+        data[2 * MAX_MATERIALS + 9 + k, 3] = p.world.rho_mm[k] if p.world is not None else 0.0
+    data[2 * MAX_MATERIALS:2 * MAX_MATERIALS + 9] = shader_coefficients(p.world_sh, np.ones(3))
+    data[-1, 0] = 1.0 if p.world is not None else 0.0
+    return data.tobytes()
+
+
+def world_sh(frame: FrameInputs) -> np.ndarray:
+    """L_lm (9, 3) of the frame's world: its environment image, or the uniform world colour."""
+    env = frame.environment
+    if env is None:
+        out = np.zeros((9, 3))
+        out[0] = np.asarray(frame.world_color, np.float64)[:3] * math.sqrt(4.0 * math.pi)
+        return out
+    return project_environment(env.key, env.image)
+
+
+def world_sampling(meshes: list[MeshInstance], media, tables, settings: SamplingSettings) -> WorldSampling | None:
+    """The depth-peeling plan of world light, or None when it is off (no layers)."""
+    if settings.world_layers <= 0:
+        return None
+    centre, radius = _bounds(meshes)
+    spacing = min(t.r_max / settings.world_overlap / med.mm_per_unit for t, med in zip(tables, media))
+    grid = int(np.clip(math.ceil(2 * radius / spacing), MIN_GRID, settings.max_grid))
+    faces = np.tile(np.eye(4), (6, 1, 1))
+    reach = 2.0 * radius
+    for a in range(3):
+        axis = np.eye(3)[a]
+        up = np.eye(3)[(a + 1) % 3]
+        faces[a] = orthographic(radius, radius, 0.0, 2.0 * reach) @ look_at(centre - axis * reach, axis, up)
+    texel = 2.0 * radius / grid
+    rho_mm = [2.0 * texel * med.mm_per_unit for med in media]
+    # One part in 2^14 of the depth range: far below a texel, far above float32 depth noise.
+    return WorldSampling(faces, centre, grid, texel * texel, int(settings.world_layers), 2.0 / 16384.0, rho_mm)
 
 
 def _bounds(meshes: list[MeshInstance]):
@@ -156,7 +230,10 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
                 spacing = max(spacing, 2.0 * d * s.tan_half / s.grid)
         rho_world.append(2.0 * spacing)
     tables = [material_tables(med, rho * med.mm_per_unit, settings.epsilon) for med, rho in zip(media, rho_world)]
-    return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world)
+    has_world = bool(np.any(np.asarray(frame.world_color) > 0)) or frame.environment is not None
+    world = world_sampling(meshes, media, tables, settings) if has_world else None
+    return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world, world,
+                          world_sh(frame), settings.epsilon)
 
 
 @functools.lru_cache(maxsize=64)
@@ -201,11 +278,12 @@ def far_lookup(table: ImageSpaceTables, s_mm):
 
 
 def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.ndarray, x_o: np.ndarray,
-              id_o: np.ndarray) -> np.ndarray:
+              id_o: np.ndarray, n_o: np.ndarray, world: bool = False) -> np.ndarray:
     """The scatter sum S(x_o) = sum_i [id_i = id_o] R_d(M_i r) M_i^2 w(r) Phi_i, as the splat pass computes it.
 
     sample_pos_id: (S, 4) world xyz and slot + 1 (0: no sample); sample_flux: (S, 4) Phi rgb and M_d;
-    x_o: (P, 3) world positions; id_o: (P,) slot + 1.
+    x_o: (P, 3) world positions; id_o: (P,) slot + 1; n_o: (P, 3) facet normals (w leaves out samples off
+    x_o's tangent plane, ``physics.lut.partition_off_plane``). ``world``: world samples, split at the world's rho.
     """
     out = np.zeros((len(x_o), 3))
     valid = sample_pos_id[:, 3] > 0.5
@@ -218,6 +296,8 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         table, med = plan_.tables[slot], plan_.media[slot]
         r_mm = np.linalg.norm(pos[same] - x_o[p], axis=1) * med.mm_per_unit
         M = np.clip(flux[same, 3], BLUR_MIN, 1.0)
-        value = far_lookup(table, r_mm * M) * (M * M * partition(r_mm, table.rho))[:, None]
+        rho = plan_.world.rho_mm[slot] if world else table.rho
+        h_mm = np.abs((pos[same] - x_o[p]) @ n_o[p]) * med.mm_per_unit
+        value = far_lookup(table, r_mm * M) * (M * M * partition_off_plane(r_mm, rho, h_mm))[:, None]
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out

@@ -1,0 +1,101 @@
+"""Transmitted irradiance from an environment in spherical harmonics (Shah 6.4.2, Eq. 6.19-6.21).
+
+    E(n) = int L(w) F_t(eta, n . w) (n . w)^+ dw                            (Shah Eq. 6.19-6.21)
+
+Shah projects L and the kernel F'_t = F_t (n . w) into SH and stores coefficients pre-rotated per
+normal in environment maps. The kernel is zonal (it depends on n . w only), so by the Funk-Hecke
+theorem the rotation is closed form (Ramamoorthi & Hanrahan 2001):
+
+    E(n) = sum_{l <= 2, m} A_l L_lm Y_lm(n),   A_l = 2 pi int_0^1 F_t(mu) mu P_l(mu) d mu
+
+which needs 9 RGB coefficients and no maps. With F_t = 1, A = (pi, 2 pi / 3, pi / 4); a uniform
+world L gives E = pi L (1 - F_dr), the closed form the base pass used. Order 2 keeps the smooth part
+of the lighting that irradiance carries (the clamped cosine's higher bands are under 1 %). Pure.
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from .fresnel import fresnel_dielectric
+
+# Real SH normalisation constants, bands 0-2 (Ramamoorthi & Hanrahan 2001, Eq. 3).
+_C0 = 0.5 * math.sqrt(1.0 / math.pi)
+_C1 = math.sqrt(3.0 / (4.0 * math.pi))
+_C2 = 0.5 * math.sqrt(15.0 / math.pi)
+_C20 = 0.25 * math.sqrt(5.0 / math.pi)
+BAND = np.array([0, 1, 1, 1, 2, 2, 2, 2, 2])  # band l of each of the 9 coefficients
+
+
+def sh_basis(d) -> np.ndarray:
+    """Y_lm at unit directions d (..., 3): (..., 9) in the order 00, 1-1, 10, 11, 2-2, 2-1, 20, 21, 22."""
+    d = np.asarray(d, np.float64)
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    return np.stack([np.full_like(x, _C0), _C1 * y, _C1 * z, _C1 * x, _C2 * x * y, _C2 * y * z,
+                     _C20 * (3.0 * z * z - 1.0), _C2 * x * z, 0.5 * _C2 * (x * x - y * y)], axis=-1)
+
+
+def project(directions, radiance, solid_angle) -> np.ndarray:
+    """L_lm = sum L(w) Y_lm(w) dw over samples of the sphere: (9, C)."""
+    Y = sh_basis(np.asarray(directions).reshape(-1, 3))
+    L = np.asarray(radiance, np.float64).reshape(len(Y), -1)
+    return Y.T @ (L * np.asarray(solid_angle, np.float64).reshape(-1, 1))
+
+
+def equirect_directions(height: int, width: int):
+    """Pixel-centre directions (H, W, 3) and solid angles (H, W) of an equirectangular image in
+    Blender's convention (``bake.environment.equirect_direction_to_uv``), row 0 at the bottom."""
+    u = (np.arange(width) + 0.5) / width
+    v = (np.arange(height) + 0.5) / height
+    phi = -(u - 0.5) * 2.0 * np.pi  # atan2(y, x)
+    lat = (v - 0.5) * np.pi
+    cl = np.cos(lat)[:, None]
+    d = np.stack([cl * np.cos(phi)[None, :], cl * np.sin(phi)[None, :],
+                  np.broadcast_to(np.sin(lat)[:, None], (height, width))], axis=-1)
+    omega = np.broadcast_to(cl * (2.0 * np.pi / width) * (np.pi / height), (height, width))
+    return d, omega
+
+
+def project_equirect(image) -> np.ndarray:
+    """The 9 RGB coefficients (9, 3) of an equirectangular radiance image (H, W, >=3)."""
+    image = np.asarray(image)
+    d, omega = equirect_directions(*image.shape[:2])
+    return project(d, image[..., :3], omega)
+
+
+_projected: dict = {}
+
+
+def project_environment(key: str, image) -> np.ndarray:
+    """``project_equirect`` of a world image, kept for its key (the image's name and strength): the
+    renderer and the reference ask for it every frame."""
+    found = _projected.get(key)
+    if found is None:
+        _projected.clear()
+        found = _projected[key] = project_equirect(image)
+    return found
+
+
+@functools.lru_cache(maxsize=64)
+def transmittance_kernel(eta: float, samples: int = 4096) -> np.ndarray:
+    """A_l = 2 pi int_0^1 F_t(eta, mu) mu P_l(mu) d mu for l = 0, 1, 2 (Funk-Hecke of Shah's F'_t)."""
+    mu = (np.arange(samples) + 0.5) / samples  # midpoint rule, error ~1e-8
+    k = (1.0 - fresnel_dielectric(mu, float(eta))) * mu
+    P = np.stack([np.ones_like(mu), mu, 0.5 * (3.0 * mu * mu - 1.0)])
+    return 2.0 * np.pi * (P * k).mean(axis=1)
+
+
+def irradiance(coefficients, kernel, normals) -> np.ndarray:
+    """E(n) (..., C) = sum A_l L_lm Y_lm(n): transmitted irradiance at unit normals (..., 3)."""
+    coefficients = np.asarray(coefficients, np.float64)
+    weighted = coefficients * np.asarray(kernel, np.float64)[BAND][:, None]
+    return sh_basis(normals) @ weighted
+
+
+def shader_coefficients(coefficients, kernel) -> np.ndarray:
+    """The 9 coefficients pre-multiplied by A_l, as 9 vec4 (rgb, 0) for a uniform block (float32)."""
+    out = np.zeros((9, 4), np.float32)
+    out[:, :3] = np.asarray(coefficients, np.float64)[:, :3] * np.asarray(kernel, np.float64)[BAND][:, None]
+    return out
