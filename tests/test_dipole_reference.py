@@ -55,7 +55,7 @@ def test_surface_quadrature_covers_the_area_exactly():
     from translucent_addon.reference.dipole_model import sample_surface
 
     plate = _plate()
-    points, normals, area = sample_surface(plate, 5000)
+    points, normals, area, _ = sample_surface(plate, 5000)
     assert area.sum() == pytest.approx(0.2 * 0.2 * 2 + 4 * 0.2 * 0.05, rel=1e-6)
     assert 4000 < len(points) < 8000
     assert np.abs(points[:, :2]).max() <= 0.1 + 1e-6 and np.allclose(np.linalg.norm(normals, axis=1), 1)

@@ -390,8 +390,8 @@ def texture_space_series(scene, objects, resolutions, width: int, height: int, p
 
 def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
     """The CPU dipole model of the translucent objects (cached): (image, seconds, from cache)."""
-    # model 2: the partition leaves the far side of thin parts to the far field; SH environment light
-    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 2}
+    # model 3: visibility by facet; the far side of thin parts in the far field; SH environment light
+    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 3}
     hit = cache.load(cache_dir, desc)
     if hit is not None:
         progress("dipole model reference: from the cache")

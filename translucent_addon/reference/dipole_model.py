@@ -36,14 +36,17 @@ from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 def sample_surface(mesh: MeshInstance, count: int):
     """About ``count`` quadrature points on a mesh (world space): centroids of equal sub-triangles.
 
-    Returns points (N, 3), interpolated normals (N, 3) and the area each point stands for (N,).
+    Returns points (N, 3), interpolated normals (N, 3), the area each point stands for (N,) and the
+    facet normals (N, 3), turned to the interpolated normal's side.
     """
     tris = mesh.world_positions().reshape(-1, 3, 3)
     nors = mesh.world_normals().reshape(-1, 3, 3)
     areas = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
     target = float(areas.sum()) / count
     splits = np.maximum(1, np.ceil(np.sqrt(areas / target))).astype(int)
-    points, normals, weights = [], [], []
+    points, normals, weights, facets = [], [], [], []
+    n_g = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n_g /= np.maximum(np.linalg.norm(n_g, axis=1, keepdims=True), 1e-30)
     for n in np.unique(splits):
         sel = np.flatnonzero(splits == n)
         uv = subtriangle_centroids(int(n))
@@ -52,18 +55,32 @@ def sample_surface(mesh: MeshInstance, count: int):
         points.append(np.einsum("kc,tcd->tkd", bary, tris[sel]).reshape(-1, 3))
         normals.append(np.einsum("kc,tcd->tkd", bary, nors[sel]).reshape(-1, 3))
         weights.append(np.repeat(areas[sel] / n**2, len(uv)))
+        facets.append(np.repeat(n_g[sel], len(uv), axis=0))
     normals = np.concatenate(normals)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-20)
-    return np.concatenate(points), normals, np.concatenate(weights)
+    return np.concatenate(points), normals, np.concatenate(weights), facing_side(np.concatenate(facets), normals)
 
 
-def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, tracer, scale: float) -> np.ndarray:
-    """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world."""
-    p_off = points + normals * 1e-4 * scale
+def facing_side(facet_normals, normals):
+    """Facet normals turned to the side of the interpolated normals (whatever the winding)."""
+    return facet_normals * np.where(np.einsum("ij,ij->i", facet_normals, normals) < 0, -1.0, 1.0)[:, None]
+
+
+def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, tracer, scale: float,
+                           facet_normals) -> np.ndarray:
+    """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world.
+
+    The cosine is the interpolated normal's; visibility is the facet's, as a light's view (IMAGE_SPACE
+    samples, shadow maps) and Cycles' shadow rays (offset along the facet normal) see it: a facet that
+    faces away from the light is hidden by the surface in front of it even where the interpolated
+    normal still faces the light (near the terminator of a coarse mesh).
+    """
+    p_off = points + facet_normals * 1e-4 * scale
     E = np.zeros((len(points), 3))
     for E_e, to_light in shadowed_irradiance(frame.emitters, p_off, normals, tracer):
         cos_i = np.einsum("ij,ij->i", normals, to_light)
-        E += E_e * (1.0 - fresnel_dielectric(cos_i, medium.eta))[:, None]
+        facing = np.einsum("ij,ij->i", facet_normals, to_light) > 0
+        E += E_e * ((1.0 - fresnel_dielectric(cos_i, medium.eta)) * facing)[:, None]
     if frame.environment is None:
         E += math.pi * np.asarray(frame.world_color) * hemispherical_transmittance(medium.eta)
     else:  # the environment's irradiance through the boundary, unoccluded, to SH order 2 (Shah Eq. 6.19)
@@ -107,9 +124,12 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         n_o /= np.linalg.norm(n_o, axis=1, keepdims=True)
         cos_o = np.abs(np.einsum("ij,ij->i", n_o, -dirs[mine]))
         # Emitting points x_i.
-        x_i, n_i, area = sample_surface(mesh, samples)
-        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale)
-        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale)
+        tri_o = mesh.world_positions().reshape(-1, 3, 3)[ti]
+        g_o = facing_side(np.cross(tri_o[:, 1] - tri_o[:, 0], tri_o[:, 2] - tri_o[:, 0]), n_o)
+        g_o /= np.maximum(np.linalg.norm(g_o, axis=1, keepdims=True), 1e-30)
+        x_i, n_i, area, g_i = sample_surface(mesh, samples)
+        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale, g_i)
+        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale, g_o)
         mm = medium.mm_per_unit
         sa, ss = np.asarray(medium.sigma_a, float), np.asarray(medium.sigma_s_prime, float)
         area_mm2 = area * mm * mm
