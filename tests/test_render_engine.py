@@ -77,7 +77,7 @@ def test_scene_without_lights_is_lit_by_the_world_and_says_so(tr, scene, capfd):
     img = render(scene, 32, 32)
     np.testing.assert_allclose(img[16, 16, :3], [0.4, 0.2, 0.1], rtol=1e-5)
     frame = _frame_of(tr, scene, 32, 32)
-    assert frame.warnings == ["the scene has no lights: objects are lit by the world colour only"]
+    assert frame.warnings == ["the scene has no lights: objects are lit by the world only"]
 
 
 def test_scene_without_camera_is_a_clear_error(scene):

@@ -377,7 +377,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 lit = [dataclasses.replace(x, caustics=False) for x in lit]
             emitters += lit
     if not emitters and meshes:
-        warnings.append("the scene has no lights: objects are lit by the world colour only")
+        warnings.append("the scene has no lights: objects are lit by the world only")
     environment = world_environment(scene)
     return FrameInputs(
         meshes=meshes,
