@@ -7,6 +7,7 @@ struct FrameData {
   vec4 world_color;     /* rgb: uniform world radiance */
   vec4 camera_position; /* xyz; w: 1 for an orthographic camera */
   vec4 camera_forward;  /* xyz: view direction (orthographic cameras) */
+  vec4 world_sh[9];     /* the world's radiance in SH bands 0-2, L_lm rgb (physics/sh_irradiance.py) */
 };
 
 struct ObjectData {
@@ -30,7 +31,6 @@ struct MaterialsData {
   /* per subsurface slot k: [2k] (mm per unit, r_max mm, rho mm, eta),
    *                         [2k + 1] (R_d (1 - F_dr,in) rgb, k) */
   vec4 params[64];
-  vec4 world_sh[9];      /* the world's radiance in SH bands 0-2, L_lm rgb (physics/sh_irradiance.py) */
   vec4 world_kernel[32]; /* per slot: A_0, A_1, A_2 of F_t (n . w) (Funk-Hecke), w: world splats' rho mm */
   vec4 world;            /* x: 1 when world light is depth peeled and splatted (Shah 6.4.2) */
 };

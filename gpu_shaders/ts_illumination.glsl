@@ -1,6 +1,6 @@
 /* TEXTURE_SPACE illumination map (Lensch Sec. 6.1, Eq. 3): one point per texel of the atlas,
- * lit at the texel's surface point x_c with its normal. mode 0: the uniform world,
- * E = pi L_w (1 - F_dr,in); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
+ * lit at the texel's surface point x_c with its normal. mode 0: the world, E_sh(n) in spherical
+ * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam. */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -15,7 +15,7 @@ void main()
 void main()
 {
   if (mode == 0) {
-    out_irradiance = vec4(PI * frame.world_color.rgb * world_transmittance, 1.0);
+    out_irradiance = vec4(world_irradiance(v_normal, world_kernel), 1.0);
     return;
   }
   vec3 to_light;

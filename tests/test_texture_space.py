@@ -105,3 +105,29 @@ def test_discretisation_error_against_the_dipole_model(tr, scene):
     assert np.isfinite(img).all() and img[mask][:, :3].max() > 0.01
     assert np.all(np.abs(ratio - 1.0) < 0.04)
     assert err < 0.065
+
+
+def test_environment_light_follows_the_sky_and_matches_the_dipole_model(tr, scene):
+    """No lamp, a sky over a dark ground (an Environment Texture): the illumination pass takes the world's
+    spherical-harmonics irradiance per texel (Shah Eq. 6.19), so the top of the ball is brighter than its
+    bottom, and the image is within 5 % of the CPU dipole model with the same world."""
+    from test_image_space import _sky_image
+    from translucent_addon.demo import environment_world
+
+    ob = _baked_ball(scene, tr)
+    for light in [o for o in scene.objects if o.type == "LIGHT"]:
+        bpy.data.objects.remove(light)
+    environment_world(scene, _sky_image())
+    bpy.data.objects["Camera"].location = (0.0, -0.35, 0.05)
+    w, h = 96, 72
+    img = render(scene, w, h)
+    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    ref, mask = dipole_model_reference(tr, ob.name, w, h)
+    err = metrics.relative_rmse(img, ref, mask)
+    rows = np.nonzero(mask.any(axis=1))[0]
+    top = img[rows[-6]][mask[rows[-6]]][:, 0].mean()
+    bottom = img[rows[5]][mask[rows[5]]][:, 0].mean()
+    print(f"TEXTURE_SPACE under a sky: rel. RMSE {err:.4f}, top {top:.3f}, bottom {bottom:.3f}")
+    assert np.isfinite(img).all()
+    assert top > 2.0 * bottom
+    assert err < 0.05

@@ -92,10 +92,3 @@ def irradiance(coefficients, kernel, normals) -> np.ndarray:
     coefficients = np.asarray(coefficients, np.float64)
     weighted = coefficients * np.asarray(kernel, np.float64)[BAND][:, None]
     return sh_basis(normals) @ weighted
-
-
-def shader_coefficients(coefficients, kernel) -> np.ndarray:
-    """The 9 coefficients pre-multiplied by A_l, as 9 vec4 (rgb, 0) for a uniform block (float32)."""
-    out = np.zeros((9, 4), np.float32)
-    out[:, :3] = np.asarray(coefficients, np.float64)[:, :3] * np.asarray(kernel, np.float64)[BAND][:, None]
-    return out

@@ -118,7 +118,8 @@ class Pipeline:
         timings = {}
         fb = gpu.state.active_framebuffer_get()
         cam = frame.camera
-        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color))
+        frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color,
+                                                               image_space.world_sh(frame)))
         if clear:
             alpha = 0.0 if frame.film_transparent else 1.0
             clear_target(fb, (*map(float, frame.world_color), alpha))

@@ -62,7 +62,7 @@ SPECS = {
         vertex_in=_SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
                   ("smooth", "VEC3", "v_tint")),
-        uniform_blocks=((1, "ObjectData", "object"), (3, "MaterialsData", "materials")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),
         samplers=((0, "FLOAT_2D", "previous_pos_id"),),
         push_constants=(("MAT4", "view_proj"), ("INT", "layer"), ("FLOAT", "depth_epsilon"), ("FLOAT", "texel_area")),
         fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
@@ -113,12 +113,12 @@ SPECS = {
     ),
     "ts_illumination": ShaderSpec(
         source="ts_illumination.glsl",
-        libraries=_SHADOW_LIBS,
+        libraries=_SHADOW_LIBS + ("translucent_world_sh.glsl",),
         vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"),),
-        push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("FLOAT", "world_transmittance"), ("VEC2", "atlas_size")),
+        push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("VEC3", "world_kernel"), ("VEC2", "atlas_size")),
         fragment_out=((0, "VEC4", "out_irradiance"),),
     ),
     "ts_gather": ShaderSpec(

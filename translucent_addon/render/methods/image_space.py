@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import blocks, shaders
 from ..targets import new_target, screen_quad, texture_from_array
-from .image_space_data import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
+from .image_space_data import ImageSpacePlan, SamplingSettings, materials_block, plan, world_sh  # noqa: F401
 
 
 # Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
@@ -165,6 +165,7 @@ def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, 
                 gpu.state.depth_mask_set(True)
                 gpu.state.blend_set("NONE")
                 peel.bind()
+                peel.uniform_block("frame", frame_ubo)
                 peel.uniform_block("materials", prepared.materials)
                 peel.uniform_sampler("previous_pos_id", previous)
                 peel.uniform_float("view_proj", [float(x) for x in w.faces[axis].T.ravel()])

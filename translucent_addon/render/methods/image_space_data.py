@@ -24,7 +24,7 @@ import numpy as np
 
 from ...physics.lut import (BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition_off_plane,
                              profile_tables)
-from ...physics.sh_irradiance import project_environment, shader_coefficients, transmittance_kernel
+from ...physics.sh_irradiance import project_environment, transmittance_kernel
 from ..blocks import look_at, orthographic, perspective, shadow_projection
 from ..lights import DIRECTIONAL, Emitter
 from ..scene_data import FrameInputs, MeshInstance
@@ -85,13 +85,12 @@ class ImageSpacePlan:
     samplings: list[EmitterSampling]
     rho_world: list[float]
     world: WorldSampling | None = None
-    world_sh: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((9, 3)))  # L_lm of the world
     epsilon: float = 0.01  # the profile share beyond the splat radius (SamplingSettings.epsilon)
 
     def materials_block(self) -> bytes:
         """The MaterialsData block (translucent_structs.glsl): 2 vec4 per slot, (mm_per_unit, r_max_mm,
-        rho_mm, eta), (R_d T_hemi rgb, slot); then the world's 9 SH coefficients L_lm, per slot the
-        transmittance kernel (A_0, A_1, A_2, world rho mm), and (world peeled, -, -, -)."""
+        rho_mm, eta), (R_d T_hemi rgb, slot); then per slot the transmittance kernel (A_0, A_1, A_2, world
+        rho mm), and (world peeled, -, -, -). The world's SH coefficients are in the frame block."""
         return materials_block(self)
 
     def far_lut(self) -> np.ndarray:
@@ -115,7 +114,7 @@ class ImageSpacePlan:
         return out
 
 
-MATERIAL_VEC4 = 2 * MAX_MATERIALS + 9 + MAX_MATERIALS + 1  # vec4 count of the MaterialsData block
+MATERIAL_VEC4 = 2 * MAX_MATERIALS + MAX_MATERIALS + 1  # vec4 count of the MaterialsData block
 
 
 def materials_block(p: "ImageSpacePlan | None") -> bytes:
@@ -126,9 +125,8 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
         data[2 * k] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
         data[2 * k + 1, :3] = t.total * t.hemispherical_transmittance
         data[2 * k + 1, 3] = k
-        data[2 * MAX_MATERIALS + 9 + k, :3] = transmittance_kernel(round(float(m.eta), 6))
-        data[2 * MAX_MATERIALS + 9 + k, 3] = p.world.rho_mm[k] if p.world is not None else 0.0
-    data[2 * MAX_MATERIALS:2 * MAX_MATERIALS + 9] = shader_coefficients(p.world_sh, np.ones(3))
+        data[2 * MAX_MATERIALS + k, :3] = transmittance_kernel(round(float(m.eta), 6))
+        data[2 * MAX_MATERIALS + k, 3] = p.world.rho_mm[k] if p.world is not None else 0.0
     data[-1, 0] = 1.0 if p.world is not None else 0.0
     return data.tobytes()
 
@@ -233,7 +231,7 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
     has_world = bool(np.any(np.asarray(frame.world_color) > 0)) or frame.environment is not None
     world = world_sampling(meshes, media, tables, settings) if has_world else None
     return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world, world,
-                          world_sh(frame), settings.epsilon)
+                          settings.epsilon)
 
 
 @functools.lru_cache(maxsize=64)
