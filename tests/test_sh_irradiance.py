@@ -87,3 +87,11 @@ def test_equirect_projection_matches_the_lookup_convention():
     assert c[3, 0] > 0.5 and abs(c[1, 0]) < 1e-3 and abs(c[2, 0]) < 1e-3
     # The image agrees with sample_equirect at its own pixel centres.
     np.testing.assert_allclose(sample_equirect(image, d_img), image, atol=1e-6)
+
+
+def test_projection_in_blocks_of_rows_equals_the_whole():
+    """Large HDRIs are projected a block of rows at a time: the same coefficients, to rounding."""
+    img = np.random.default_rng(4).random((37, 74, 3))
+    d, omega = equirect_directions(37, 74)
+    whole = project(d, img, omega)
+    np.testing.assert_allclose(project_equirect(img, rows_per_block=5), whole, rtol=1e-12, atol=1e-12)

@@ -44,25 +44,34 @@ def project(directions, radiance, solid_angle) -> np.ndarray:
     return Y.T @ (L * np.asarray(solid_angle, np.float64).reshape(-1, 1))
 
 
-def equirect_directions(height: int, width: int):
-    """Pixel-centre directions (H, W, 3) and solid angles (H, W) of an equirectangular image in
-    Blender's convention (``bake.environment.equirect_direction_to_uv``), row 0 at the bottom."""
+def equirect_directions(height: int, width: int, rows: slice = slice(None)):
+    """Pixel-centre directions (h, W, 3) and solid angles (h, W) of an equirectangular image in
+    Blender's convention (``bake.environment.equirect_direction_to_uv``), row 0 at the bottom; only
+    the given rows."""
     u = (np.arange(width) + 0.5) / width
-    v = (np.arange(height) + 0.5) / height
+    v = ((np.arange(height) + 0.5) / height)[rows]
     phi = -(u - 0.5) * 2.0 * np.pi  # atan2(y, x)
     lat = (v - 0.5) * np.pi
     cl = np.cos(lat)[:, None]
     d = np.stack([cl * np.cos(phi)[None, :], cl * np.sin(phi)[None, :],
-                  np.broadcast_to(np.sin(lat)[:, None], (height, width))], axis=-1)
-    omega = np.broadcast_to(cl * (2.0 * np.pi / width) * (np.pi / height), (height, width))
+                  np.broadcast_to(np.sin(lat)[:, None], (len(v), width))], axis=-1)
+    omega = np.broadcast_to(cl * (2.0 * np.pi / width) * (np.pi / height), (len(v), width))
     return d, omega
 
 
-def project_equirect(image) -> np.ndarray:
-    """The 9 RGB coefficients (9, 3) of an equirectangular radiance image (H, W, >=3)."""
+def project_equirect(image, rows_per_block: int = 64) -> np.ndarray:
+    """The 9 RGB coefficients (9, 3) of an equirectangular radiance image (H, W, >=3).
+
+    Summed over blocks of rows, so that an 8k HDRI needs tens of MB, not gigabytes."""
     image = np.asarray(image)
-    d, omega = equirect_directions(*image.shape[:2])
-    return project(d, image[..., :3], omega)
+    h, w = image.shape[:2]
+    step = max(1, int(rows_per_block))
+    out = np.zeros((9, 3))
+    for start in range(0, h, step):
+        rows = slice(start, min(start + step, h))
+        d, omega = equirect_directions(h, w, rows)
+        out += project(d, image[rows, :, :3], omega)
+    return out
 
 
 _projected: dict = {}
