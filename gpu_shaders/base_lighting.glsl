@@ -1,4 +1,4 @@
-/* Base pass. Lambert objects: rho * L_world (mode 0), rho / pi * E * V per emitter (mode 1).
+/* Base pass. Lambert objects: rho / pi * E_sh(n) of the world (mode 0; rho L_w for a uniform one), rho / pi * E * V per emitter (mode 1).
  * Subsurface objects (shading.x > 0): the world term F_r L_w + F_t(w_o) / pi E_sh(n) near_w(M_d) M_i,
  * E_sh the world's transmitted irradiance in spherical harmonics (Shah 6.4.2) and near_w the world
  * splats' near field (or the whole profile R_d when the world is not peeled: a locally flat
@@ -43,7 +43,7 @@ void main()
   float m = (slot >= 0) ? v_paint.x : 0.0;
   vec3 modulation = v_paint.z * v_tint; /* M_i: glow and tint */
   if (mode == 0) {
-    vec3 lambert = v_color * frame.world_color.rgb;
+    vec3 lambert = v_color * world_irradiance(n, LAMBERT_KERNEL) / PI; /* rho L_world for a uniform world */
     vec3 sss = vec3(0.0);
     if (slot >= 0) {
       float eta = materials.params[2 * slot].w;

@@ -69,7 +69,7 @@ void main()
     n = -n;
   }
   if (mode == 0) {
-    out_color = vec4(v_color * frame.world_color.rgb, 1.0);
+    out_color = vec4(v_color * world_irradiance(n, LAMBERT_KERNEL) / PI, 1.0);
     return;
   }
   vec3 to_light;

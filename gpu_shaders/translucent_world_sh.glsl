@@ -2,6 +2,8 @@
 /* E(n) = sum A_l L_lm Y_lm(n): the world's irradiance transmitted through a boundary whose kernel
  * F_t (n . w) has Funk-Hecke coefficients A (Shah Eq. 6.19-6.21; physics/sh_irradiance.py is the
  * CPU twin). */
+const vec3 LAMBERT_KERNEL = vec3(3.14159265, 2.09439510, 0.78539816); /* A_l without a boundary: pi, 2pi/3, pi/4 */
+
 vec3 world_irradiance(vec3 n, vec3 A)
 {
   const float C0 = 0.282094792, C1 = 0.488602512, C2 = 1.092548431, C20 = 0.315391565;

@@ -116,3 +116,31 @@ def test_demo_scene_renders_a_back_lit_bunny(tr, scene):
     assert centre.min() > 2 * bg.max(), centre
     warmth = img[..., 0] / np.maximum(img[..., 2], 1e-6)
     assert np.percentile(warmth[img[..., :3].sum(-1) > 0.3], 99) > 1.3, "no light shines through"
+
+
+def test_lambert_objects_under_an_environment_image_match_the_cpu_reference(tr, scene):
+    """No lamp, a sky over a dark ground: Lambert surfaces take rho / pi E_sh(n), the image's irradiance in
+    spherical harmonics. A cube's top is brighter than its sides, and the GPU equals the CPU reference
+    (relative RMSE under 1 % away from silhouettes)."""
+    from test_image_space import _sky_image
+    from translucent_addon.demo import environment_world
+
+    environment_world(scene, _sky_image())
+    add_cube(scene, location=(0, 0, 0.0))
+    add_camera(scene, (1.6, -2.1, 1.6), (0, 0, 0))
+    w = h = 64
+    gpu_img = render(scene, w, h)
+    ref = ext_module(tr, "translucent_addon.reference.lambert").render_lambert(_frame_of(tr, scene, w, h))
+    frame = _frame_of(tr, scene, w, h)
+    tris, _, _ = ext_module(tr, "translucent_addon.reference.lambert").scene_triangles(frame)
+    origins, dirs = ext_module(tr, "translucent_addon.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
+    tracer = ext_module(tr, "translucent_addon.geometry.raycast").BruteForceTracer(tris)
+    on_cube = (tracer.closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3))[1] >= 0).reshape(h, w)
+    keep = ~_discontinuity_mask(ref) & on_cube  # the background is the image itself, not the reference's mean
+    diff = gpu_img[..., :3][keep] - ref[..., :3][keep]
+    rel_rmse = np.sqrt((diff ** 2).mean()) / np.sqrt((ref[..., :3][keep] ** 2).mean())
+    lum = ref[..., :3].sum(-1)[keep]
+    print(f"Lambert under a sky: relative RMSE {rel_rmse:.4f}; brightest / darkest face {lum.max() / lum.min():.2f}")
+    assert keep.sum() > 300
+    assert rel_rmse < 0.01
+    assert lum.max() > 2.0 * lum.min()  # the top sees the sky, the sides half of it

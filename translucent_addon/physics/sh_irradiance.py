@@ -27,6 +27,7 @@ _C1 = math.sqrt(3.0 / (4.0 * math.pi))
 _C2 = 0.5 * math.sqrt(15.0 / math.pi)
 _C20 = 0.25 * math.sqrt(5.0 / math.pi)
 BAND = np.array([0, 1, 1, 1, 2, 2, 2, 2, 2])  # band l of each of the 9 coefficients
+LAMBERT_KERNEL = np.array([math.pi, 2.0 * math.pi / 3.0, math.pi / 4.0])  # A_l of the clamped cosine alone
 
 
 def sh_basis(d) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""CPU reference of the base pass: Lambert shading, hard shadows, uniform world.
+"""CPU reference of the base pass: Lambert shading, hard shadows, world light.
 
 Per pixel centre: the nearest triangle along the camera ray, its interpolated
 corner normal (flipped to face the viewer, as Cycles does for back faces), then
@@ -7,7 +7,9 @@ corner normal (flipped to face the viewer, as Cycles does for back faces), then
 
 with E_light from ``render.lights.unshadowed_irradiance`` and V a shadow ray.
 The world term is the exact answer for an unoccluded convex surface under a
-uniform environment (the GPU pass makes the same approximation).
+uniform environment (the GPU pass makes the same approximation); under an
+environment image it is rho / pi E_sh(N), its irradiance to spherical-harmonic
+order 2 (``physics.sh_irradiance``), as the base pass takes it.
 """
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ import numpy as np
 
 from ..geometry.camera import pixel_rays
 from ..geometry.raycast import BruteForceTracer
+from ..physics.sh_irradiance import LAMBERT_KERNEL, irradiance, project_environment
 from ..render.lights import DIRECTIONAL, unshadowed_irradiance
 from ..render.scene_data import FrameInputs
 
@@ -75,7 +78,11 @@ def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None)
     facing_away = np.einsum("ij,ij->i", Ng, dirs[hit]) > 0
     N[facing_away] *= -1.0
     rho = w * cols[ti, 0] + ui * cols[ti, 1] + vi * cols[ti, 2]
-    radiance = rho * frame.world_color
+    if frame.environment is None:
+        radiance = rho * frame.world_color
+    else:  # the environment's irradiance to SH order 2, unoccluded, as the base pass takes it
+        env = frame.environment
+        radiance = rho * irradiance(project_environment(env.key, env.image), LAMBERT_KERNEL, N) / math.pi
     scene_scale = max(float(np.ptp(tris.reshape(-1, 3), axis=0).max()), 1e-6)
     P_off = P + N * shadow_offset * scene_scale
     for E, _ in shadowed_irradiance(frame.emitters, P_off, N, tracer):

@@ -221,7 +221,7 @@ SPECS = {
     ),
     "relief": ShaderSpec(
         source="relief.glsl",
-        libraries=_SHADOW_LIBS + ("interval_search.glsl",),
+        libraries=_SHADOW_LIBS + ("interval_search.glsl", "translucent_world_sh.glsl"),
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC2", "uv"), ("VEC3", "tangent_u"),
                    ("VEC3", "tangent_v")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_tangent_u"),
