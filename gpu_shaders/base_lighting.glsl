@@ -51,7 +51,7 @@ void main()
       int slots = textureSize(near_lut, 0).y / 2;
       float M = clamp(v_paint.y, 0.25, 1.0);
       sss = frame.world_color.rgb * F_r +
-            (1.0 - F_r) / PI * world_irradiance(n, materials.world_kernel[slot].xyz) * near_field(slots + slot, M) * modulation;
+            (1.0 - F_r) / PI * world_irradiance(n, materials.params[2 * slot + 1].xyz) * near_field(slots + slot, M) * modulation;
     }
     out_color = vec4(mix(lambert, sss, m), 1.0);
     return;

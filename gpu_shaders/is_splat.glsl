@@ -51,7 +51,7 @@ void main()
     discard;
   }
   vec3 R = far_profile(slot, sqrt(s / mat.y));
-  float rho = (world_pass == 1) ? materials.world_kernel[slot].w : mat.z; /* world samples: their rho */
+  float rho = (world_pass == 1) ? materials.params[2 * slot + 1].w : mat.z; /* world samples: their rho */
   vec3 n_o = texelFetch(gbuffer_normal, ivec2(gl_FragCoord.xy), 0).xyz;
   float w = partition_weight_off_plane(r_mm, rho, abs(dot(n_o, xo.xyz - v_xi)) * mat.x);
   out_color = vec4(R * (M * M * w) * v_flux.rgb, 1.0);

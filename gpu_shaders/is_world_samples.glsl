@@ -34,7 +34,7 @@ void main()
   }
   vec4 mat = materials.params[2 * slot];
   vec3 n_g = abs(normalize(cross(dFdx(v_world), dFdy(v_world))));
-  vec3 phi = world_irradiance(normalize(v_normal), materials.world_kernel[slot].xyz) * texel_area / max(n_g.x + n_g.y + n_g.z, 1.0);
+  vec3 phi = world_irradiance(normalize(v_normal), materials.params[2 * slot + 1].xyz) * texel_area / max(n_g.x + n_g.y + n_g.z, 1.0);
   phi *= mat.x * mat.x * v_paint.x * v_paint.z * v_tint;
   out_pos_id = vec4(v_world, object.shading.x);
   out_flux = vec4(phi, clamp(v_paint.y, 0.25, 1.0));

@@ -29,10 +29,8 @@ struct LightData {
 
 struct MaterialsData {
   /* per subsurface slot k: [2k] (mm per unit, r_max mm, rho mm, eta),
-   *                         [2k + 1] (R_d (1 - F_dr,in) rgb, k) */
+   *   [2k + 1] (A_0, A_1, A_2 of the world's kernel F_t (n . w) (Funk-Hecke), the world splats' rho mm) */
   vec4 params[64];
-  vec4 world_kernel[32]; /* per slot: A_0, A_1, A_2 of F_t (n . w) (Funk-Hecke), w: world splats' rho mm */
-  vec4 world;            /* x: 1 when world light is depth peeled and splatted (Shah 6.4.2) */
 };
 
 struct TemporalData {

@@ -182,7 +182,7 @@ def test_profile_tables_from_a_tabulated_dipole_match_the_closed_form_tables():
     sa, ss, eta = np.array([0.032, 0.17, 0.48]), np.array([0.74, 0.88, 1.01]), 1.3
     radii = np.concatenate([np.linspace(0, 2, 4001), np.linspace(2.001, 120, 60000)])
     profile = R_d(radii[:, None], sa, ss, eta)
-    ours = profile_tables(radii, profile, eta, rho_mm=0.8)
+    ours = profile_tables(radii, profile, rho_mm=0.8)
     exact = image_space_tables(sa, ss, eta, rho_mm=0.8)
     assert ours.r_max == pytest.approx(exact.r_max, rel=1e-3)
     np.testing.assert_allclose(ours.total, exact.total, rtol=1e-3)

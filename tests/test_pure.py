@@ -130,7 +130,7 @@ def test_block_sizes_match_the_glsl_structs():
     text = (ROOT / "gpu_shaders" / "translucent_structs.glsl").read_text()
     assert "mat4 face_view_proj[6]" in text
     assert "mat4 view;" in text and "vec4 shading;" in text and "vec4 params[64];" in text
-    assert len(blocks.frame_block(np.eye(4), np.eye(4), (0, 0, 0))) == 3 * 64 + 3 * 16 + 9 * 16
+    assert len(blocks.frame_block(np.eye(4), np.eye(4), (0, 0, 0), np.zeros((9, 3)))) == 3 * 64 + 3 * 16 + 9 * 16
     assert len(blocks.object_block(np.eye(4), np.eye(4))) == 2 * 64 + 16
     (e,) = emitters_from_light("p", "POINT", _light_at(1.0), (1, 1, 1), 10.0)
     faces, origin = blocks.shadow_projection(e, np.zeros(3), 1.0)

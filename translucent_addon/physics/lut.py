@@ -73,7 +73,6 @@ class ImageSpaceTables:
     r_max: float  # mm, the splat radius at M = 1 (largest channel)
     rho: float  # mm, the partition radius
     total: np.ndarray  # (3,) total diffuse reflectance
-    hemispherical_transmittance: float  # 1 - F_dr for light entering
 
 
 def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) -> np.ndarray:
@@ -91,7 +90,6 @@ def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) ->
 
 def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
     from .dipole import total_diffuse_reflectance
-    from .fresnel import hemispherical_transmittance
 
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)
@@ -100,16 +98,14 @@ def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, sample
     far = R_d(radius * u**2, sa, ss, eta)
     near = np.stack([near_integral(sa, ss, eta, rho_mm, M) for M in np.linspace(BLUR_MIN, 1.0, near_samples)])
     return ImageSpaceTables(far.astype(np.float32), near.astype(np.float32), radius, float(rho_mm),
-                            total_diffuse_reflectance(sa, ss, eta), hemispherical_transmittance(eta))
+                            total_diffuse_reflectance(sa, ss, eta))
 
 
-def profile_tables(radii, profile, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
+def profile_tables(radii, profile, rho_mm, epsilon=0.01, samples=256, near_samples=32):
     """ImageSpaceTables from any radial profile R(r) [mm^-2] tabulated at radii [mm] (RGB), e.g. a multipole.
 
     r_max from the cumulative integral of R 2 pi r dr (Eq. 6.16); the near field by quadrature.
     """
-    from .fresnel import hemispherical_transmittance
-
     radii = np.asarray(radii, dtype=np.float64)
     profile = np.asarray(profile, dtype=np.float64)
     ring = 2 * np.pi * radii[:, None] * profile
@@ -128,8 +124,7 @@ def profile_tables(radii, profile, eta, rho_mm, epsilon=0.01, samples=256, near_
     for k, M in enumerate(np.linspace(BLUR_MIN, 1.0, near_samples)):
         f = R(M * r) * (M * M * (1.0 - partition(r, rho_mm)) * 2 * np.pi * r)[:, None]
         near[k] = np.trapz(f, r, axis=0)
-    return ImageSpaceTables(far.astype(np.float32), near.astype(np.float32), radius, float(rho_mm), total,
-                            hemispherical_transmittance(eta))
+    return ImageSpaceTables(far.astype(np.float32), near.astype(np.float32), radius, float(rho_mm), total)
 
 
 @functools.lru_cache(maxsize=16)

@@ -75,6 +75,13 @@ def project_equirect(image, rows_per_block: int = 64) -> np.ndarray:
     return out
 
 
+def uniform_coefficients(color) -> np.ndarray:
+    """L_lm (9, 3) of a uniform world: only L_00 = L sqrt(4 pi)."""
+    out = np.zeros((9, 3))
+    out[0] = np.asarray(color, np.float64).ravel()[:3] * math.sqrt(4.0 * math.pi)
+    return out
+
+
 _projected: dict = {}
 
 
@@ -88,9 +95,15 @@ def project_environment(key: str, image) -> np.ndarray:
     return found
 
 
+def transmittance_kernel(eta: float) -> np.ndarray:
+    """A_l = 2 pi int_0^1 F_t(eta, mu) mu P_l(mu) d mu for l = 0, 1, 2 (Funk-Hecke of Shah's F'_t).
+
+    Cached per IOR to 1e-6 (float32 properties round-trip with noise below that)."""
+    return _transmittance_kernel(round(float(eta), 6))
+
+
 @functools.lru_cache(maxsize=64)
-def transmittance_kernel(eta: float, samples: int = 4096) -> np.ndarray:
-    """A_l = 2 pi int_0^1 F_t(eta, mu) mu P_l(mu) d mu for l = 0, 1, 2 (Funk-Hecke of Shah's F'_t)."""
+def _transmittance_kernel(eta: float, samples: int = 4096) -> np.ndarray:
     mu = (np.arange(samples) + 0.5) / samples  # midpoint rule, error ~1e-8
     k = (1.0 - fresnel_dielectric(mu, float(eta))) * mu
     P = np.stack([np.ones_like(mu), mu, 0.5 * (3.0 * mu * mu - 1.0)])

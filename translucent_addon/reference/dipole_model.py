@@ -26,9 +26,9 @@ from ..geometry.camera import pixel_rays
 from ..geometry.mesh_measures import subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
 from ..physics.dipole import R_d, r_max
-from ..physics.fresnel import fresnel_dielectric, hemispherical_transmittance
+from ..physics.fresnel import fresnel_dielectric
 from ..physics.lut import near_integral, partition_off_plane
-from ..physics.sh_irradiance import irradiance, project_environment, transmittance_kernel
+from ..physics.sh_irradiance import irradiance, transmittance_kernel
 from ..render.scene_data import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-exported)
 from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 
@@ -81,11 +81,9 @@ def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, 
         cos_i = np.einsum("ij,ij->i", normals, to_light)
         facing = np.einsum("ij,ij->i", facet_normals, to_light) > 0
         E += E_e * ((1.0 - fresnel_dielectric(cos_i, medium.eta)) * facing)[:, None]
-    if frame.environment is None:
-        E += math.pi * np.asarray(frame.world_color) * hemispherical_transmittance(medium.eta)
-    else:  # the environment's irradiance through the boundary, unoccluded, to SH order 2 (Shah Eq. 6.19)
-        env = frame.environment
-        E += irradiance(project_environment(env.key, env.image), transmittance_kernel(float(medium.eta)), normals)
+    # The world's irradiance through the boundary, unoccluded, to SH order 2 (Shah Eq. 6.19); for a
+    # uniform world exactly pi L (1 - F_dr).
+    E += irradiance(frame.world_sh(), transmittance_kernel(medium.eta), normals)
     return E
 
 

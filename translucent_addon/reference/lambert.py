@@ -19,7 +19,7 @@ import numpy as np
 
 from ..geometry.camera import pixel_rays
 from ..geometry.raycast import BruteForceTracer
-from ..physics.sh_irradiance import LAMBERT_KERNEL, irradiance, project_environment
+from ..physics.sh_irradiance import LAMBERT_KERNEL, irradiance
 from ..render.lights import DIRECTIONAL, unshadowed_irradiance
 from ..render.scene_data import FrameInputs
 
@@ -78,11 +78,8 @@ def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None)
     facing_away = np.einsum("ij,ij->i", Ng, dirs[hit]) > 0
     N[facing_away] *= -1.0
     rho = w * cols[ti, 0] + ui * cols[ti, 1] + vi * cols[ti, 2]
-    if frame.environment is None:
-        radiance = rho * frame.world_color
-    else:  # the environment's irradiance to SH order 2, unoccluded, as the base pass takes it
-        env = frame.environment
-        radiance = rho * irradiance(project_environment(env.key, env.image), LAMBERT_KERNEL, N) / math.pi
+    # The world's irradiance to SH order 2, unoccluded, as the base pass takes it (rho L for a uniform world).
+    radiance = rho * irradiance(frame.world_sh(), LAMBERT_KERNEL, N) / math.pi
     scene_scale = max(float(np.ptp(tris.reshape(-1, 3), axis=0).max()), 1e-6)
     P_off = P + N * shadow_offset * scene_scale
     for E, _ in shadowed_irradiance(frame.emitters, P_off, N, tracer):

@@ -93,9 +93,9 @@ def cube_face(d) -> int:
     return 4 if d[2] > 0 else 5
 
 
-def frame_block(view, projection, world_color, world_sh=None) -> bytes:
+def frame_block(view, projection, world_color, world_sh) -> bytes:
     """FrameData: view_proj, view, proj, world colour, camera position (w: orthographic), forward, and
-    the world's radiance in SH bands 0-2 (9 x rgb; ``physics.sh_irradiance``; None: the uniform colour)."""
+    the world's radiance in SH bands 0-2 (9 x rgb, ``FrameInputs.world_sh``)."""
     view = np.asarray(view, np.float64)
     projection = np.asarray(projection, np.float64)
     data = np.zeros(FRAME_FLOATS, np.float32)
@@ -107,9 +107,6 @@ def frame_block(view, projection, world_color, world_sh=None) -> bytes:
     data[52:55] = inv[:3, 3]
     data[55] = 1.0 if projection[3, 3] == 1.0 else 0.0
     data[56:59] = -inv[:3, 2]
-    if world_sh is None:
-        world_sh = np.zeros((9, 3))
-        world_sh[0] = np.asarray(world_color, np.float64)[:3] * np.sqrt(4.0 * np.pi)
     data[60:96] = np.pad(np.asarray(world_sh, np.float64)[:, :3], ((0, 0), (0, 1))).ravel()
     return data.tobytes()
 

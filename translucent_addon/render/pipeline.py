@@ -119,7 +119,7 @@ class Pipeline:
         fb = gpu.state.active_framebuffer_get()
         cam = frame.camera
         frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color,
-                                                               image_space.world_sh(frame)))
+                                                               frame.world_sh()))
         if clear:
             alpha = 0.0 if frame.film_transparent else 1.0
             clear_target(fb, (*map(float, frame.world_color), alpha))

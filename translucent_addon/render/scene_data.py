@@ -194,6 +194,15 @@ class FrameInputs:
     warnings: list[str] = dataclasses.field(default_factory=list)
     _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
+    def world_sh(self) -> np.ndarray:
+        """The world's radiance in SH bands 0-2, L_lm (9, 3): the environment image's (projected once per
+        image), or the uniform colour's."""
+        from ..physics.sh_irradiance import project_environment, uniform_coefficients
+
+        if self.environment is None:
+            return uniform_coefficients(self.world_color)
+        return project_environment(self.environment.key, self.environment.image)
+
     def bounds(self) -> tuple[np.ndarray, float]:
         """Centre and radius of a sphere around every mesh (for directional shadow maps), computed once."""
         if self._bounds is None:

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import blocks, shaders
 from ..targets import new_target, screen_quad, texture_from_array
-from .image_space_data import ImageSpacePlan, SamplingSettings, materials_block, plan, world_sh  # noqa: F401
+from .image_space_data import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
 
 
 # Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
@@ -47,7 +47,7 @@ def prepare(frame, settings: SamplingSettings) -> Prepared:
         empty = np.zeros((2, 2, 4), np.float32)
         return Prepared(None, gpu.types.GPUUniformBuf(materials_block(None)), texture_from_array(empty),
                         texture_from_array(empty))
-    return Prepared(p, gpu.types.GPUUniformBuf(p.materials_block()), texture_from_array(p.near_lut()), texture_from_array(p.far_lut()))
+    return Prepared(p, gpu.types.GPUUniformBuf(materials_block(p)), texture_from_array(p.near_lut()), texture_from_array(p.far_lut()))
 
 
 def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):

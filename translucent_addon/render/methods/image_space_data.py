@@ -24,7 +24,7 @@ import numpy as np
 
 from ...physics.lut import (BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition_off_plane,
                              profile_tables)
-from ...physics.sh_irradiance import project_environment, transmittance_kernel
+from ...physics.sh_irradiance import transmittance_kernel
 from ..blocks import look_at, orthographic, perspective, shadow_projection
 from ..lights import DIRECTIONAL, Emitter
 from ..scene_data import FrameInputs, MeshInstance
@@ -53,8 +53,7 @@ class WorldSampling:
     texel_area / |n_g . a| of surface; weighting the three axes by |n_g . a| / sum_b |n_g . b| (a
     partition of unity) gives each sample the power E_sh(n) texel_area / sum_b |n_g . b|, bounded."""
 
-    faces: np.ndarray  # (6, 4, 4) view-projection per axis +X, +Y, +Z in faces 0-2
-    origin: np.ndarray
+    faces: np.ndarray  # (3, 4, 4) view-projection per axis +X, +Y, +Z
     grid: int
     texel_area: float  # world units^2
     layers: int
@@ -87,12 +86,6 @@ class ImageSpacePlan:
     world: WorldSampling | None = None
     epsilon: float = 0.01  # the profile share beyond the splat radius (SamplingSettings.epsilon)
 
-    def materials_block(self) -> bytes:
-        """The MaterialsData block (translucent_structs.glsl): 2 vec4 per slot, (mm_per_unit, r_max_mm,
-        rho_mm, eta), (R_d T_hemi rgb, slot); then per slot the transmittance kernel (A_0, A_1, A_2, world
-        rho mm), and (world peeled, -, -, -). The world's SH coefficients are in the frame block."""
-        return materials_block(self)
-
     def far_lut(self) -> np.ndarray:
         """(rows, FAR_SAMPLES, 4) float32."""
         out = np.zeros((max(1, len(self.tables)), FAR_SAMPLES, 4), np.float32)
@@ -114,31 +107,15 @@ class ImageSpacePlan:
         return out
 
 
-MATERIAL_VEC4 = 2 * MAX_MATERIALS + MAX_MATERIALS + 1  # vec4 count of the MaterialsData block
-
-
 def materials_block(p: "ImageSpacePlan | None") -> bytes:
-    data = np.zeros((MATERIAL_VEC4, 4), np.float32)
-    if p is None:
-        return data.tobytes()
-    for k, (t, m) in enumerate(zip(p.tables, p.media)):
-        data[2 * k] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
-        data[2 * k + 1, :3] = t.total * t.hemispherical_transmittance
-        data[2 * k + 1, 3] = k
-        data[2 * MAX_MATERIALS + k, :3] = transmittance_kernel(round(float(m.eta), 6))
-        data[2 * MAX_MATERIALS + k, 3] = p.world.rho_mm[k] if p.world is not None else 0.0
-    data[-1, 0] = 1.0 if p.world is not None else 0.0
+    """The MaterialsData block (translucent_structs.glsl), 2 vec4 per slot: (mm_per_unit, r_max_mm, rho_mm,
+    eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm). Zeros for None."""
+    data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
+    for k, (t, m) in enumerate(zip(p.tables, p.media) if p is not None else ()):
+        data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
+        data[k, 1, :3] = transmittance_kernel(m.eta)
+        data[k, 1, 3] = p.world.rho_mm[k] if p.world is not None else 0.0
     return data.tobytes()
-
-
-def world_sh(frame: FrameInputs) -> np.ndarray:
-    """L_lm (9, 3) of the frame's world: its environment image, or the uniform world colour."""
-    env = frame.environment
-    if env is None:
-        out = np.zeros((9, 3))
-        out[0] = np.asarray(frame.world_color, np.float64)[:3] * math.sqrt(4.0 * math.pi)
-        return out
-    return project_environment(env.key, env.image)
 
 
 def world_sampling(meshes: list[MeshInstance], media, tables, settings: SamplingSettings) -> WorldSampling | None:
@@ -148,16 +125,13 @@ def world_sampling(meshes: list[MeshInstance], media, tables, settings: Sampling
     centre, radius = _bounds(meshes)
     spacing = min(t.r_max / settings.world_overlap / med.mm_per_unit for t, med in zip(tables, media))
     grid = int(np.clip(math.ceil(2 * radius / spacing), MIN_GRID, settings.max_grid))
-    faces = np.tile(np.eye(4), (6, 1, 1))
     reach = 2.0 * radius
-    for a in range(3):
-        axis = np.eye(3)[a]
-        up = np.eye(3)[(a + 1) % 3]
-        faces[a] = orthographic(radius, radius, 0.0, 2.0 * reach) @ look_at(centre - axis * reach, axis, up)
+    faces = np.stack([orthographic(radius, radius, 0.0, 2.0 * reach) @ look_at(centre - axis * reach, axis, up)
+                      for axis, up in zip(np.eye(3), np.roll(np.eye(3), -1, axis=0))])
     texel = 2.0 * radius / grid
     rho_mm = [2.0 * texel * med.mm_per_unit for med in media]
     # One part in 2^14 of the depth range: far below a texel, far above float32 depth noise.
-    return WorldSampling(faces, centre, grid, texel * texel, int(settings.world_layers), 2.0 / 16384.0, rho_mm)
+    return WorldSampling(faces, grid, texel * texel, int(settings.world_layers), 2.0 / 16384.0, rho_mm)
 
 
 def _bounds(meshes: list[MeshInstance]):
@@ -254,7 +228,7 @@ def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
     radii, profile = multipole_profile(tuple(med.sigma_a), tuple(med.sigma_s_prime), float(med.layer_thickness_mm),
                                        tuple(med.base_sigma_a), tuple(med.base_sigma_s_prime), float(med.eta),
                                        extent_mm=round(extent, 3), h_mm=round(h, 4))
-    return profile_tables(radii, profile, med.eta, rho_mm, epsilon, FAR_SAMPLES, NEAR_SAMPLES)
+    return profile_tables(radii, profile, rho_mm, epsilon, FAR_SAMPLES, NEAR_SAMPLES)
 
 
 def texel_solid_angle(u, v, grid: int, tan_half: float = 1.0):

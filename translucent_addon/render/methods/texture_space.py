@@ -103,7 +103,7 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         shader = shaders.bind_lit("ts_illumination", frame_ubo, light_ubo, shadow_atlas, mode)
         shader.uniform_block("object", obj_ubo)
         shader.uniform_float("eta", float(eta))
-        shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(round(float(eta), 6))))
+        shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
         shader.uniform_float("atlas_size", tuple(float(x) for x in size))
         points.draw(shader)
         gpu.state.blend_set("NONE")
