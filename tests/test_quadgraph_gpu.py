@@ -80,3 +80,63 @@ def test_veins_darken_streaks_inside_the_volume(tr, scene):
     ball = np.abs(plain[..., :3] - np.array([0.02, 0.02, 0.025])).max(axis=2) > 1e-3
     ratio = veined[..., 1][ball] / np.maximum(plain[..., 1][ball], 1e-6)
     assert ratio.mean() < 0.97 and ratio.std() > 0.01  # darker, and unevenly so
+
+
+def _shape_key(ob, name, transform):
+    """A shape key moving every vertex by ``transform`` (object space), at value 1."""
+    if ob.data.shape_keys is None:
+        ob.shape_key_add(name="Basis")
+    key = ob.shape_key_add(name=name, from_mix=False)
+    co = np.empty(len(key.data) * 3, np.float32)
+    key.data.foreach_get("co", co)
+    key.data.foreach_set("co", transform(co.reshape(-1, 3)).astype(np.float32).ravel())
+    key.value = 1.0
+    ob.data.update()
+    return key
+
+
+def test_a_deformed_mesh_moves_the_nodes_and_re_solves_without_a_new_bake(tr, scene):
+    """A shape key squashes the ball (1.25 x 1.25 x 0.64): the bake stays current, the surface nodes
+    follow the mesh, the GPU relaxation equals the direct solution on the moved graph, and the image
+    follows the new silhouette."""
+    ob = _baked_ball(scene)
+    store = ext_module(tr, "translucent_addon.bake.store")
+    digest = store.stored_hash(ob, "QUADGRAPH")
+    scene.translucent.quadgraph_tolerance = 1e-7
+    scene.translucent.quadgraph_iterations = 6000
+    rest_image = render(scene, 64, 48)
+    rest_nodes = _capture(tr)["quadgraph"][0]["resources"].levels_cpu[-1].positions_mm.copy()
+    _shape_key(ob, "Squash", lambda v: v * np.array([1.25, 1.25, 0.64]))
+    image = render(scene, 64, 48)
+    assert not _capture(tr)["frame"].warnings and store.stored_hash(ob, "QUADGRAPH") == digest
+    (rec,) = _capture(tr)["quadgraph"]
+    t = rec["resources"].levels_cpu[-1]
+    S = t.n_surface
+    mm = ob.translucent.mm_per_unit
+    # Surface nodes now lie on the squashed ball: x^2 + y^2 over 1.25^2 plus z^2 over 0.64^2 is r^2.
+    p = t.positions_mm[:S] / mm
+    r = np.sqrt((p[:, 0] ** 2 + p[:, 1] ** 2) / 1.25**2 + (p[:, 2] / 0.64) ** 2)
+    assert np.abs(r / 0.03 - 1.0).max() < 0.02  # the icosphere's facets: within 2 % of its radius
+    assert np.abs(t.positions_mm - rest_nodes).max() > 0.2 * 0.03 * mm
+    df = ext_module(tr, "translucent_addon.physics.diffusion")
+    kappa, mu = rec["resources"].materials[-1]
+    exact = df.solve_direct(t.neighbours, t.weights, t.d_surface, kappa, mu, rec["q"][-1][:S], 1.3)
+    err = np.abs(rec["phi"] - exact).max(axis=0) / np.abs(exact).max(axis=0)
+    assert err.max() < 1e-3, err
+    world = np.array([0.02, 0.02, 0.025])
+    lit_rest = np.abs(rest_image[..., :3] - world).max(axis=2) > 1e-3
+    lit_now = np.abs(image[..., :3] - world).max(axis=2) > 1e-3
+    assert np.isfinite(image).all() and lit_now.sum() > 200
+    # Seen from the side, the squashed ball is wider and lower.
+    cols = lambda m: np.flatnonzero(m.any(axis=0))  # noqa: E731
+    rows = lambda m: np.flatnonzero(m.any(axis=1))  # noqa: E731
+    assert np.ptp(cols(lit_now)) > np.ptp(cols(lit_rest)) and np.ptp(rows(lit_now)) < np.ptp(rows(lit_rest))
+
+
+def test_a_pose_that_turns_the_volume_inside_out_is_refused_with_a_message(tr, scene):
+    ob = _baked_ball(scene, levels=1)
+    _shape_key(ob, "Mirror", lambda v: v * np.array([1.0, 1.0, -1.0]))
+    image = render(scene, 64, 48)
+    warnings = _capture(tr)["frame"].warnings
+    assert any("'Ball': the deformation turns" in w and "inside out; press Bake in this pose" in w for w in warnings), warnings
+    assert np.isfinite(image).all() and "quadgraph" not in _capture(tr)

@@ -164,30 +164,41 @@ def build(points, tets, surface_v, surface_t) -> QuadGraph:
     s_pos, s_tri, s_bary, s_normal, _ = _surface_hits(
         inner_pos[boundary_tet], face_centroid[boundary_tet, boundary_face], surface_v, surface_t,
         vertex_normals(surface_v, surface_t))
-    # The hit can fall short of the inner node's own side only on a badly folded surface: keep the
-    # link at least a tenth of the face's size so that d_sk > 0.
-    d_surface = np.linalg.norm(s_pos - inner_pos[boundary_tet], axis=1)
-    floor = 0.1 * np.sqrt(area[boundary_tet, boundary_face])
-    d_surface = np.maximum(d_surface, floor)
-
     neighbours = np.full((S + T, 4), -1, np.int64)
     surface_id = np.full((T, 4), -1, np.int64)
     surface_id[boundary_tet, boundary_face] = np.arange(S)
     neighbours[S:] = np.where(adjacency >= 0, S + adjacency, surface_id)
     neighbours[:S, 0] = S + boundary_tet
     positions = np.concatenate([s_pos, inner_pos])
-    # Finite-volume (two-point flux) weights of the Laplacian: a_ij = |f_ij| / (d_ij V_i), so that
-    # sum_j a_ij (phi_j - phi_i) approximates div grad phi for any tetrahedron shape.
-    ends = positions[neighbours[S:]]
-    d_inner = np.linalg.norm(ends - inner_pos[:, None, :], axis=2)
-    d_inner = np.maximum(d_inner, 1e-9)
-    weights = np.zeros((S + T, 4))
-    weights[S:] = area / (d_inner * volumes[:, None])
+    weights, d_surface, _ = link_geometry(positions, neighbours, S, points, tets)
     graph = QuadGraph(
         positions=positions, n_surface=S, neighbours=neighbours, weights=weights, d_surface=d_surface,
         normals=s_normal, volumes=volumes, points=points, tets=tets, inner_bary=inner_bary,
         surface_triangle=s_tri, surface_bary=s_bary, split=n_split)
     return graph
+
+
+def link_geometry(positions, neighbours, S: int, points, tets):
+    """(weights (N, 4), d_surface (S,), volumes (T,)) of a graph whose inner node S + t lies in
+    tetrahedron t, with link k of an inner node across face k (``tetra.TET_FACES``).
+
+    Finite-volume (two-point flux) weights of the Laplacian: a_ij = |f_ij| / (d_ij V_i), so that
+    sum_j a_ij (phi_j - phi_i) approximates div grad phi for any tetrahedron shape. The surface link
+    d_sk is kept at least a tenth of its face's size (the ray's hit falls short of the inner node's own
+    side only on a badly folded surface) so that d_sk > 0. V_i is taken unsigned: a deformed sliver
+    that turned over keeps positive weights (``quadgraph_data.LevelDeformer`` refuses real folds).
+    """
+    area, _, _ = _face_geometry(points, tets)
+    volumes = tetra.signed_volumes(points, tets)
+    inner = positions[S:]
+    d_inner = np.maximum(np.linalg.norm(positions[neighbours[S:]] - inner[:, None, :], axis=2), 1e-9)
+    weights = np.zeros((len(positions), 4))
+    weights[S:] = area / (d_inner * np.abs(volumes)[:, None])
+    t, f = np.nonzero(neighbours[S:] < S)  # inner node t's link across face f ends at a surface node
+    s = neighbours[S:][t, f]
+    d_surface = np.empty(S)
+    d_surface[s] = np.maximum(np.linalg.norm(positions[s] - inner[t], axis=1), 0.1 * np.sqrt(area[t, f]))
+    return weights, d_surface, volumes
 
 
 def inverse_square_weights(graph: QuadGraph) -> np.ndarray:

@@ -1,8 +1,9 @@
 """The QUADGRAPH bake (Wang et al. 2010): tetrahedra, QuadGraph levels, level links, display mapping.
 
 Pure. A generator like every bake: yields (fraction, text), returns (arrays, meta). Only geometry is
-baked: kappa and mu are set per node at run time from the object's material, its veins and its
-painted maps, so editing the material never needs a new bake.
+baked: kappa and mu are set per node at run time from the object's material and its veins, so
+editing the material never needs a new bake. The bake keeps the tetrahedra and the pose it was built
+in, so that a deformation of the mesh (armature, lattice, shape keys) moves the nodes at run time.
 
 Density. The paper's K (Alliez et al. 2005) sets how much larger interior tetrahedra are than those
 at the surface. fTetWild without its (15x slower) optimisation keeps tetrahedra as fine as the
@@ -93,6 +94,10 @@ def bake(inputs):
         arrays[p + "d_surface"] = graph.d_surface.astype(np.float32)
         arrays[p + "normals"] = graph.normals.astype(np.float32)
         arrays[p + "n_surface"] = np.array([graph.n_surface], np.int32)
+        # Where the nodes lie, so that a deformation of the mesh can move them (quadgraph_data.LevelDeformer).
+        arrays[p + "points"] = graph.points.astype(np.float64)  # float32 would flatten slivers
+        arrays[p + "tets"] = graph.tets.astype(np.int32)
+        arrays[p + "inner_bary"] = graph.inner_bary.astype(np.float32)
         if h > 0:
             idx, w = quadgraph.level_links(graph, graphs[h - 1])
             arrays[p + "up_index"] = idx.astype(np.int32)
@@ -105,6 +110,8 @@ def bake(inputs):
     arrays["qg_display_index"] = index[corners]
     arrays["qg_display_weight"] = weight[corners]
     arrays["qg_levels"] = np.array([levels], np.int32)
+    arrays["qg_rest_vertices"] = display_v.astype(np.float32)  # the pose the graph was built in [mm]
+    arrays["qg_rest_triangles"] = display_t.astype(np.int32)
     arrays["stretch"] = S.astype(np.float64)
     finest = graphs[-1]
     meta = {

@@ -73,7 +73,8 @@ class BakeInputs:
 
     def hash(self) -> str:
         """Hash of what the bake depends on. A QUADGRAPH bake is geometry only (kappa and mu are set per
-        node at run time), so editing its material keeps the bake current."""
+        node at run time), so editing its material keeps the bake current; and only its topology: moving
+        vertices (an armature, a lattice, shape keys) moves the nodes at run time instead."""
         material = {"sigma_a": list(self.sigma_a), "sigma_s_prime": list(self.sigma_s_prime), "eta": self.eta,
                     "g": self.g}
         stretch = {"stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
@@ -87,8 +88,12 @@ class BakeInputs:
             material = {"eta": self.eta}  # cone C's half angle is the critical angle; the rest is geometry
             # An automatic resolution is chosen once, at bake time: moving the camera later does not stale it.
             extra = {"res": int(self.geocube_resolution) or "auto", **stretch}
+        geometry = {"vertices": self.vertices, "triangles": self.triangles}
+        if self.method == "QUADGRAPH":
+            geometry = {"triangles": self.triangles}
+            extra["vertex_count"] = int(len(self.vertices))
         return store.inputs_hash(
-            {"vertices": self.vertices, "triangles": self.triangles},
+            geometry,
             {
                 "method": self.method,
                 "stages": list(METHOD_STAGES.get(self.method, ())),

@@ -12,7 +12,8 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
 3. display: the original mesh interpolates B = (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
    nodes per vertex and draws L = F_t / pi B + F_r L_world over the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
-edits need no bake. The maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
+edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
+(``Resources.follow``), and the solve above runs on the moved graph. The maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ import time
 
 import numpy as np
 
+from ...geometry.volume_deformation import DeformationError
 from ...physics.dipole import A as internal_reflection
 from ...physics import diffusion as df
 from ...physics.fresnel import F_dr as diffuse_fresnel
@@ -37,22 +39,27 @@ class LevelGpu:
     """Textures and targets of one level."""
 
     def __init__(self, t: qgd.LevelTables, stretch_inv: np.ndarray, mm: float):
-        from gpu_extras.batch import batch_for_shader
-
-        self.tables = t
+        self.stretch_inv, self.mm = stretch_inv, mm
         size = t.layout.size
         self.links = texture_from_array(t.links_image)
-        self.weights = texture_from_array(t.weights_image)
         self.up = tuple(texture_from_array(img) for img in t.up_images) if t.up_images else None
-        S = t.n_surface
-        pos = (t.positions_mm[:S] @ stretch_inv.T / mm).astype(np.float32)
-        nor = t.normals @ np.linalg.inv(stretch_inv)  # normals transform with S (S symmetric)
-        nor = (nor / np.linalg.norm(nor, axis=1, keepdims=True)).astype(np.float32)
-        self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.surface_texels, "pos": pos, "nor": nor})
+        self.set_geometry(t)
         self.incident = new_target(size)
         self.phi = [new_target(size), new_target(size)]
         self.kappa = self.mu = None
+
+    def set_geometry(self, t: qgd.LevelTables) -> None:
+        """The link weights and the surface nodes' points for the illumination pass (rest or deformed)."""
+        from gpu_extras.batch import batch_for_shader
+
+        self.tables = t
+        self.weights = texture_from_array(t.weights_image)
+        S = t.n_surface
+        pos = (t.positions_mm[:S] @ self.stretch_inv.T / self.mm).astype(np.float32)
+        nor = t.normals @ np.linalg.inv(self.stretch_inv)  # normals transform with S (S symmetric)
+        nor = (nor / np.linalg.norm(nor, axis=1, keepdims=True)).astype(np.float32)
+        self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
+            "texel": t.surface_texels, "pos": pos, "nor": nor})
 
     def set_material(self, kappa: np.ndarray, mu: np.ndarray) -> None:
         self.kappa = texture_from_array(self.tables.image(kappa))
@@ -63,10 +70,16 @@ class Resources:
     """GPU data of one bake: its levels, the material images and the display batch."""
 
     def __init__(self, arrays: dict, mm: float):
-        self.levels_cpu = qgd.load(arrays)
-        stretch = np.asarray(arrays["stretch"], np.float64).reshape(3, 3)
-        stretch_inv = np.linalg.inv(stretch)
-        self.levels = [LevelGpu(t, stretch_inv, mm) for t in self.levels_cpu]
+        self.rest_levels = self.levels_cpu = qgd.load(arrays)
+        self.stretch = np.asarray(arrays["stretch"], np.float64).reshape(3, 3)
+        self.mm = mm
+        self.levels = [LevelGpu(t, np.linalg.inv(self.stretch), mm) for t in self.levels_cpu]
+        self.rest_vertices = np.asarray(arrays["qg_rest_vertices"], np.float64)
+        self.rest_triangles = np.asarray(arrays["qg_rest_triangles"], np.int64)
+        self.tetrahedra = [(arrays[f"qg{h}_points"], arrays[f"qg{h}_tets"], arrays[f"qg{h}_inner_bary"])
+                           for h in range(len(self.levels))]
+        self.deformers = None
+        self.pose = None  # the surface vertices [mm] the nodes were last placed for
         self.display_index = arrays["qg_display_index"]
         self.display_weight = arrays["qg_display_weight"]
         self.material_key = None
@@ -79,12 +92,33 @@ class Resources:
         if key == self.material_key:
             return
         self.materials = []
-        for lg in self.levels:
-            kappa, mu = qgd.node_material(lg.tables.positions_mm, medium.sigma_a, medium.sigma_s_prime,
+        for lg, rest in zip(self.levels, self.rest_levels):
+            # Veins are set at the rest pose's positions, so they stay in the material as it deforms.
+            kappa, mu = qgd.node_material(rest.positions_mm, medium.sigma_a, medium.sigma_s_prime,
                                           medium.veins, medium.veins_spacing_mm)
             lg.set_material(kappa, mu)
             self.materials.append((kappa, mu))
         self.material_key = key
+
+    def follow(self, mesh, label: str = "") -> None:
+        """Move the nodes to the mesh's current pose (armature, lattice, shape keys): Wang Sec. 6's
+        deformable objects; raises DeformationError when the pose turns a tetrahedron inside out."""
+        vertices = np.empty_like(self.rest_vertices)
+        vertices[self.rest_triangles.reshape(-1)] = np.asarray(mesh.positions, np.float64) @ self.stretch.T * self.mm
+        if self.pose is not None and np.array_equal(vertices, self.pose):
+            return
+        extent = float(np.ptp(self.rest_vertices, axis=0).max())
+        if np.abs(vertices - self.rest_vertices).max() <= 1e-5 * extent:
+            tables = self.rest_levels
+        else:
+            if self.deformers is None:
+                self.deformers = [qgd.LevelDeformer(t, *tet, self.rest_vertices, self.rest_triangles)
+                                  for t, tet in zip(self.rest_levels, self.tetrahedra)]
+            tables = [deform(vertices, label) for deform in self.deformers]
+        for lg, t in zip(self.levels, tables):
+            lg.set_geometry(t)
+        self.levels_cpu = tables
+        self.pose = vertices
 
     def display_batch(self, mesh):
         batch = self.display.get(mesh.key)
@@ -107,9 +141,16 @@ def prepare(frame) -> list[Active]:
     active = bake_cache.prepare(frame, "QUADGRAPH",
                                 lambda arrays, mesh: Resources(arrays, mesh.medium.mm_per_unit),
                                 lambda res, mesh: len(res.display_index) == len(mesh.positions))
+    followed = []
     for a in active:
         a.resources.set_material(a.mesh.medium)
-    return active
+        try:
+            a.resources.follow(a.mesh, f"'{a.mesh.name}': ")
+        except DeformationError as err:
+            frame.warnings.append(f"{err} (QUADGRAPH; drawn with its base colour)")
+            continue
+        followed.append(a)
+    return followed
 
 
 def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:

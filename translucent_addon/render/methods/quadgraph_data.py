@@ -77,6 +77,55 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
     return t
 
 
+# -- deformation (armature, lattice, shape keys) ------------------------------------------------
+class LevelDeformer:
+    """Moves one level's nodes with the surface (``geometry.volume_deformation``): the tetrahedra's
+    boundary points and the surface nodes are embedded in the rest surface, the inner points follow
+    harmonically, the inner nodes keep their barycentrics in their tetrahedra; then the link weights,
+    surface distances and normals are recomputed. Built once per bake, on the first deformed frame."""
+
+    def __init__(self, rest: LevelTables, points, tets, inner_bary, rest_vertices, triangles):
+        from ...bake.tetra import face_adjacency, signed_volumes
+        from ...geometry import volume_deformation as vd
+
+        self.rest = rest
+        self.points = np.asarray(points, np.float64)
+        self.tets = np.asarray(tets, np.int64)
+        bary = np.asarray(inner_bary, np.float64)
+        self.inner_bary = bary / bary.sum(axis=1, keepdims=True)  # stored as float32: sum to 1 again (translations)
+        self.rest_volumes = signed_volumes(self.points, self.tets)
+        self.fixed = fixed = vd.boundary_points(self.tets, face_adjacency(self.tets), len(self.points))
+        self.point_embedding = vd.embed(self.points[fixed], rest_vertices, triangles)
+        self.node_embedding = vd.embed(rest.positions_mm[:rest.n_surface], rest_vertices, triangles)
+        self.harmonic = vd.HarmonicDisplacement(self.points, self.tets, fixed)
+        self.rest_vertices = np.asarray(rest_vertices, np.float64)
+        self.triangles = np.asarray(triangles, np.int64)
+
+    def __call__(self, vertices: np.ndarray, label: str = "") -> LevelTables:
+        """The level's tables with the surface at ``vertices`` (mm, the rest surface's triangles);
+        raises DeformationError when the pose folds the volume over (``volume_deformation.check_folds``)."""
+        from ...bake.quadgraph import link_geometry
+        from ...geometry import volume_deformation as vd
+
+        rest = self.rest
+        S = rest.n_surface
+        u_fixed = vd.place(self.point_embedding, vertices, self.triangles) - self.points[self.fixed]
+        points = self.points + self.harmonic(u_fixed)
+        positions = np.empty_like(rest.positions_mm)
+        positions[:S] = vd.place(self.node_embedding, vertices, self.triangles)
+        positions[S:] = np.einsum("tk,tkd->td", self.inner_bary, points[self.tets])
+        weights, d_surface, volumes = link_geometry(positions, rest.neighbours, S, points, self.tets)
+        vd.check_folds(self.rest_volumes, volumes, label)
+        normals = vd.rotate_with_surface(rest.normals, self.node_embedding.triangle, self.rest_vertices, vertices,
+                                         self.triangles)
+        moved = dataclasses.replace(rest, positions_mm=positions, weights=weights, d_surface=d_surface,
+                                    normals=normals)
+        w_img = weights.copy()
+        w_img[:S, 0] = d_surface
+        moved.weights_image = moved.image(w_img)
+        return moved
+
+
 def load(arrays: dict) -> list[LevelTables]:
     """Tables of every level, coarsest first."""
     levels: list[LevelTables] = []

@@ -1,0 +1,143 @@
+"""QUADGRAPH on a deforming mesh, pure: the nodes follow the surface, the graph is rebuilt, folds are refused."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from translucent_addon.geometry import volume_deformation as vd
+from translucent_addon.physics import diffusion as df
+from translucent_addon.render.methods import quadgraph_data as qgd
+
+from test_quadgraph import _inputs, _run, icosphere
+
+pytest.importorskip("pytetwild")
+
+
+@pytest.fixture(scope="module")
+def baked():
+    """A 2-level bake of a 10 mm ball (icosphere of 320 triangles) and its deformers."""
+    v, f = icosphere(2, 1.0)
+    (arrays, _), _ = _run(_inputs(vertices=v.astype(np.float32), triangles=f.astype(np.int32)))
+    levels = qgd.load(arrays)
+    rest_v = arrays["qg_rest_vertices"].astype(np.float64)
+    tri = arrays["qg_rest_triangles"]
+    deformers = [qgd.LevelDeformer(t, arrays[f"qg{h}_points"], arrays[f"qg{h}_tets"], arrays[f"qg{h}_inner_bary"],
+                                   rest_v, tri) for h, t in enumerate(levels)]
+    return levels, deformers, rest_v, tri
+
+
+def _rotation(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def test_closest_point_on_a_triangle_matches_a_dense_search():
+    rng = np.random.default_rng(3)
+    a, b, c = rng.normal(size=(3, 200, 3))
+    p = rng.normal(size=(200, 3)) * 2.0
+    bary = vd.closest_on_triangles(p, a, b, c)
+    q = np.einsum("nc,ncd->nd", bary, np.stack([a, b, c], axis=1))
+    assert np.allclose(bary.sum(axis=1), 1.0) and (bary >= -1e-12).all()
+    u, w = np.meshgrid(np.linspace(0, 1, 201), np.linspace(0, 1, 201))
+    keep = u + w <= 1.0
+    u, w = u[keep], w[keep]
+    dense = (1 - u - w)[None, :, None] * a[:, None] + u[None, :, None] * b[:, None] + w[None, :, None] * c[:, None]
+    best = np.linalg.norm(dense - p[:, None], axis=2).min(axis=1)
+    got = np.linalg.norm(q - p, axis=1)
+    assert (got <= best + 1e-12).all()  # never farther than any point of the triangle
+    assert np.allclose(got, best, atol=0.02 * np.ptp(dense, axis=1).max())  # and as near as the grid finds
+
+
+def test_harmonic_interpolation_reproduces_an_affine_map_inside(baked):
+    _, deformers, _, _ = baked
+    d = deformers[-1]
+    M = np.array([[1.1, 0.2, 0.0], [0.0, 0.9, 0.3], [0.1, 0.0, 1.2]])
+    t = np.array([1.0, -2.0, 0.5])
+    u = d.harmonic(d.points[d.fixed] @ (M - np.eye(3)).T + t)
+    assert (~d.fixed).sum() > 10, "the ball has inner points"
+    assert np.abs(u - (d.points @ (M - np.eye(3)).T + t)).max() < 1e-9
+
+
+def test_a_rigid_motion_moves_the_nodes_rigidly_and_keeps_the_graph(baked):
+    levels, deformers, rest_v, _ = baked
+    R = _rotation((1, 2, 3), 0.7)
+    t = np.array([30.0, -5.0, 12.0])
+    for rest, deform in zip(levels, deformers):
+        still = deform(rest_v)  # the rest pose through the same path: equal to the bake but for float32 storage
+        assert np.allclose(still.weights, rest.weights, rtol=2e-3, atol=1e-6)
+        moved = deform(rest_v @ R.T + t)
+        assert np.abs(moved.positions_mm - (rest.positions_mm @ R.T + t)).max() < 1e-4  # mm
+        assert np.allclose(moved.normals, rest.normals @ R.T, atol=1e-5)
+        assert np.allclose(moved.weights, still.weights, rtol=1e-6, atol=1e-9)
+        assert np.allclose(moved.d_surface, still.d_surface, rtol=1e-6)
+        assert (moved.neighbours == rest.neighbours).all()
+
+
+def test_a_uniform_scale_scales_lengths_and_the_laplacian(baked):
+    levels, deformers, rest_v, _ = baked
+    rest, still, moved = levels[-1], deformers[-1](rest_v), deformers[-1](2.0 * rest_v)
+    assert np.allclose(moved.positions_mm, 2.0 * rest.positions_mm, atol=1e-4)
+    assert np.allclose(moved.d_surface, 2.0 * still.d_surface, rtol=1e-6)
+    assert np.allclose(moved.weights, still.weights / 4.0, rtol=1e-6, atol=1e-9)  # a_ij ~ 1 / length^2
+
+
+def test_a_twist_keeps_surface_nodes_on_the_surface_and_changes_the_solution(baked):
+    """Twisting the ball 60 degrees top to bottom: surface nodes stay on the moved surface, no
+    tetrahedron folds, and the diffusion solution (a light from +x) changes."""
+    levels, deformers, rest_v, tri = baked
+    z = rest_v[:, 2] / np.abs(rest_v[:, 2]).max()
+    angle = np.radians(30.0) * z
+    c, s = np.cos(angle), np.sin(angle)
+    twisted = np.stack([c * rest_v[:, 0] - s * rest_v[:, 1], s * rest_v[:, 0] + c * rest_v[:, 1], rest_v[:, 2]], 1)
+    rest, moved = levels[-1], deformers[-1](twisted)
+    S = rest.n_surface
+    # Each surface node lies on its embedding triangle of the twisted surface (it lay on the rest one).
+    emb = deformers[-1].node_embedding
+    on_rest = np.abs(emb.offset).max(axis=1)
+    assert np.median(on_rest) < 1e-6, "the finest level's surface nodes lie on the mesh itself"
+    tri_now = twisted[tri[emb.triangle]]
+    q = np.einsum("nc,ncd->nd", emb.bary, tri_now)
+    assert np.abs(moved.positions_mm[:S] - q)[on_rest < 1e-6].max() < 1e-6
+    assert np.abs(moved.positions_mm - rest.positions_mm).max() > 1.0  # mm: it did move
+    kappa = np.full((rest.count, 1), df.kappa(0.01, 1.0))
+    mu = np.full((rest.count, 1), 0.01)
+    q_s = np.clip(rest.normals[:, :1], 0.0, None)  # lit from +x in the rest pose's node order
+
+    def solve(t):
+        return df.solve_direct(t.neighbours, t.weights, t.d_surface, kappa, mu, q_s, 1.3)
+
+    phi_rest, phi_moved = solve(rest), solve(moved)
+    assert np.isfinite(phi_moved).all() and (phi_moved[:S] > 0).any()
+    change = np.abs(phi_moved - phi_rest).max() / np.abs(phi_rest).max()
+    assert 1e-3 < change < 0.5, change  # the graph changed, but it is the same ball lit the same way
+
+
+def test_a_pose_that_turns_the_volume_inside_out_is_refused(baked):
+    _, deformers, rest_v, _ = baked
+    mirrored = rest_v * np.array([1.0, 1.0, -1.0])
+    with pytest.raises(vd.DeformationError,
+                       match=r"'Ball': the deformation turns .* tetrahedra \(100% of the volume\) inside out; press Bake"):
+        deformers[-1](mirrored, "'Ball': ")
+    squashed = rest_v * np.array([1.0, 1.0, 1e-5])
+    with pytest.raises(vd.DeformationError):
+        deformers[-1](squashed)
+
+
+def test_the_bake_hash_follows_topology_not_pose():
+    base = _inputs()
+    moved = _inputs(vertices=base.vertices * np.float32(1.3))
+    assert moved.hash() == base.hash()  # a pose: the nodes follow at run time
+    fewer = _inputs(vertices=base.vertices[:-1], triangles=base.triangles[:-1] % (len(base.vertices) - 1))
+    assert fewer.hash() != base.hash()
+
+
+def test_slivers_that_turn_over_are_not_a_fold_but_a_turned_over_part_of_the_volume_is():
+    rest = np.ones(1000)
+    rest[:50] = 1e-6  # slivers
+    now = rest.copy()
+    now[:50] = -1e-6
+    assert vd.check_folds(rest, now).sum() == 50  # 5e-8 of the volume: kept
+    now[50:70] = -0.5  # 2 % of the volume turned over
+    with pytest.raises(vd.DeformationError, match=r"70 of 1,000 tetrahedra \(2% of the volume\)"):
+        vd.check_folds(rest, now)
