@@ -1,6 +1,7 @@
 /* QUADGRAPH display (Wang Eq. 4, 7): each displayed vertex interpolates the radiosity
  * B = (phi_s - 2 q_s) / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the bake),
- * and the fragment leaves L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh. */
+ * and the fragment leaves L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
+ * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -11,10 +12,11 @@ void main()
   for (int j = 0; j < 4; j++) {
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
-    vec3 q = texelFetch(incident, t, 0).rgb;
+    vec3 q = texelFetch(incident, t, 0).rgb * texelFetch(q_factor, t, 0).rgb;
     B += link_weights[j] * (phi_s - 2.0 * q);
   }
   v_radiosity = max(B / (2.0 * (1.0 + F_dr)), vec3(0.0));
+  v_mask = mask;
   gl_Position = frame.view_proj * world;
 }
 #endif
@@ -28,6 +30,6 @@ void main()
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
-  out_color = vec4((1.0 - F_r) / PI * v_radiosity + F_r * frame.world_color.rgb, 1.0);
+  out_color = vec4((1.0 - F_r) / PI * v_radiosity + F_r * frame.world_color.rgb, clamp(v_mask, 0.0, 1.0));
 }
 #endif

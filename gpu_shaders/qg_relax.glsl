@@ -3,7 +3,7 @@
  * with c_ij = a_ij kappa_ij (harmonic mean); surface node s with inner node k at distance d:
  * phi_s = (2 A kappa_s e1 phi_k + d 4 q / (1 - F_dr)) / (2 A kappa_s e2 + d), where e1 = x / sinh x,
  * e2 = x / tanh x, x = sigma_tr d (the fitted surface link; a link to a surface node carries e1 on
- * phi_s and e2 on phi_i). */
+ * phi_s and e2 on phi_i). q is the light entering at the node times its painted factor (mask x glow x tint). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -55,7 +55,7 @@ void main()
     vec3 e1, e2;
     surface_factors(slot, d, e1, e2);
     vec3 phi_k = texelFetch(phi, qg_texel(k, blocks_per_row), 0).rgb;
-    vec3 q = texelFetch(incident, p, 0).rgb;
+    vec3 q = texelFetch(incident, p, 0).rgb * texelFetch(q_factor, p, 0).rgb; /* painted mask, glow, tint */
     vec3 ks = 2.0 * A * kappa;
     out_phi = vec4((ks * e1 * phi_k + d * 4.0 * q / (1.0 - F_dr)) / (ks * e2 + d), 1.0);
     return;

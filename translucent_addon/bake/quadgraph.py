@@ -186,7 +186,7 @@ def link_geometry(positions, neighbours, S: int, points, tets):
     sum_j a_ij (phi_j - phi_i) approximates div grad phi for any tetrahedron shape. The surface link
     d_sk is kept at least a tenth of its face's size (the ray's hit falls short of the inner node's own
     side only on a badly folded surface) so that d_sk > 0. V_i is taken unsigned: a deformed sliver
-    that turned over keeps positive weights (``quadgraph_data.LevelDeformer`` refuses real folds).
+    that turned over keeps positive weights (``quadgraph_data.LevelEmbedding`` refuses real folds).
     """
     area, _, _ = _face_geometry(points, tets)
     volumes = tetra.signed_volumes(points, tets)

@@ -1,4 +1,4 @@
-"""Carry a baked volume along when its surface deforms (armature, lattice, shape keys): pure NumPy/SciPy.
+"""Carry a baked volume along with its surface: poses (armature, lattice, shape keys) and painted maps. Pure.
 
 Points on or near the surface are embedded in their nearest triangle of the rest surface: the closest
 point's barycentrics, plus the offset from it in the triangle's orthonormal frame, in units of the
@@ -7,7 +7,8 @@ Blender's Surface Deform modifier does it).
 
 Points inside follow by harmonic interpolation: their displacement solves Laplace's equation on the
 tetrahedra (linear finite elements, the cotangent stiffness matrix), with the boundary points fixed
-where their embedding puts them. A linear field is harmonic and lies in the element space, so any
+where their embedding puts them. Painted values reach the inside the same way: the smoothest field
+that equals the paint on the surface. A linear field is harmonic and lies in the element space, so any
 affine motion is reproduced exactly; any other stays smooth inside (Joshi et al. 2007, harmonic
 coordinates). The stiffness matrix is factorised once per rest shape; each pose is one solve.
 """
@@ -142,8 +143,9 @@ def stiffness(points: np.ndarray, tets: np.ndarray):
     return coo_matrix((k.reshape(-1), (rows, cols)), shape=(n, n)).tocsr()
 
 
-class HarmonicDisplacement:
-    """Displacements of a tetrahedral mesh's points from those of its fixed points (Laplace's equation)."""
+class HarmonicInterpolation:
+    """Values at a tetrahedral mesh's points from those at its fixed points (Laplace's equation):
+    displacements for a pose, painted values for the volume behind a painted surface."""
 
     def __init__(self, points: np.ndarray, tets: np.ndarray, fixed: np.ndarray):
         from scipy.sparse.linalg import splu
@@ -155,7 +157,9 @@ class HarmonicDisplacement:
         self.solver = splu(K[self.free][:, self.free].tocsc()) if len(self.free) else None
 
     def __call__(self, u_fixed: np.ndarray) -> np.ndarray:
-        u = np.zeros((len(self.fixed), 3))
+        """(P, C) values from (fixed count, C) values at the fixed points."""
+        u_fixed = np.asarray(u_fixed, np.float64).reshape(int(self.fixed.sum()), -1)
+        u = np.zeros((len(self.fixed), u_fixed.shape[1]))
         u[self.fixed] = u_fixed
         if self.solver is not None:
             u[self.free] = self.solver.solve(-(self.K_fb @ u_fixed))

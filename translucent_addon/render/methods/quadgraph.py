@@ -13,7 +13,9 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    nodes per vertex and draws L = F_t / pi B + F_r L_world over the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
-(``Resources.follow``), and the solve above runs on the moved graph. The maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
+(``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
+carried into the volume (``Resources.set_paint``): the blur scales kappa and mu per node, mask x glow x
+tint scales q at the surface nodes, and the mask blends the display over the base pass's Lambert. The maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
 """
 from __future__ import annotations
 
@@ -47,6 +49,11 @@ class LevelGpu:
         self.incident = new_target(size)
         self.phi = [new_target(size), new_target(size)]
         self.kappa = self.mu = None
+        self.set_q_factor(np.ones((t.count, 3)))
+
+    def set_q_factor(self, q_factor: np.ndarray) -> None:
+        """The painted factor (mask x glow x tint) on the light entering at each surface node."""
+        self.q_factor = texture_from_array(self.tables.image(q_factor))
 
     def set_geometry(self, t: qgd.LevelTables) -> None:
         """The link weights and the surface nodes' points for the illumination pass (rest or deformed)."""
@@ -78,8 +85,11 @@ class Resources:
         self.rest_triangles = np.asarray(arrays["qg_rest_triangles"], np.int64)
         self.tetrahedra = [(arrays[f"qg{h}_points"], arrays[f"qg{h}_tets"], arrays[f"qg{h}_inner_bary"])
                            for h in range(len(self.levels))]
-        self.deformers = None
+        self._embeddings = None
         self.pose = None  # the surface vertices [mm] the nodes were last placed for
+        self.paint = None  # the painted corner values (paint, tint) the nodes were last set for
+        self.M_d = [None] * len(self.levels)  # painted blur per node, None where unpainted
+        self.q_factors = [np.ones((t.count, 3)) for t in self.rest_levels]
         self.display_index = arrays["qg_display_index"]
         self.display_weight = arrays["qg_display_weight"]
         self.material_key = None
@@ -87,15 +97,39 @@ class Resources:
         self.display = {}
         self.iterations: list[int] = []
 
+    @property
+    def embeddings(self) -> list[qgd.LevelEmbedding]:
+        """Where each level's nodes lie relative to the mesh (for poses and paint): built on first use."""
+        if self._embeddings is None:
+            self._embeddings = [qgd.LevelEmbedding(t, *tet, self.rest_vertices, self.rest_triangles)
+                                for t, tet in zip(self.rest_levels, self.tetrahedra)]
+        return self._embeddings
+
+    def set_paint(self, mesh) -> None:
+        """Painted maps (Shah ch. 7: mask, blur, glow, tint) carried into every level's volume; unpainted
+        meshes skip the work."""
+        paint = (mesh.paint, mesh.tint)
+        if self.paint is not None and all(np.array_equal(a, b) for a, b in zip(paint, self.paint)):
+            return
+        neutral = bool((mesh.paint[:, :3] == 1.0).all() and (mesh.tint == 1.0).all())
+        for h, (lg, rest) in enumerate(zip(self.levels, self.rest_levels)):
+            if neutral:
+                self.M_d[h], self.q_factors[h] = None, np.ones((rest.count, 3))
+            else:
+                self.M_d[h], self.q_factors[h] = qgd.node_paint(self.embeddings[h], mesh.paint, mesh.tint)
+            lg.set_q_factor(self.q_factors[h])
+        self.paint = tuple(np.array(a) for a in paint)
+        self.material_key = None  # the blur changes kappa and mu
+
     def set_material(self, medium) -> None:
         key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.veins, medium.veins_spacing_mm)
         if key == self.material_key:
             return
         self.materials = []
-        for lg, rest in zip(self.levels, self.rest_levels):
+        for lg, rest, M_d in zip(self.levels, self.rest_levels, self.M_d):
             # Veins are set at the rest pose's positions, so they stay in the material as it deforms.
             kappa, mu = qgd.node_material(rest.positions_mm, medium.sigma_a, medium.sigma_s_prime,
-                                          medium.veins, medium.veins_spacing_mm)
+                                          medium.veins, medium.veins_spacing_mm, M_d)
             lg.set_material(kappa, mu)
             self.materials.append((kappa, mu))
         self.material_key = key
@@ -111,10 +145,7 @@ class Resources:
         if np.abs(vertices - self.rest_vertices).max() <= 1e-5 * extent:
             tables = self.rest_levels
         else:
-            if self.deformers is None:
-                self.deformers = [qgd.LevelDeformer(t, *tet, self.rest_vertices, self.rest_triangles)
-                                  for t, tet in zip(self.rest_levels, self.tetrahedra)]
-            tables = [deform(vertices, label) for deform in self.deformers]
+            tables = [e.deform(vertices, label) for e in self.embeddings]
         for lg, t in zip(self.levels, tables):
             lg.set_geometry(t)
         self.levels_cpu = tables
@@ -131,7 +162,8 @@ class Resources:
             batch = self.display[mesh.key] = batch_for_shader(shaders.get("qg_display"), "TRIS", {
                 "pos": np.ascontiguousarray(mesh.positions, np.float32),
                 "nor": np.ascontiguousarray(mesh.normals, np.float32),
-                "links": slots, "link_weights": np.ascontiguousarray(self.display_weight, np.float32)})
+                "links": slots, "link_weights": np.ascontiguousarray(self.display_weight, np.float32),
+                "mask": np.ascontiguousarray(np.clip(mesh.paint[:, 0], 0.0, 1.0), np.float32)})
         return batch
 
 
@@ -143,12 +175,13 @@ def prepare(frame) -> list[Active]:
                                 lambda res, mesh: len(res.display_index) == len(mesh.positions))
     followed = []
     for a in active:
-        a.resources.set_material(a.mesh.medium)
         try:
             a.resources.follow(a.mesh, f"'{a.mesh.name}': ")
         except DeformationError as err:
             frame.warnings.append(f"{err} (QUADGRAPH; drawn with its base colour)")
             continue
+        a.resources.set_paint(a.mesh)
+        a.resources.set_material(a.mesh.medium)
         followed.append(a)
     return followed
 
@@ -217,6 +250,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
                     shader.uniform_sampler("weights_map", lg.weights)
                     shader.uniform_sampler("node_kappa", lg.kappa)
                     shader.uniform_sampler("node_mu", lg.mu)
+                    shader.uniform_sampler("q_factor", lg.q_factor)
                     shader.uniform_int("blocks_per_row", t.layout.blocks_per_row)
                     shader.uniform_int("n_surface", t.n_surface)
                     shader.uniform_int("inner_start", t.layout.inner_start)
@@ -247,6 +281,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         finest = a.resources.levels[-1]
         if pipeline.capture is not None:
             size = finest.tables.layout.size
+            # "q": the light entering each level's nodes before the painted factor (resources.q_factors).
             record = {"name": a.mesh.name, "iterations": list(a.resources.iterations), "q": [], "resources": a.resources}
             for lg in a.resources.levels:
                 with lg.incident[0].bind():
@@ -259,18 +294,20 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         with target_fb.bind():
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(False)
-            gpu.state.blend_set("NONE")
+            gpu.state.blend_set("ALPHA")  # the painted mask: the base pass's Lambert shows where it is 0
             shader = shaders.get("qg_display")
             shader.bind()
             shader.uniform_block("frame", frame_ubo)
             shader.uniform_block("object", objects[a.index])
             shader.uniform_sampler("phi", finest.phi[cur][1][0])
             shader.uniform_sampler("incident", finest.incident[1][0])
+            shader.uniform_sampler("q_factor", finest.q_factor)
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
             a.resources.display_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
         t2 = time.perf_counter()
         timings["qg_solve"] += t1 - t0
         timings["qg_display"] += t2 - t1

@@ -13,6 +13,7 @@ import numpy as np
 
 from ...bake.quadgraph import TextureLayout, layout_for
 from ...physics import diffusion as df
+from ...physics.lut import BLUR_MIN
 
 
 @dataclasses.dataclass
@@ -77,12 +78,13 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
     return t
 
 
-# -- deformation (armature, lattice, shape keys) ------------------------------------------------
-class LevelDeformer:
-    """Moves one level's nodes with the surface (``geometry.volume_deformation``): the tetrahedra's
-    boundary points and the surface nodes are embedded in the rest surface, the inner points follow
-    harmonically, the inner nodes keep their barycentrics in their tetrahedra; then the link weights,
-    surface distances and normals are recomputed. Built once per bake, on the first deformed frame."""
+# -- the volume behind the surface: poses and painted maps ----------------------------------------
+class LevelEmbedding:
+    """Where one level's points lie relative to the mesh (``geometry.volume_deformation``): the
+    tetrahedra's boundary points and the surface nodes in their nearest triangle of the rest surface,
+    the inner points harmonically behind them, the inner nodes by their barycentrics in their
+    tetrahedra. A pose moves the nodes with it (``deform``); painted corner values fill the volume
+    (``carry``). Built once per bake, when a pose or paint first needs it."""
 
     def __init__(self, rest: LevelTables, points, tets, inner_bary, rest_vertices, triangles):
         from ...bake.tetra import face_adjacency, signed_volumes
@@ -97,11 +99,11 @@ class LevelDeformer:
         self.fixed = fixed = vd.boundary_points(self.tets, face_adjacency(self.tets), len(self.points))
         self.point_embedding = vd.embed(self.points[fixed], rest_vertices, triangles)
         self.node_embedding = vd.embed(rest.positions_mm[:rest.n_surface], rest_vertices, triangles)
-        self.harmonic = vd.HarmonicDisplacement(self.points, self.tets, fixed)
+        self.harmonic = vd.HarmonicInterpolation(self.points, self.tets, fixed)
         self.rest_vertices = np.asarray(rest_vertices, np.float64)
         self.triangles = np.asarray(triangles, np.int64)
 
-    def __call__(self, vertices: np.ndarray, label: str = "") -> LevelTables:
+    def deform(self, vertices: np.ndarray, label: str = "") -> LevelTables:
         """The level's tables with the surface at ``vertices`` (mm, the rest surface's triangles);
         raises DeformationError when the pose folds the volume over (``volume_deformation.check_folds``)."""
         from ...bake.quadgraph import link_geometry
@@ -124,6 +126,33 @@ class LevelDeformer:
         w_img[:S, 0] = d_surface
         moved.weights_image = moved.image(w_img)
         return moved
+
+    def carry(self, corner_values: np.ndarray) -> np.ndarray:
+        """(N, C) node values from (3T, C) values at the mesh's triangle corners (paint): surface
+        points take their closest point's barycentric mix, inner points the harmonic field behind."""
+        corners = np.asarray(corner_values, np.float64).reshape(len(self.triangles), 3, -1)
+
+        def on_surface(embedding):
+            return np.einsum("nc,ncd->nd", embedding.bary, corners[embedding.triangle])
+
+        at_points = self.harmonic(on_surface(self.point_embedding))
+        S = self.rest.n_surface
+        out = np.empty((self.rest.count, corners.shape[2]))
+        out[:S] = on_surface(self.node_embedding)
+        out[S:] = np.einsum("tk,tkd->td", self.inner_bary, at_points[self.tets])
+        return out
+
+
+def node_paint(embedding: LevelEmbedding, paint: np.ndarray, tint: np.ndarray):
+    """Painted maps in the volume (Shah Eq. 7.4, carried from the surface): (M_d (N,), q factor (N, 3)).
+
+    M_d, the blur's distance multiplier, scales the coefficients (sigma M_d: every length over M_d);
+    the q factor, mask x glow x tint, scales the light entering at each surface node (inner rows unused).
+    """
+    values = embedding.carry(np.concatenate([paint[:, :3], tint], axis=1))
+    M_d = np.clip(values[:, 1], BLUR_MIN, 1.0)
+    q_factor = np.clip(values[:, 0:1], 0.0, 1.0) * np.maximum(values[:, 2:3], 0.0) * np.maximum(values[:, 3:6], 0.0)
+    return M_d, q_factor
 
 
 def load(arrays: dict) -> list[LevelTables]:
@@ -151,15 +180,20 @@ def vein_field(positions_mm: np.ndarray, spacing_mm: float) -> np.ndarray:
     return (1.0 - np.abs(wave)) ** 6
 
 
-def node_material(positions_mm, sigma_a, sigma_s_prime, veins: float = 0.0, veins_spacing_mm: float = 20.0):
+def node_material(positions_mm, sigma_a, sigma_s_prime, veins: float = 0.0, veins_spacing_mm: float = 20.0,
+                  M_d: np.ndarray | None = None):
     """(kappa, mu) per node, (N, 3) each. Veins raise absorption (x8) and scattering (x2) along the
-    vein field, so that they show as darker, sharper streaks under the surface."""
+    vein field, so that they show as darker, sharper streaks under the surface. A painted blur M_d
+    (N,) scales both coefficients: the profile spreads 1 / M_d further at the same albedo."""
     sa = np.broadcast_to(np.asarray(sigma_a, np.float64), (len(positions_mm), 3)).copy()
     ss = np.broadcast_to(np.asarray(sigma_s_prime, np.float64), (len(positions_mm), 3)).copy()
     if veins > 0:
         v = float(veins) * vein_field(positions_mm, veins_spacing_mm)[:, None]
         sa *= 1.0 + 7.0 * v
         ss *= 1.0 + 1.0 * v
+    if M_d is not None:
+        sa *= np.asarray(M_d, np.float64)[:, None]
+        ss *= np.asarray(M_d, np.float64)[:, None]
     return df.kappa(sa, ss), sa
 
 
