@@ -144,3 +144,39 @@ def test_lambert_objects_under_an_environment_image_match_the_cpu_reference(tr, 
     assert keep.sum() > 300
     assert rel_rmse < 0.01
     assert lum.max() > 2.0 * lum.min()  # the top sees the sky, the sides half of it
+
+
+_FAILING_PASS = """
+import sys, importlib
+sys.path.insert(0, sys.argv[1])
+import blender_env
+package = blender_env.start()
+import bpy
+engine = importlib.import_module(package + ".translucent_addon.render.engine")
+def fail(*args, **kwargs):
+    raise RuntimeError("a pass failed on purpose")
+engine.render_offscreen = fail
+scene = bpy.context.scene
+scene.render.engine = "TRANSLUCENT_RT"
+scene.render.resolution_x, scene.render.resolution_y = 32, 24
+scene.render.image_settings.file_format = "OPEN_EXR"
+scene.render.filepath = sys.argv[2]
+bpy.ops.render.render(write_still=True)
+print("still running")
+"""
+
+
+def test_an_error_while_drawing_is_reported_and_an_openexr_frame_is_still_written(tmp_path):
+    """In a child Blender (a crash would take pytest with it): a pass that raises shows its error, and
+    writing the frame as OpenEXR does not crash Blender (it did, on a frame with no result)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+    proc = subprocess.run([sys.executable, "-c", _FAILING_PASS, str(scripts), str(tmp_path / "frame.exr")],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "still running" in proc.stdout
+    assert "a pass failed on purpose" in proc.stderr
+    assert (tmp_path / "frame.exr").exists()

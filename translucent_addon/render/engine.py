@@ -1,6 +1,8 @@
 """The render engine TRANSLUCENT_RT: F12, batch and the viewport, one pipeline."""
 from __future__ import annotations
 
+import contextlib
+
 import bpy
 import numpy as np
 
@@ -41,9 +43,11 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         self.last_frame = None
 
     def __del__(self):
-        # GPU objects are freed by their own destructors; drop references only.
-        self._pipeline = None
-        self._viewport_offscreen = None
+        # GPU objects are freed by their own destructors; drop references only (Blender may have
+        # removed the engine's struct already, at exit).
+        with contextlib.suppress(ReferenceError):
+            self._pipeline = None
+            self._viewport_offscreen = None
 
     def _get_pipeline(self) -> Pipeline:
         if self._pipeline is None:
@@ -57,9 +61,21 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         width = max(1, int(scene.render.resolution_x * scale))
         height = max(1, int(scene.render.resolution_y * scale))
         try:
+            self._render_frame(depsgraph, width, height)
+        except BaseException:
+            # Blender 5.0.1 writes the frame after render() returns, and saving an OpenEXR frame that
+            # has no result crashes it (segmentation fault in BKE_image_render_write_exr): leave an
+            # empty frame, then let the error show as Blender reports it.
+            self.end_result(self.begin_result(0, 0, width, height))
+            raise
+
+    def _render_frame(self, depsgraph, width: int, height: int) -> None:
+        scene = depsgraph.scene
+        try:
             camera = extract.render_camera(depsgraph, width, height)
         except LookupError as err:
             self.report({"ERROR"}, f"Translucent: {err}")
+            self.end_result(self.begin_result(0, 0, width, height))
             return
         frame = extract.frame_inputs(depsgraph, camera)
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
