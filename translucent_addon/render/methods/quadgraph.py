@@ -137,7 +137,7 @@ class Resources:
     def follow(self, mesh, label: str = "") -> None:
         """Move the nodes to the mesh's current pose (armature, lattice, shape keys): Wang Sec. 6's
         deformable objects; raises DeformationError when the pose turns a tetrahedron inside out."""
-        vertices = np.empty_like(self.rest_vertices)
+        vertices = self.rest_vertices.copy()  # loose vertices (in no triangle) keep their rest place
         vertices[self.rest_triangles.reshape(-1)] = np.asarray(mesh.positions, np.float64) @ self.stretch.T * self.mm
         if self.pose is not None and np.array_equal(vertices, self.pose):
             return
