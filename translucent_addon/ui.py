@@ -101,7 +101,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 col.prop(s, name)
             if not ob.data.uv_layers:
                 box.label(text="Needs a UV map", icon="ERROR")
-        if s.method == "IMAGE_SPACE":
+        if s.method in {"IMAGE_SPACE", "QUADGRAPH"}:  # QUADGRAPH carries the paint into its volume
             box = layout.box()
             box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
             grid = box.grid_flow(columns=2, align=True)
