@@ -2,7 +2,8 @@
 
 Weight Paint layers (vertex groups): translucent_blur (spread, up to 4x), translucent_glow (brightness,
 up to 4x), translucent_mask (where the object is translucent; absent: everywhere). Vertex Paint layer
-(colour attribute): translucent_tint (RGB). They are read by IMAGE_SPACE (Shah ch. 7, Eq. 7.4) and by QUADGRAPH, which carries them into its volume.
+(colour attribute): translucent_tint (RGB). They are read by IMAGE_SPACE (Shah ch. 7, Eq. 7.4) and by
+QUADGRAPH, which carries them into its volume.
 """
 import bpy
 
