@@ -13,6 +13,7 @@ import bpy
 
 from ..translucent_addon.bake import registry, store
 from ..translucent_addon.bake.inputs import gather
+from ..translucent_addon.render.methods import bake_cache
 
 
 def _active_mesh(context):
@@ -132,6 +133,7 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
         arrays, meta = result
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
         store.write(ob, inputs.method, inputs.hash(), arrays, meta)
+        bake_cache.forget(ob.name)
         self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
 
 
@@ -151,6 +153,7 @@ class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):
             return {"CANCELLED"}
         method = None if self.all_methods else ob.translucent.method
         if store.clear(ob, method):
+            bake_cache.forget(ob.name)
             self.report({"INFO"}, f"'{ob.name}': bake cleared")
         else:
             self.report({"INFO"}, f"'{ob.name}': no bake to clear")

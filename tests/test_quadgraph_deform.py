@@ -95,7 +95,7 @@ def test_a_twist_keeps_surface_nodes_on_the_surface_and_changes_the_solution(bak
     # Each surface node lies on its embedding triangle of the twisted surface (it lay on the rest one).
     emb = embeddings[-1].node_embedding
     on_rest = np.abs(emb.offset).max(axis=1)
-    assert np.median(on_rest) < 1e-6, "the finest level's surface nodes lie on the mesh itself"
+    assert np.percentile(on_rest, 95) < 1e-6, "the finest level's surface nodes lie on the mesh itself"
     tri_now = twisted[tri[emb.triangle]]
     q = np.einsum("nc,ncd->nd", emb.bary, tri_now)
     assert np.abs(moved.positions_mm[:S] - q)[on_rest < 1e-6].max() < 1e-6
@@ -128,8 +128,10 @@ def test_the_bake_hash_follows_topology_not_pose():
     base = _inputs()
     moved = _inputs(vertices=base.vertices * np.float32(1.3))
     assert moved.hash() == base.hash()  # a pose: the nodes follow at run time
-    fewer = _inputs(vertices=base.vertices[:-1], triangles=base.triangles[:-1] % (len(base.vertices) - 1))
-    assert fewer.hash() != base.hash()
+    loose = _inputs(vertices=np.concatenate([base.vertices, base.vertices[:1]]))  # one more vertex, same triangles
+    assert loose.hash() != base.hash()
+    rewired = _inputs(triangles=base.triangles[:, ::-1].copy())
+    assert rewired.hash() != base.hash()
 
 
 def test_slivers_that_turn_over_are_not_a_fold_but_a_turned_over_part_of_the_volume_is():
@@ -182,3 +184,16 @@ def test_painted_maps_set_blur_and_the_light_entering(baked):
     kappa, mu = qgd.node_material(rest.positions_mm, (0.01,) * 3, (1.0,) * 3, M_d=M_d)
     k1, mu1 = qgd.node_material(rest.positions_mm, (0.01,) * 3, (1.0,) * 3)
     assert np.allclose(kappa / k1, 1.0 / M_d[:, None]) and np.allclose(mu / mu1, M_d[:, None])
+
+
+def test_a_point_over_a_needle_triangle_stays_put_when_the_needle_barely_moves():
+    """The embedding's frame and length come from vertex normals and the mean edge, not from the triangle's
+    own normal and area: a needle does not blow its offset up."""
+    v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1e-4, 0.0], [0.5, -1.0, 0.0]])
+    f = np.array([[0, 1, 2], [0, 3, 1]])  # a needle beside a fat triangle, one plane
+    p = np.array([[0.5, 0.00005, 0.3]])
+    e = vd.embed(p, v, f)
+    assert np.allclose(vd.place(e, v, f), p, atol=1e-12)
+    moved = v.copy()
+    moved[2, 1] += 1e-3  # the needle's apex moves by 1e-3
+    assert np.abs(vd.place(e, moved, f) - p).max() < 1e-2

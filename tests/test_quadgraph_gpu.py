@@ -108,6 +108,8 @@ def test_a_deformed_mesh_moves_the_nodes_and_re_solves_without_a_new_bake(tr, sc
     rest_nodes = _capture(tr)["quadgraph"][0]["resources"].levels_cpu[-1].positions_mm.copy()
     _shape_key(ob, "Squash", lambda v: v * np.array([1.25, 1.25, 0.64]))
     image = render(scene, 64, 48)
+    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "QUADGRAPH") == "OK"
     assert not _capture(tr)["frame"].warnings and store.stored_hash(ob, "QUADGRAPH") == digest
     (rec,) = _capture(tr)["quadgraph"]
     t = rec["resources"].levels_cpu[-1]
@@ -140,6 +142,12 @@ def test_a_pose_that_turns_the_volume_inside_out_is_refused_with_a_message(tr, s
     warnings = _capture(tr)["frame"].warnings
     assert any("'Ball': the deformation turns" in w and "inside out; press Bake in this pose" in w for w in warnings), warnings
     assert np.isfinite(image).all() and "quadgraph" not in _capture(tr)
+    # Baking in this pose (the same topology, so the same bake hash) takes effect at once.
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    render(scene, 64, 48)
+    assert not _capture(tr)["frame"].warnings  # before the cache forgot it, the old rest pose refused again
+    (rec,) = _capture(tr)["quadgraph"]
+    assert rec["resources"].pose is not None and np.isfinite(rec["phi"]).all()
 
 
 def _paint_group(ob, name, weight_of):

@@ -178,7 +178,7 @@ def build(points, tets, surface_v, surface_t) -> QuadGraph:
     return graph
 
 
-def link_geometry(positions, neighbours, S: int, points, tets):
+def link_geometry(positions, neighbours, S: int, points, tets, volume_floor=None):
     """(weights (N, 4), d_surface (S,), volumes (T,)) of a graph whose inner node S + t lies in
     tetrahedron t, with link k of an inner node across face k (``tetra.TET_FACES``).
 
@@ -186,14 +186,16 @@ def link_geometry(positions, neighbours, S: int, points, tets):
     sum_j a_ij (phi_j - phi_i) approximates div grad phi for any tetrahedron shape. The surface link
     d_sk is kept at least a tenth of its face's size (the ray's hit falls short of the inner node's own
     side only on a badly folded surface) so that d_sk > 0. V_i is taken unsigned: a deformed sliver
-    that turned over keeps positive weights (``quadgraph_data.LevelEmbedding`` refuses real folds).
+    that turned over keeps positive weights (``quadgraph_data.LevelEmbedding`` refuses real folds), and
+    ``volume_floor`` (T,) keeps one squashed flat from sending its weights to infinity.
     """
     area, _, _ = _face_geometry(points, tets)
     volumes = tetra.signed_volumes(points, tets)
     inner = positions[S:]
     d_inner = np.maximum(np.linalg.norm(positions[neighbours[S:]] - inner[:, None, :], axis=2), 1e-9)
     weights = np.zeros((len(positions), 4))
-    weights[S:] = area / (d_inner * np.abs(volumes)[:, None])
+    V = np.abs(volumes) if volume_floor is None else np.maximum(np.abs(volumes), volume_floor)
+    weights[S:] = area / (d_inner * V[:, None])
     t, f = np.nonzero(neighbours[S:] < S)  # inner node t's link across face f ends at a surface node
     s = neighbours[S:][t, f]
     d_surface = np.empty(S)

@@ -1,13 +1,14 @@
 """The QUADGRAPH bake (Wang et al. 2010): tetrahedra, QuadGraph levels, level links, display mapping.
 
 Pure. A generator like every bake: yields (fraction, text), returns (arrays, meta). Only geometry is
-baked: kappa and mu are set per node at run time from the object's material and its veins, so
-editing the material never needs a new bake. The bake keeps the tetrahedra and the pose it was built
-in, so that a deformation of the mesh (armature, lattice, shape keys) moves the nodes at run time.
+baked: kappa and mu are set per node at run time from the object's material, its veins and its
+painted blur, so editing the material or the paint never needs a new bake. The bake keeps the
+tetrahedra and the pose it was built in, so that a deformation of the mesh (armature, lattice, shape
+keys) moves the nodes at run time.
 
 Density. The paper's K (Alliez et al. 2005) sets how much larger interior tetrahedra are than those
-at the surface. fTetWild without its (15x slower) optimisation keeps tetrahedra as fine as the
-surface's triangles near the surface and no larger than a fraction of the diagonal inside, which is
+at the surface. fTetWild (with its optimisation stopped early, ``tetra.OPTIMISE``) keeps tetrahedra
+about as fine as the surface's triangles near the surface and no larger than a fraction of the diagonal inside, which is
 the same kind of grading, so K is mapped onto the surface: over the paper's range (Fig. 11: K = 1,
 0.5, 0.3, 0.1 gave 141k, 246k, 468k, 973k nodes) N goes as K^-0.84, surface nodes as N^(2/3), so
 the finest proxy has 5000 K^-0.56 triangles (5k at K = 1, DESIGN.md's "what the scattering needs").

@@ -1,9 +1,10 @@
 """Carry a baked volume along with its surface: poses (armature, lattice, shape keys) and painted maps. Pure.
 
 Points on or near the surface are embedded in their nearest triangle of the rest surface: the closest
-point's barycentrics, plus the offset from it in the triangle's orthonormal frame, in units of the
-triangle's size. Placing them on the deformed surface is then exact for any similarity transform (as
-Blender's Surface Deform modifier does it).
+point's barycentrics, plus the offset from it in an orthonormal frame there (the interpolated vertex
+normal and a median of the triangle), in units of the triangle's mean edge. Placing them on the
+deformed surface is then exact for rotations, translations and uniform scales, and steady on needle
+triangles (as Blender's Surface Deform modifier does it).
 
 Points inside follow by harmonic interpolation: their displacement solves Laplace's equation on the
 tetrahedra (linear finite elements, the cotangent stiffness matrix), with the boundary points fixed
@@ -25,16 +26,29 @@ class DeformationError(ValueError):
     """The deformation folds the volume over (a tetrahedron turns inside out): the message says where."""
 
 
-def triangle_frames(vertices: np.ndarray, triangles: np.ndarray):
-    """Per triangle: an orthonormal frame (T, 3, 3) with rows (edge direction, in-plane normal to it,
-    unit normal) and its size sqrt(2 area) (T,); degenerate triangles get size 0."""
-    p = np.asarray(vertices, np.float64)[np.asarray(triangles, np.int64)]
-    e1 = p[:, 1] - p[:, 0]
-    n = np.cross(e1, p[:, 2] - p[:, 0])
-    size = np.sqrt(np.linalg.norm(n, axis=1))
-    e1 = e1 / np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-300)
-    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    return np.stack([e1, np.cross(n, e1), n], axis=1), size
+def point_frames(vertices: np.ndarray, triangles: np.ndarray, triangle: np.ndarray, bary: np.ndarray):
+    """An orthonormal frame (n, 3, 3) and a length (n,) at points given by triangle and barycentrics.
+
+    Rows: the triangle's median from its first corner made orthogonal to the normal (no choice among
+    edges that a rotation's rounding could flip), the normal cross it, and the normal,
+    which is the barycentric mix of the mesh's area-weighted vertex normals (steady where a triangle is
+    a needle or collapses, unlike the triangle's own). The length is the triangle's mean edge. Both
+    move with the mesh exactly under rotations and uniform scales.
+    """
+    from .mesh_measures import vertex_normals
+
+    v = np.asarray(vertices, np.float64)
+    tri = np.asarray(triangles, np.int64)
+    t = tri[triangle]
+    p = v[t]  # (n, 3, 3)
+    n = np.einsum("nc,ncd->nd", bary, vertex_normals(v, tri)[t])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    edges = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)
+    lengths = np.linalg.norm(edges, axis=2)
+    e1 = p.mean(axis=1) - p[:, 0]  # along the median from the first corner: never short, even on a needle
+    e1 = e1 - np.einsum("nd,nd->n", e1, n)[:, None] * n
+    e1 /= np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-300)
+    return np.stack([e1, np.cross(n, e1), n], axis=1), lengths.mean(axis=1)
 
 
 def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray):
@@ -75,7 +89,7 @@ def closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndar
 @dataclasses.dataclass
 class SurfaceEmbedding:
     """Where points sit relative to a surface: triangle, barycentrics of the closest point, and the
-    offset to the point in the triangle's frame over its size."""
+    offset to the point in the frame there (``point_frames``) over the triangle's mean edge."""
 
     triangle: np.ndarray  # (n,)
     bary: np.ndarray  # (n, 3)
@@ -98,28 +112,29 @@ def embed(points: np.ndarray, vertices: np.ndarray, triangles: np.ndarray) -> Su
     q = np.einsum("nkc,nkcd->nkd", bary, c)
     best = np.argmin(np.linalg.norm(q - points[:, None, :], axis=2), axis=1)
     rows = np.arange(len(points))
-    triangle = cand[rows, best]
-    frames, size = triangle_frames(v, t)
-    local = np.einsum("nij,nj->ni", frames[triangle], points - q[rows, best])
-    return SurfaceEmbedding(triangle, bary[rows, best], local / np.maximum(size[triangle], 1e-300)[:, None])
+    triangle, bary = cand[rows, best], bary[rows, best]
+    frames, size = point_frames(v, t, triangle, bary)
+    local = np.einsum("nij,nj->ni", frames, points - q[rows, best])
+    return SurfaceEmbedding(triangle, bary, local / np.maximum(size, 1e-300)[:, None])
 
 
 def place(embedding: SurfaceEmbedding, vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Positions of embedded points on a (deformed) surface with the rest surface's triangles."""
     v = np.asarray(vertices, np.float64)
     t = np.asarray(triangles, np.int64)[embedding.triangle]
-    frames, size = triangle_frames(v, t)
+    frames, size = point_frames(v, triangles, embedding.triangle, embedding.bary)
     on_surface = np.einsum("nc,ncd->nd", embedding.bary, v[t])
     return on_surface + np.einsum("nij,ni->nj", frames, embedding.offset * size[:, None])
 
 
-def rotate_with_surface(directions: np.ndarray, triangle: np.ndarray, rest_vertices, vertices, triangles):
-    """Unit directions carried from the rest surface to the deformed one by their triangle's frame."""
-    t = np.asarray(triangles, np.int64)[triangle]
-    rest, _ = triangle_frames(rest_vertices, t)
-    now, _ = triangle_frames(vertices, t)
+def rotate_with_surface(directions: np.ndarray, embedding: SurfaceEmbedding, rest_vertices, vertices, triangles):
+    """Unit directions carried from the rest surface to the deformed one by the frame at their embedding;
+    where the deformed frame is degenerate (a patch collapsed to a point) they keep their rest value."""
+    rest, _ = point_frames(rest_vertices, triangles, embedding.triangle, embedding.bary)
+    now, _ = point_frames(vertices, triangles, embedding.triangle, embedding.bary)
     d = np.einsum("nji,nj->ni", now, np.einsum("nij,nj->ni", rest, directions))
-    return d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    length = np.linalg.norm(d, axis=1, keepdims=True)
+    return np.where(length > 1e-9, d / np.maximum(length, 1e-300), directions)
 
 
 def stiffness(points: np.ndarray, tets: np.ndarray):

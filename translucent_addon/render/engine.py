@@ -99,8 +99,10 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         if not np.isfinite(pixels).all():
             self.report({"ERROR"}, "Translucent: the frame has non-finite pixels (NaN or inf)")
         result = self.begin_result(0, 0, width, height)
-        result.layers[0].passes["Combined"].rect.foreach_set(pixels.reshape(-1))
-        self.end_result(result)
+        try:
+            result.layers[0].passes["Combined"].rect.foreach_set(pixels.reshape(-1))
+        finally:
+            self.end_result(result)
         self.last_frame = frame
 
     # -- viewport ------------------------------------------------------------

@@ -40,11 +40,16 @@ def get(handle, build):
     res = _entries.get(handle.key)
     if res is None:
         arrays = handle.load()
-        owner = handle.key.split("#")[0]
-        for key in [k for k in _entries if k.split("#")[0] == owner]:
-            del _entries[key]  # the object's previous bake
+        forget(handle.key.split("#")[0])  # the object's previous bake
         res = _entries[handle.key] = build(arrays)
     return res
+
+
+def forget(owner: str) -> None:
+    """Drop an object's GPU data: its bake was just rewritten or cleared. (A QUADGRAPH bake's key does not
+    change with a new bake in another pose, since its hash follows the topology only.)"""
+    for key in [k for k in _entries if k.split("#")[0] == owner]:
+        del _entries[key]
 
 
 def clear() -> None:

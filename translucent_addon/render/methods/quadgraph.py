@@ -136,7 +136,8 @@ class Resources:
 
     def follow(self, mesh, label: str = "") -> None:
         """Move the nodes to the mesh's current pose (armature, lattice, shape keys): Wang Sec. 6's
-        deformable objects; raises DeformationError when the pose turns a tetrahedron inside out."""
+        deformable objects; raises DeformationError when the pose folds the volume over (more than
+        ``volume_deformation.FOLD_LIMIT`` of it in tetrahedra turned inside out)."""
         vertices = self.rest_vertices.copy()  # loose vertices (in no triangle) keep their rest place
         vertices[self.rest_triangles.reshape(-1)] = np.asarray(mesh.positions, np.float64) @ self.stretch.T * self.mm
         if self.pose is not None and np.array_equal(vertices, self.pose):

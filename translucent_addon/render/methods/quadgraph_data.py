@@ -2,8 +2,8 @@
 
 Every level is one block layout (``bake.quadgraph.TextureLayout``, Sec. 5.1): node n sits at the
 texel of its slot; links hold slots (exact floats below 2^24), so a fragment finds its four
-neighbours with four ``texelFetch``. Material images (kappa, mu) are rebuilt when the material
-changes; the geometry images only when the bake does.
+neighbours with four ``texelFetch``. Material images (kappa, mu) are rebuilt when the material or
+the paint changes; the link weights when the bake or the pose does (``LevelEmbedding.deform``).
 """
 from __future__ import annotations
 
@@ -116,9 +116,10 @@ class LevelEmbedding:
         positions = np.empty_like(rest.positions_mm)
         positions[:S] = vd.place(self.node_embedding, vertices, self.triangles)
         positions[S:] = np.einsum("tk,tkd->td", self.inner_bary, points[self.tets])
-        weights, d_surface, volumes = link_geometry(positions, rest.neighbours, S, points, self.tets)
+        weights, d_surface, volumes = link_geometry(positions, rest.neighbours, S, points, self.tets,
+                                                    volume_floor=1e-3 * self.rest_volumes)
         vd.check_folds(self.rest_volumes, volumes, label)
-        normals = vd.rotate_with_surface(rest.normals, self.node_embedding.triangle, self.rest_vertices, vertices,
+        normals = vd.rotate_with_surface(rest.normals, self.node_embedding, self.rest_vertices, vertices,
                                          self.triangles)
         moved = dataclasses.replace(rest, positions_mm=positions, weights=weights, d_surface=d_surface,
                                     normals=normals)
