@@ -8,8 +8,8 @@ keys) moves the nodes at run time.
 
 Density. The paper's K (Alliez et al. 2005) sets how much larger interior tetrahedra are than those
 at the surface. fTetWild (with its optimisation stopped early, ``tetra.OPTIMISE``) keeps tetrahedra
-about as fine as the surface's triangles near the surface and no larger than a fraction of the diagonal inside, which is
-the same kind of grading, so K is mapped onto the surface: over the paper's range (Fig. 11: K = 1,
+about as fine as the surface's triangles near the surface and no larger than a fraction of the
+diagonal inside, which is the same kind of grading, so K is mapped onto the surface: over the paper's range (Fig. 11: K = 1,
 0.5, 0.3, 0.1 gave 141k, 246k, 468k, 973k nodes) N goes as K^-0.84, surface nodes as N^(2/3), so
 the finest proxy has 5000 K^-0.56 triangles (5k at K = 1, DESIGN.md's "what the scattering needs").
 Levels (Sec. 4.3): each coarser level tetrahedralises a proxy with a quarter of the triangles and

@@ -26,14 +26,16 @@ class DeformationError(ValueError):
     """The deformation folds the volume over (a tetrahedron turns inside out): the message says where."""
 
 
-def point_frames(vertices: np.ndarray, triangles: np.ndarray, triangle: np.ndarray, bary: np.ndarray):
+def point_frames(vertices: np.ndarray, triangles: np.ndarray, triangle: np.ndarray, bary: np.ndarray,
+                 normals: np.ndarray | None = None):
     """An orthonormal frame (n, 3, 3) and a length (n,) at points given by triangle and barycentrics.
 
     Rows: the triangle's median from its first corner made orthogonal to the normal (no choice among
     edges that a rotation's rounding could flip), the normal cross it, and the normal,
     which is the barycentric mix of the mesh's area-weighted vertex normals (steady where a triangle is
     a needle or collapses, unlike the triangle's own). The length is the triangle's mean edge. Both
-    move with the mesh exactly under rotations and uniform scales.
+    move with the mesh exactly under rotations and uniform scales. ``normals``: the mesh's
+    ``vertex_normals``, when the caller already has them.
     """
     from .mesh_measures import vertex_normals
 
@@ -41,7 +43,7 @@ def point_frames(vertices: np.ndarray, triangles: np.ndarray, triangle: np.ndarr
     tri = np.asarray(triangles, np.int64)
     t = tri[triangle]
     p = v[t]  # (n, 3, 3)
-    n = np.einsum("nc,ncd->nd", bary, vertex_normals(v, tri)[t])
+    n = np.einsum("nc,ncd->nd", bary, (vertex_normals(v, tri) if normals is None else normals)[t])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     edges = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)
     lengths = np.linalg.norm(edges, axis=2)
@@ -118,21 +120,22 @@ def embed(points: np.ndarray, vertices: np.ndarray, triangles: np.ndarray) -> Su
     return SurfaceEmbedding(triangle, bary, local / np.maximum(size, 1e-300)[:, None])
 
 
-def place(embedding: SurfaceEmbedding, vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Positions of embedded points on a (deformed) surface with the rest surface's triangles."""
+def place(embedding: SurfaceEmbedding, vertices: np.ndarray, triangles: np.ndarray,
+          normals: np.ndarray | None = None) -> np.ndarray:
+    """Positions of embedded points on a (deformed) surface with the rest surface's triangles
+    (``normals``: its vertex normals, if known)."""
     v = np.asarray(vertices, np.float64)
     t = np.asarray(triangles, np.int64)[embedding.triangle]
-    frames, size = point_frames(v, triangles, embedding.triangle, embedding.bary)
+    frames, size = point_frames(v, triangles, embedding.triangle, embedding.bary, normals)
     on_surface = np.einsum("nc,ncd->nd", embedding.bary, v[t])
     return on_surface + np.einsum("nij,ni->nj", frames, embedding.offset * size[:, None])
 
 
-def rotate_with_surface(directions: np.ndarray, embedding: SurfaceEmbedding, rest_vertices, vertices, triangles):
-    """Unit directions carried from the rest surface to the deformed one by the frame at their embedding;
-    where the deformed frame is degenerate (a patch collapsed to a point) they keep their rest value."""
-    rest, _ = point_frames(rest_vertices, triangles, embedding.triangle, embedding.bary)
-    now, _ = point_frames(vertices, triangles, embedding.triangle, embedding.bary)
-    d = np.einsum("nji,nj->ni", now, np.einsum("nij,nj->ni", rest, directions))
+def rotate_with_surface(directions: np.ndarray, rest_frames: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """Unit directions carried from the rest surface to the deformed one by the frames at their embedding
+    (``point_frames`` of each); where the deformed frame is degenerate (a patch collapsed to a point) they
+    keep their rest value."""
+    d = np.einsum("nji,nj->ni", frames, np.einsum("nij,nj->ni", rest_frames, directions))
     length = np.linalg.norm(d, axis=1, keepdims=True)
     return np.where(length > 1e-9, d / np.maximum(length, 1e-300), directions)
 
@@ -143,13 +146,13 @@ def stiffness(points: np.ndarray, tets: np.ndarray):
     of nearly no volume stays finite: its volume is floored at 1e-9 of the median)."""
     from scipy.sparse import coo_matrix
 
-    from ..bake.tetra import TET_FACES
+    from ..bake.tetra import TET_FACES, signed_volumes
 
+    points = np.asarray(points, np.float64)
     tets = np.asarray(tets, np.int64)
-    f = np.asarray(points, np.float64)[tets[:, TET_FACES]]  # (T, 4, 3, 3): face k opposite vertex k
+    f = points[tets[:, TET_FACES]]  # (T, 4, 3, 3): face k opposite vertex k
     N = 0.5 * np.cross(f[:, :, 1] - f[:, :, 0], f[:, :, 2] - f[:, :, 0])  # (T, 4, 3)
-    p = np.asarray(points, np.float64)[tets]
-    volume = np.abs(np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])) / 6.0
+    volume = np.abs(signed_volumes(points, tets))
     volume = np.maximum(volume, 1e-9 * np.median(volume))
     k = np.einsum("tid,tjd->tij", N, N) / (9.0 * volume[:, None, None])
     rows = np.repeat(tets, 4, axis=1).reshape(-1)

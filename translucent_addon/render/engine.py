@@ -66,8 +66,11 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             # Blender 5.0.1 writes the frame after render() returns, and saving an OpenEXR frame that
             # has no result crashes it (segmentation fault in BKE_image_render_write_exr): leave an
             # empty frame, then let the error show as Blender reports it.
-            self.end_result(self.begin_result(0, 0, width, height))
+            self._empty_frame(width, height)
             raise
+
+    def _empty_frame(self, width: int, height: int) -> None:
+        self.end_result(self.begin_result(0, 0, width, height))
 
     def _render_frame(self, depsgraph, width: int, height: int) -> None:
         scene = depsgraph.scene
@@ -75,7 +78,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             camera = extract.render_camera(depsgraph, width, height)
         except LookupError as err:
             self.report({"ERROR"}, f"Translucent: {err}")
-            self.end_result(self.begin_result(0, 0, width, height))
+            self._empty_frame(width, height)
             return
         frame = extract.frame_inputs(depsgraph, camera)
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")

@@ -15,7 +15,8 @@ kappa and mu are set per node from the current material and veins (``quadgraph_d
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
 (``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
 carried into the volume (``Resources.set_paint``): the blur scales kappa and mu per node, mask x glow x
-tint scales q at the surface nodes, and the mask blends the display over the base pass's Lambert. The maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
+tint scales q at the surface nodes, and the mask blends the display over the base pass's Lambert. The
+maths is in ``physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ import time
 
 import numpy as np
 
+from ...geometry.mesh_measures import vertex_normals
 from ...geometry.volume_deformation import DeformationError
 from ...physics.dipole import A as internal_reflection
 from ...physics import diffusion as df
@@ -48,8 +50,7 @@ class LevelGpu:
         self.set_geometry(t)
         self.incident = new_target(size)
         self.phi = [new_target(size), new_target(size)]
-        self.kappa = self.mu = None
-        self.set_q_factor(np.ones((t.count, 3)))
+        self.kappa = self.mu = self.q_factor = None  # set by Resources.set_material and set_paint
 
     def set_q_factor(self, q_factor: np.ndarray) -> None:
         """The painted factor (mask x glow x tint) on the light entering at each surface node."""
@@ -146,10 +147,12 @@ class Resources:
         if np.abs(vertices - self.rest_vertices).max() <= 1e-5 * extent:
             tables = self.rest_levels
         else:
-            tables = [e.deform(vertices, label) for e in self.embeddings]
-        for lg, t in zip(self.levels, tables):
-            lg.set_geometry(t)
-        self.levels_cpu = tables
+            normals = vertex_normals(vertices, self.rest_triangles)  # one mesh for every level
+            tables = [e.deform(vertices, label, normals) for e in self.embeddings]
+        if tables is not self.levels_cpu:  # the rest tables are on the GPU from the start
+            for lg, t in zip(self.levels, tables):
+                lg.set_geometry(t)
+            self.levels_cpu = tables
         self.pose = vertices
 
     def display_batch(self, mesh):

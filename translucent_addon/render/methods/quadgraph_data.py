@@ -48,6 +48,12 @@ class LevelTables:
         img[t[:, 1], t[:, 0], :per_node.shape[1]] = per_node
         return img
 
+    def link_image(self) -> np.ndarray:
+        """The weights image: a_ij of inner nodes; a surface node's texel holds (d_sk, 0, 0, 0)."""
+        w = self.weights.copy()
+        w[:self.n_surface, 0] = self.d_surface
+        return self.image(w)
+
     def from_image(self, image: np.ndarray, channels: int = 3) -> np.ndarray:
         t = self.layout.texels(np.arange(self.count))
         return np.asarray(image)[t[:, 1], t[:, 0], :channels]
@@ -66,9 +72,7 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
                     neighbours=nb, weights=weights, d_surface=d, links_image=None, weights_image=None,
                     surface_texels=layout.texels(np.arange(S)).astype(np.float32))
     t.links_image = t.image(slots)
-    w_img = weights.copy()
-    w_img[:S, 0] = d
-    t.weights_image = t.image(w_img)
+    t.weights_image = t.link_image()
     if coarser is not None:
         t.up_index = arrays[p + "up_index"].astype(np.int64)
         t.up_weight = arrays[p + "up_weight"].astype(np.float64)
@@ -98,34 +102,35 @@ class LevelEmbedding:
         self.rest_volumes = signed_volumes(self.points, self.tets)
         self.fixed = fixed = vd.boundary_points(self.tets, face_adjacency(self.tets), len(self.points))
         self.point_embedding = vd.embed(self.points[fixed], rest_vertices, triangles)
-        self.node_embedding = vd.embed(rest.positions_mm[:rest.n_surface], rest_vertices, triangles)
+        self.node_embedding = e = vd.embed(rest.positions_mm[:rest.n_surface], rest_vertices, triangles)
         self.harmonic = vd.HarmonicInterpolation(self.points, self.tets, fixed)
-        self.rest_vertices = np.asarray(rest_vertices, np.float64)
         self.triangles = np.asarray(triangles, np.int64)
+        self.rest_node_frames, _ = vd.point_frames(rest_vertices, self.triangles, e.triangle, e.bary)
 
-    def deform(self, vertices: np.ndarray, label: str = "") -> LevelTables:
-        """The level's tables with the surface at ``vertices`` (mm, the rest surface's triangles);
-        raises DeformationError when the pose folds the volume over (``volume_deformation.check_folds``)."""
+    def deform(self, vertices: np.ndarray, label: str = "", normals: np.ndarray | None = None) -> LevelTables:
+        """The level's tables with the surface at ``vertices`` (mm, the rest surface's triangles; ``normals``
+        its vertex normals, computed here if not given); raises DeformationError when the pose folds the
+        volume over (``volume_deformation.check_folds``)."""
         from ...bake.quadgraph import link_geometry
         from ...geometry import volume_deformation as vd
+        from ...geometry.mesh_measures import vertex_normals
 
         rest = self.rest
         S = rest.n_surface
-        u_fixed = vd.place(self.point_embedding, vertices, self.triangles) - self.points[self.fixed]
+        normals = vertex_normals(vertices, self.triangles) if normals is None else normals
+        u_fixed = vd.place(self.point_embedding, vertices, self.triangles, normals) - self.points[self.fixed]
         points = self.points + self.harmonic(u_fixed)
         positions = np.empty_like(rest.positions_mm)
-        positions[:S] = vd.place(self.node_embedding, vertices, self.triangles)
+        e = self.node_embedding
+        positions[:S] = vd.place(e, vertices, self.triangles, normals)
         positions[S:] = np.einsum("tk,tkd->td", self.inner_bary, points[self.tets])
         weights, d_surface, volumes = link_geometry(positions, rest.neighbours, S, points, self.tets,
                                                     volume_floor=1e-3 * self.rest_volumes)
         vd.check_folds(self.rest_volumes, volumes, label)
-        normals = vd.rotate_with_surface(rest.normals, self.node_embedding, self.rest_vertices, vertices,
-                                         self.triangles)
+        frames, _ = vd.point_frames(vertices, self.triangles, e.triangle, e.bary, normals)
         moved = dataclasses.replace(rest, positions_mm=positions, weights=weights, d_surface=d_surface,
-                                    normals=normals)
-        w_img = weights.copy()
-        w_img[:S, 0] = d_surface
-        moved.weights_image = moved.image(w_img)
+                                    normals=vd.rotate_with_surface(rest.normals, self.rest_node_frames, frames))
+        moved.weights_image = moved.link_image()
         return moved
 
     def carry(self, corner_values: np.ndarray) -> np.ndarray:
