@@ -62,6 +62,13 @@ void main()
   if (cos_i <= 0.0 || max(radiance.r, max(radiance.g, radiance.b)) <= 0.0) {
     discard;
   }
+  /* A facet that faces away from the light is in its own shadow (a closed surface's ray towards the
+   * light enters the object), whatever its interpolated normal says: a shadow map's normal offset lets
+   * it through near the terminator, the dipole model and Cycles' shadow rays do not. */
+  vec3 n_g = cross(dFdx(v_world), dFdy(v_world));
+  if (dot(n_g, to_light) * dot(n_g, n) <= 0.0) {
+    discard;
+  }
   vec3 E = radiance * cos_i * visibility(v_world, n);
   vec3 lambert = v_color * E / PI;
   vec3 sss = vec3(0.0);

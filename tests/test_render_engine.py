@@ -7,7 +7,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from conftest import ext_module  # noqa: E402
-from blender_helpers import add_camera, add_cube, lit_cube_scene, render, set_world  # noqa: E402
+from blender_helpers import add_camera, add_cube, add_light, diffuse_material, lit_cube_scene, render, set_world  # noqa: E402
 
 
 def _frame_of(tr, scene, width, height):
@@ -180,3 +180,49 @@ def test_an_error_while_drawing_is_reported_and_an_openexr_frame_is_still_writte
     assert "still running" in proc.stdout
     assert "a pass failed on purpose" in proc.stderr
     assert (tmp_path / "frame.exr").exists()
+
+
+def test_facet_facing_away_from_the_light_is_in_shadow(tr, scene):
+    """Near the terminator of a coarse smooth-shaded sphere, facets that face away from the sun while
+    their interpolated normals still face it get no direct light (their ray to the sun enters the
+    sphere), as the CPU reference and Cycles have it; a shadow map's normal offset let them through.
+
+    Checked where the two normals disagree: the GPU equals the world-only term there (1e-3), and over
+    the whole sphere away from edges it matches the CPU Lambert reference (1 % relative RMSE)."""
+    set_world(scene, (0.05, 0.06, 0.08))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=10, ring_count=6, radius=1.0, location=(0, 0, 0))
+    sphere = bpy.context.active_object
+    sphere.data.shade_smooth()
+    sphere.data.materials.append(diffuse_material("Grey", (0.8, 0.8, 0.8)))
+    # Vertices at longitudes 18 + 36 k degrees; the sun at 226: the facet from 306 to 342 faces away
+    # (its centre is 98 degrees from the sun), while its normal at the 306 vertex is 80 degrees from it.
+    add_light(scene, "SUN", (-3.5, -3.62, 0.3), energy=3.0)
+    add_camera(scene, (0.0, -4.0, 0.3), (0, 0, 0), lens=50.0)
+    w = h = 96
+    gpu_img = render(scene, w, h)
+    frame = _frame_of(tr, scene, w, h)
+    lambert = ext_module(tr, "translucent_addon.reference.lambert")
+    ref = lambert.render_lambert(frame)
+    tris, nors, _ = lambert.scene_triangles(frame)
+    origins, dirs = ext_module(tr, "translucent_addon.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
+    tracer = ext_module(tr, "translucent_addon.geometry.raycast").BruteForceTracer(tris)
+    _, tri, u, v = tracer.closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3))
+    hit = tri >= 0
+    to_sun = -np.asarray(frame.emitters[0].direction)
+    ti, uu, vv = tri[hit], u[hit, None], v[hit, None]
+    n = (1 - uu - vv) * nors[ti, 0] + uu * nors[ti, 1] + vv * nors[ti, 2]
+    g = np.cross(tris[ti, 1] - tris[ti, 0], tris[ti, 2] - tris[ti, 0])
+    g *= np.where(np.einsum("ij,ij->i", g, n) < 0, -1.0, 1.0)[:, None]
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    disagree = np.zeros(w * h, bool)
+    disagree[np.flatnonzero(hit)] = (n @ to_sun > 0.05) & (g @ to_sun < -0.02)
+    disagree = disagree.reshape(h, w)
+    assert disagree.sum() >= 10, (disagree.sum(), hit.sum(), (n @ to_sun > 0.05).sum(), (g @ to_sun < -0.02).sum())
+    world_only = 0.8 * np.asarray(frame.world_color)  # rho L_world for a uniform world
+    got = gpu_img[..., :3][disagree]
+    print(f"{disagree.sum()} pixels where the facet faces away; GPU / world term: {got.mean() / world_only.mean():.4f}")
+    np.testing.assert_allclose(got, np.broadcast_to(world_only, got.shape), rtol=1e-3)
+    keep = ~_discontinuity_mask(ref) & hit.reshape(h, w)
+    diff = gpu_img[..., :3][keep] - ref[..., :3][keep]
+    assert np.sqrt((diff ** 2).mean()) / np.sqrt((ref[..., :3][keep] ** 2).mean()) < 0.01

@@ -82,8 +82,12 @@ def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None)
     radiance = rho * irradiance(frame.world_sh(), LAMBERT_KERNEL, N) / math.pi
     scene_scale = max(float(np.ptp(tris.reshape(-1, 3), axis=0).max()), 1e-6)
     P_off = P + N * shadow_offset * scene_scale
-    for E, _ in shadowed_irradiance(frame.emitters, P_off, N, tracer):
-        radiance += rho * E / math.pi
+    # A facet that faces away from a light is in its own shadow whatever its interpolated normal says
+    # (a closed surface's ray towards the light enters the object), as in the base pass and Cycles.
+    Ng *= np.where(np.einsum("ij,ij->i", Ng, N) < 0, -1.0, 1.0)[:, None]
+    for E, to_light in shadowed_irradiance(frame.emitters, P_off, N, tracer):
+        facing = np.einsum("ij,ij->i", Ng, to_light) > 0
+        radiance += rho * E * facing[:, None] / math.pi
     img[hit, :3] = radiance
     img[hit, 3] = 1.0
     return img.reshape(cam.height, cam.width, 4)
