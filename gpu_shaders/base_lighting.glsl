@@ -34,6 +34,7 @@ vec3 near_field(int slot, float M)
 void main()
 {
   vec3 n = normalize(v_normal);
+  vec3 n_g = cross(dFdx(v_world), dFdy(v_world)); /* the facet's plane; derivatives before any discard */
   if (!gl_FrontFacing) {
     n = -n;
   }
@@ -65,7 +66,6 @@ void main()
   /* A facet that faces away from the light is in its own shadow (a closed surface's ray towards the
    * light enters the object), whatever its interpolated normal says: a shadow map's normal offset lets
    * it through near the terminator, the dipole model and Cycles' shadow rays do not. */
-  vec3 n_g = cross(dFdx(v_world), dFdy(v_world));
   if (dot(n_g, to_light) * dot(n_g, n) <= 0.0) {
     discard;
   }

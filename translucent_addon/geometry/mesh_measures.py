@@ -29,6 +29,11 @@ def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
 
+def facing_side(facet_normals, normals):
+    """Facet normals turned to the side of the interpolated normals (whatever the winding)."""
+    return facet_normals * np.where(np.einsum("ij,ij->i", facet_normals, normals) < 0, -1.0, 1.0)[:, None]
+
+
 def subtriangle_centroids(n: int) -> np.ndarray:
     """Barycentric (u, v) of the centroids of the n^2 equal sub-triangles of a triangle: (n^2, 2)."""
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")

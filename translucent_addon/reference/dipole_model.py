@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from ..geometry.camera import pixel_rays
-from ..geometry.mesh_measures import subtriangle_centroids
+from ..geometry.mesh_measures import facing_side, subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
 from ..physics.dipole import R_d, r_max
 from ..physics.fresnel import fresnel_dielectric
@@ -59,11 +59,6 @@ def sample_surface(mesh: MeshInstance, count: int):
     normals = np.concatenate(normals)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-20)
     return np.concatenate(points), normals, np.concatenate(weights), facing_side(np.concatenate(facets), normals)
-
-
-def facing_side(facet_normals, normals):
-    """Facet normals turned to the side of the interpolated normals (whatever the winding)."""
-    return facet_normals * np.where(np.einsum("ij,ij->i", facet_normals, normals) < 0, -1.0, 1.0)[:, None]
 
 
 def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, tracer, scale: float,

@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from ..geometry.camera import pixel_rays
+from ..geometry.mesh_measures import facing_side
 from ..geometry.raycast import BruteForceTracer
 from ..physics.sh_irradiance import LAMBERT_KERNEL, irradiance
 from ..render.lights import DIRECTIONAL, unshadowed_irradiance
@@ -84,7 +85,7 @@ def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None)
     P_off = P + N * shadow_offset * scene_scale
     # A facet that faces away from a light is in its own shadow whatever its interpolated normal says
     # (a closed surface's ray towards the light enters the object), as in the base pass and Cycles.
-    Ng *= np.where(np.einsum("ij,ij->i", Ng, N) < 0, -1.0, 1.0)[:, None]
+    Ng = facing_side(Ng, N)
     for E, to_light in shadowed_irradiance(frame.emitters, P_off, N, tracer):
         facing = np.einsum("ij,ij->i", Ng, to_light) > 0
         radiance += rho * E * facing[:, None] / math.pi
