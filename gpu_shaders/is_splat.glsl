@@ -1,14 +1,50 @@
 /* IMAGE_SPACE pass 3 (Shah 6.4.1): one camera-facing quad per light-view sample x_i, radius
  * r_max / M_d, accumulating R_d(M_d r) M_d^2 w(r) Phi into the scatter texture at every x_o of
  * the same object (id clipping, Shah 6.4.3). Light-view and world (depth-peeled) samples alike. The quad is moved toward the camera by its radius
- * so that its projection covers the whole sphere of influence. */
+ * so that its projection covers the whole sphere of influence.
+ * Light samples hand the profile over to their tail from tail_start r_max to r_max (weights 1 - t and t,
+ * physics/lut.py crossover): with tail_pass set, one quad per tail_block x tail_block block of samples (those
+ * of the block's first object: summed power at the power-weighted mean position and blur) carries
+ * R_d t out to tail_reach r_max from the tail rows of far_lut (image_space_data.tail_samples is its twin). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
   int i = gl_InstanceID;
-  ivec2 t = ivec2(i % samples_per_row, i / samples_per_row);
-  vec4 pid = texelFetch(sample_pos_id, t, 0);
-  v_flux = texelFetch(sample_flux, t, 0);
+  vec4 pid;
+  if (tail_pass == 1) {
+    ivec2 size = textureSize(sample_pos_id, 0);
+    int per_row = (size.x + tail_block - 1) / tail_block;
+    ivec2 origin = ivec2(i % per_row, i / per_row) * tail_block;
+    float slot = 0.0;
+    vec3 position = vec3(0.0);
+    vec4 flux = vec4(0.0);
+    float weight = 0.0;
+    for (int y = 0; y < tail_block; y++) {
+      for (int x = 0; x < tail_block; x++) {
+        ivec2 t = origin + ivec2(x, y);
+        if (t.x >= size.x || t.y >= size.y) {
+          continue;
+        }
+        vec4 p = texelFetch(sample_pos_id, t, 0);
+        vec4 f = texelFetch(sample_flux, t, 0);
+        if (p.w < 0.5 || max(f.r, max(f.g, f.b)) <= 0.0 || (slot > 0.5 && abs(p.w - slot) > 0.5)) {
+          continue;
+        }
+        slot = p.w;
+        float w = f.r + f.g + f.b;
+        position += p.xyz * w;
+        flux += vec4(f.rgb, f.a * w);
+        weight += w;
+      }
+    }
+    pid = vec4(position / max(weight, 1e-30), slot);
+    v_flux = vec4(flux.rgb, flux.a / max(weight, 1e-30));
+  }
+  else {
+    ivec2 t = ivec2(i % samples_per_row, i / samples_per_row);
+    pid = texelFetch(sample_pos_id, t, 0);
+    v_flux = texelFetch(sample_flux, t, 0);
+  }
   v_xi = pid.xyz;
   v_slot = pid.w;
   if (pid.w < 0.5 || max(v_flux.r, max(v_flux.g, v_flux.b)) <= 0.0) {
@@ -16,7 +52,8 @@ void main()
     return;
   }
   vec4 mat = materials.params[2 * (int(pid.w + 0.5) - 1)];
-  float radius = mat.y / v_flux.a / mat.x; /* world units */
+  float reach = (tail_pass == 1) ? tail_reach * mat.y : mat.y;
+  float radius = reach / v_flux.a / mat.x; /* world units */
   vec4 c = frame.view * vec4(pid.xyz, 1.0);
   if (frame.camera_position.w < 0.5) {
     c.z = min(c.z + radius, -1e-4);
@@ -26,13 +63,13 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
-vec3 far_profile(int slot, float u)
+vec3 far_profile(int row, float u)
 {
   int n = textureSize(far_lut, 0).x;
   float x = u * float(n - 1);
   int i0 = int(floor(x));
   int i1 = min(i0 + 1, n - 1);
-  return mix(texelFetch(far_lut, ivec2(i0, slot), 0).rgb, texelFetch(far_lut, ivec2(i1, slot), 0).rgb,
+  return mix(texelFetch(far_lut, ivec2(i0, row), 0).rgb, texelFetch(far_lut, ivec2(i1, row), 0).rgb,
              x - float(i0));
 }
 
@@ -47,10 +84,18 @@ void main()
   float M = v_flux.a;
   float r_mm = length(xo.xyz - v_xi) * mat.x;
   float s = r_mm * M;
-  if (s >= mat.y) {
+  float reach = (tail_pass == 1) ? tail_reach * mat.y : mat.y;
+  if (s >= reach) {
     discard;
   }
-  vec3 R = far_profile(slot, sqrt(s / mat.y));
+  float t = smoothstep(tail_start * mat.y, mat.y, s); /* the tail's share */
+  vec3 R;
+  if (tail_pass == 1) {
+    R = far_profile(slot + textureSize(far_lut, 0).y / 2, sqrt(s / reach)) * t;
+  }
+  else {
+    R = far_profile(slot, sqrt(s / reach)) * ((world_pass == 1) ? 1.0 : 1.0 - t);
+  }
   float rho = (world_pass == 1) ? materials.params[2 * slot + 1].w : mat.z; /* world samples: their rho */
   vec3 n_o = texelFetch(gbuffer_normal, ivec2(gl_FragCoord.xy), 0).xyz;
   float w = partition_weight_off_plane(r_mm, rho, abs(dot(n_o, xo.xyz - v_xi)) * mat.x);

@@ -36,7 +36,8 @@ def _capture(tr):
 
 
 def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
-    """The scatter texture equals splat_cpu over the captured samples to 1e-4 relative (float32)."""
+    """The scatter texture equals splat_cpu over the captured samples and their tail splats (4x4 blocks,
+    tail_samples) to 1e-4 relative (float32); the tail carries a visible share of it."""
     _back_lit_ball(scene)
     render(scene, 64, 48)
     cap = _capture(tr)
@@ -47,10 +48,13 @@ def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
     pixels = np.argwhere(g[..., 3] > 0.5)
     pixels = pixels[np.linspace(0, len(pixels) - 1, 40).astype(int)]
     n_o = cap["gbuffer_normal"][pixels[:, 0], pixels[:, 1], :3]
-    cpu = data.splat_cpu(cap["plan"], pos_id.reshape(-1, 4), flux.reshape(-1, 4), g[pixels[:, 0], pixels[:, 1], :3],
-                         g[pixels[:, 0], pixels[:, 1], 3], n_o)
+    receivers = (g[pixels[:, 0], pixels[:, 1], :3], g[pixels[:, 0], pixels[:, 1], 3], n_o)
+    main = data.splat_cpu(cap["plan"], pos_id.reshape(-1, 4), flux.reshape(-1, 4), *receivers)
+    tail = data.splat_cpu(cap["plan"], *data.tail_samples(pos_id, flux), *receivers, tail=True)
+    cpu = main + tail
     gpu_values = scatter[pixels[:, 0], pixels[:, 1], :3]
     assert cpu.max() > 0
+    assert tail.sum() > 0.01 * cpu.sum()
     np.testing.assert_allclose(gpu_values, cpu, rtol=1e-4, atol=1e-6 * cpu.max())
 
 
@@ -197,7 +201,8 @@ def test_painted_tint_changes_the_image_where_painted_and_nowhere_else(tr, scene
     g = cap["gbuffer"]
     on_ball = g[..., 3] > 0.5
     world_painted = verts[painted] @ np.array(ob.matrix_world)[:3, :3].T + np.array(ob.matrix_world)[:3, 3]
-    reach = cap["plan"].tables[0].r_max / 1000.0 + 0.01  # splat radius (m) + a vertex spacing
+    lut = ext_module(tr, "translucent_addon.physics.lut")
+    reach = lut.TAIL_REACH * cap["plan"].tables[0].r_max / 1000.0 + 0.01  # the tail splats' radius (m) + a vertex spacing
     from scipy.spatial import cKDTree
 
     dist, _ = cKDTree(world_painted).query(g[on_ball][:, :3])

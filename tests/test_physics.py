@@ -188,6 +188,31 @@ def test_profile_tables_from_a_tabulated_dipole_match_the_closed_form_tables():
     np.testing.assert_allclose(ours.total, exact.total, rtol=1e-3)
     np.testing.assert_allclose(ours.near, exact.near, rtol=2e-3)
     np.testing.assert_allclose(ours.far, exact.far, rtol=1e-3, atol=1e-6 * exact.far.max())
+    np.testing.assert_allclose(ours.tail, exact.tail, rtol=1e-3, atol=1e-6 * exact.tail.max())
+
+
+def test_splats_and_their_tail_add_up_to_the_profile():
+    """The light samples' splats take R_d (1 - t) to r_max and their tail splats R_d t to TAIL_REACH r_max
+    (t the crossover): on the tables' CPU twin the two add up to R_d itself from 2 rho (where the splats
+    start) to TAIL_REACH r_max, within the 256-entry tables' interpolation (5e-3; the main table alone is
+    3.5e-3 off in blue), and past r_max only the tail is left; the flat integral beyond r_max is epsilon's
+    share, now kept."""
+    from translucent_addon.physics.lut import TAIL_REACH, crossover, image_space_tables
+    from translucent_addon.render.methods.image_space_data import far_lookup
+
+    sa, ss, eta = np.array([0.032, 0.17, 0.48]), np.array([0.74, 0.88, 1.01]), 1.3
+    tables = image_space_tables(sa, ss, eta, rho_mm=0.8)
+    s = np.linspace(1.6, TAIL_REACH * tables.r_max * 0.999, 2000)
+    t = crossover(s, tables.r_max)[:, None]
+    total = far_lookup(tables, s) * (1 - t) + far_lookup(tables, s, tail=True) * t
+    exact = R_d(s[:, None], sa, ss, eta)
+    np.testing.assert_allclose(total, exact, rtol=5e-3, atol=1e-6 * exact.max())
+    assert np.all(far_lookup(tables, s[s > tables.r_max]) == 0)
+    assert crossover(0.5 * tables.r_max * 0.99, tables.r_max) == 0 and crossover(tables.r_max, tables.r_max) == 1
+    # The share of the flat profile the tail adds: the red channel's epsilon (0.01) of its total, about.
+    ring = 2 * np.pi * s * exact[:, 0]
+    beyond = np.trapz(np.where(s > tables.r_max, ring, 0.0), s) / tables.total[0]
+    assert 0.005 < beyond < 0.011
 
 
 def test_multipole_layer_over_base_lies_between_its_materials():

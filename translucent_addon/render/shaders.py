@@ -91,7 +91,8 @@ SPECS = {
         uniform_blocks=((0, "FrameData", "frame"), (3, "MaterialsData", "materials")),
         samplers=((0, "FLOAT_2D", "sample_pos_id"), (1, "FLOAT_2D", "sample_flux"), (2, "FLOAT_2D", "gbuffer"),
                   (3, "FLOAT_2D", "far_lut"), (4, "FLOAT_2D", "gbuffer_normal")),
-        push_constants=(("INT", "samples_per_row"), ("INT", "world_pass")),
+        push_constants=(("INT", "samples_per_row"), ("INT", "world_pass"), ("INT", "tail_pass"),
+                        ("FLOAT", "tail_reach"), ("FLOAT", "tail_start"), ("INT", "tail_block")),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
     "is_temporal": ShaderSpec(

@@ -15,6 +15,7 @@ import dataclasses
 
 import numpy as np
 
+from ...physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
 from .. import blocks, shaders
 from ..targets import new_target, screen_quad, texture_from_array
 from .image_space_data import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
@@ -120,7 +121,8 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
 
 def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool, quad) -> None:
     """Pass 3: one splat per sample of a (pos_id, flux) pair into the bound scatter target; ``gbuf`` is
-    the camera view's (positions and slots, facet normals)."""
+    the camera view's (positions and slots, facet normals). Light samples also get their tail splats, one
+    per TAIL_BLOCK x TAIL_BLOCK block (``physics.lut.crossover``)."""
     import gpu
 
     gpu.state.depth_test_set("NONE")
@@ -137,7 +139,15 @@ def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool,
     shader.uniform_sampler("far_lut", prepared.far_lut)
     shader.uniform_int("samples_per_row", size[0])
     shader.uniform_int("world_pass", 1 if world else 0)
+    shader.uniform_float("tail_reach", TAIL_REACH)
+    shader.uniform_float("tail_start", TAIL_START)
+    shader.uniform_int("tail_block", TAIL_BLOCK)
+    shader.uniform_int("tail_pass", 0)
     quad.draw_instanced(shader, instance_start=0, instance_count=size[0] * size[1])
+    if not world:
+        shader.uniform_int("tail_pass", 1)
+        tail_grid = [-(-n // TAIL_BLOCK) for n in size]
+        quad.draw_instanced(shader, instance_start=0, instance_count=tail_grid[0] * tail_grid[1])
     gpu.state.blend_set("NONE")
 
 

@@ -22,8 +22,8 @@ import math
 
 import numpy as np
 
-from ...physics.lut import (BLUR_MIN, ImageSpaceTables, image_space_tables, multipole_profile, partition_off_plane,
-                             profile_tables)
+from ...physics.lut import (BLUR_MIN, TAIL_BLOCK, TAIL_REACH, ImageSpaceTables, crossover, image_space_tables,
+                             multipole_profile, partition_off_plane, profile_tables)
 from ...physics.sh_irradiance import transmittance_kernel
 from ..blocks import look_at, orthographic, perspective, shadow_projection
 from ..lights import DIRECTIONAL, Emitter
@@ -87,10 +87,13 @@ class ImageSpacePlan:
     epsilon: float = 0.01  # the profile share beyond the splat radius (SamplingSettings.epsilon)
 
     def far_lut(self) -> np.ndarray:
-        """(rows, FAR_SAMPLES, 4) float32."""
-        out = np.zeros((max(1, len(self.tables)), FAR_SAMPLES, 4), np.float32)
+        """(2 rows per slot, FAR_SAMPLES, 4) float32: rows 0..n-1 the profile to r_max, rows n..2n-1 its tail
+        to TAIL_REACH r_max."""
+        n = max(1, len(self.tables))
+        out = np.zeros((2 * n, FAR_SAMPLES, 4), np.float32)
         for k, t in enumerate(self.tables):
             out[k, :, :3] = t.far
+            out[n + k, :, :3] = t.tail
         return out
 
     def near_lut(self) -> np.ndarray:
@@ -238,24 +241,56 @@ def texel_solid_angle(u, v, grid: int, tan_half: float = 1.0):
     return (2.0 * t / grid) ** 2 / (1.0 + t * t * (u * u + v * v)) ** 1.5
 
 
-def far_lookup(table: ImageSpaceTables, s_mm):
-    """CPU twin of the shader's far lookup: R_d(s) by linear interpolation in u = sqrt(s / r_max)."""
+def far_lookup(table: ImageSpaceTables, s_mm, tail: bool = False):
+    """CPU twin of the shader's far lookup: R_d(s) by linear interpolation in u = sqrt(s / reach), reach r_max
+    (or TAIL_REACH r_max in the tail's table)."""
     s_mm = np.asarray(s_mm, dtype=np.float64)
-    u = np.sqrt(np.clip(s_mm / table.r_max, 0.0, 1.0)) * (FAR_SAMPLES - 1)
+    reach, values = (TAIL_REACH * table.r_max, table.tail) if tail else (table.r_max, table.far)
+    u = np.sqrt(np.clip(s_mm / reach, 0.0, 1.0)) * (FAR_SAMPLES - 1)
     i0 = np.floor(u).astype(int)
     i1 = np.minimum(i0 + 1, FAR_SAMPLES - 1)
     f = (u - i0)[..., None]
-    value = (1 - f) * table.far[i0] + f * table.far[i1]
-    return np.where((s_mm < table.r_max)[..., None], value, 0.0)
+    value = (1 - f) * values[i0] + f * values[i1]
+    return np.where((s_mm < reach)[..., None], value, 0.0)
+
+
+def tail_samples(sample_pos_id: np.ndarray, sample_flux: np.ndarray):
+    """CPU twin of the tail splats' samples: each TAIL_BLOCK x TAIL_BLOCK block of the light-view atlas
+    (H, W, 4) becomes one sample of its first object's texels (row-major within the block): their summed
+    power at their power-weighted mean position and blur. Returns (pos_id, flux), (blocks, 4) each."""
+    pos_id = np.asarray(sample_pos_id, np.float64)
+    flux = np.asarray(sample_flux, np.float64)
+    h, w = pos_id.shape[:2]
+    b = TAIL_BLOCK
+    rows, cols = -(-h // b), -(-w // b)
+    pad = ((0, rows * b - h), (0, cols * b - w), (0, 0))
+    blocks = [np.pad(a, pad).reshape(rows, b, cols, b, 4).transpose(0, 2, 1, 3, 4).reshape(rows * cols, b * b, 4)
+              for a in (pos_id, flux)]
+    pid, fl = blocks
+    valid = (pid[..., 3] > 0.5) & (fl[..., :3].max(axis=-1) > 0.0)
+    first = np.argmax(valid, axis=1)
+    slot = np.where(valid.any(axis=1), pid[np.arange(len(pid)), first, 3], 0.0)
+    mine = valid & (np.abs(pid[..., 3] - slot[:, None]) < 0.5)
+    weight = fl[..., :3].sum(axis=-1) * mine
+    total = np.maximum(weight.sum(axis=1), 1e-30)
+    out_pid = np.zeros((len(pid), 4))
+    out_flux = np.zeros((len(pid), 4))
+    out_pid[:, :3] = (pid[..., :3] * weight[..., None]).sum(axis=1) / total[:, None]
+    out_pid[:, 3] = slot
+    out_flux[:, :3] = (fl[..., :3] * mine[..., None]).sum(axis=1)
+    out_flux[:, 3] = np.where(slot > 0, (fl[..., 3] * weight).sum(axis=1) / total, 1.0)
+    return out_pid, out_flux
 
 
 def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.ndarray, x_o: np.ndarray,
-              id_o: np.ndarray, n_o: np.ndarray, world: bool = False) -> np.ndarray:
+              id_o: np.ndarray, n_o: np.ndarray, world: bool = False, tail: bool = False) -> np.ndarray:
     """The scatter sum S(x_o) = sum_i [id_i = id_o] R_d(M_i r) M_i^2 w(r) Phi_i, as the splat pass computes it.
 
     sample_pos_id: (S, 4) world xyz and slot + 1 (0: no sample); sample_flux: (S, 4) Phi rgb and M_d;
     x_o: (P, 3) world positions; id_o: (P,) slot + 1; n_o: (P, 3) facet normals (w leaves out samples off
-    x_o's tangent plane, ``physics.lut.partition_off_plane``). ``world``: world samples, split at the world's rho.
+    x_o's tangent plane, ``physics.lut.partition_off_plane``). Light samples take R_d (1 - t(M r)), their
+    tail splats (``tail``, from ``tail_samples``) R_d t(M r) out to TAIL_REACH r_max (``physics.lut.crossover``);
+    ``world``: world samples, the whole profile to r_max, split at the world's rho.
     """
     out = np.zeros((len(x_o), 3))
     valid = sample_pos_id[:, 3] > 0.5
@@ -270,6 +305,8 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         M = np.clip(flux[same, 3], BLUR_MIN, 1.0)
         rho = plan_.world.rho_mm[slot] if world else table.rho
         h_mm = np.abs((pos[same] - x_o[p]) @ n_o[p]) * med.mm_per_unit
-        value = far_lookup(table, r_mm * M) * (M * M * partition_off_plane(r_mm, rho, h_mm))[:, None]
+        t = crossover(r_mm * M, table.r_max)
+        share = np.ones_like(t) if world else (t if tail else 1.0 - t)
+        value = far_lookup(table, r_mm * M, tail) * (M * M * share * partition_off_plane(r_mm, rho, h_mm))[:, None]
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out
