@@ -21,7 +21,8 @@ struct LightData {
   vec4 position_kind;     /* xyz: position (point) or map origin (directional); w: 0 dir, 1 point */
   vec4 direction;         /* xyz: unit emission axis */
   vec4 radiance;          /* rgb: irradiance (directional) or on-axis intensity W/sr (point) */
-  vec4 cone;              /* x: cos half angle (< -1: none), y: blend width, z: cosine lobe flag */
+  vec4 cone;              /* x: cos half angle (< -1: none), y: blend width, z: cosine lobe flag,
+                           * w: tan of the half angle of a spot's single fitted shadow face (0: cube) */
   vec4 shadow;            /* x: texels per face, y: scene radius, z: normal offset in texels,
                            * w: shadows on; for light-view samples x: texels, y: texel measure,
                            * z: tangent of a point emitter's face half angle */

@@ -148,6 +148,36 @@ def test_point_shadow_faces_cover_every_direction():
         assert clip[3] > 0 and np.all(np.abs(ndc) <= 1.0 + 1e-9), (d, ndc)
 
 
+def test_a_narrow_spot_gets_one_shadow_face_holding_its_cone():
+    """A 50-degree spot: one perspective face along its axis, tan_half = tan(25.25 deg), holding every point
+    of the cone within the scene sphere (NDC inside [-1, 1]); wider than 90 degrees, a point light or a spot
+    whose caustics need the cube: the six cube faces (tan_half 0)."""
+    rot = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0.0]])  # the light looks along +y
+    (e,) = emitters_from_light("s", "SPOT", _light_at(0.0, rot), (1, 1, 1), 100.0, spot_size=math.radians(50))
+    centre = np.array([0.0, 2.0, 0.0])
+    faces, origin, n_faces, tan_half = blocks.shadow_faces(e, centre, 1.0)
+    assert n_faces == 1 and tan_half == pytest.approx(math.tan(math.radians(25) * 1.01))
+    rng = np.random.default_rng(3)
+    axis = np.asarray(e.direction)
+    inside = 0
+    for d in rng.normal(size=(2000, 3)):
+        p = centre + d / np.linalg.norm(d) * rng.uniform(0.0, 1.0)  # the scene sphere
+        to_p = (p - origin) / np.linalg.norm(p - origin)
+        if to_p @ axis <= e.cos_half_angle:
+            continue  # outside the cone: no light, no shadow needed
+        inside += 1
+        clip = faces[0] @ np.append(p, 1.0)
+        assert clip[3] > 0 and np.all(np.abs(clip[:3] / clip[3]) <= 1.0 + 1e-9)
+    assert inside > 100
+    (wide,) = emitters_from_light("w", "SPOT", _light_at(0.0, rot), (1, 1, 1), 100.0, spot_size=math.radians(100))
+    (point,) = emitters_from_light("p", "POINT", _light_at(0.0, rot), (1, 1, 1), 100.0)
+    for light, fit in ((wide, True), (point, True), (e, False)):
+        cube, _ = blocks.shadow_projection(light, centre, 1.0)
+        faces, _, n_faces, tan_half = blocks.shadow_faces(light, centre, 1.0, fit_spot=fit)
+        assert n_faces == 6 and tan_half == 0.0
+        np.testing.assert_array_equal(faces, cube)
+
+
 def test_directional_shadow_map_covers_the_scene_sphere():
     rot = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0.0]])
     (e,) = emitters_from_light("s", "SUN", _light_at(3.0, rot), (1, 1, 1), 1.0)

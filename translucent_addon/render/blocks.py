@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .lights import DIRECTIONAL, Emitter
+from .lights import DIRECTIONAL, Emitter, fitted_tan_half
 
 FRAME_FLOATS = 3 * 16 + 3 * 4 + 9 * 4
 OBJECT_FLOATS = 16 + 16 + 4
@@ -83,6 +83,24 @@ def shadow_projection(e: Emitter, centre: np.ndarray, radius: float):
     return faces, pos
 
 
+def shadow_faces(e: Emitter, centre: np.ndarray, radius: float, fit_spot: bool = True):
+    """The shadow map's faces of an emitter: (faces (6, 4, 4), origin, face count, tan_half). A spot whose
+    cone fits in 45 degrees (``lights.fitted_tan_half``) gets one perspective face along its axis, as wide
+    as the cone (tan_half > 0): finer than a cube face at the same texels, and one face to draw instead of
+    six; other emitters those of ``shadow_projection`` (tan_half 0). ``fit_spot`` False keeps the cube
+    (the caustics passes address their atlases by cube faces)."""
+    faces, origin = shadow_projection(e, centre, radius)
+    t = fitted_tan_half(e) if fit_spot else 0.0
+    if t == 0.0:
+        return faces, origin, (1 if e.kind == DIRECTIONAL else 6), 0.0
+    axis = np.asarray(e.direction, float)
+    up = (1.0, 0.0, 0.0) if abs(axis[2]) > 0.9 else (0.0, 0.0, 1.0)
+    far = float(np.linalg.norm(origin - centre)) + 2.0 * radius
+    faces = np.tile(np.eye(4), (6, 1, 1))
+    faces[0] = perspective(2.0 * math.atan(t), 1.0, max(far * 1e-4, 1e-5), far) @ look_at(origin, axis, up)
+    return faces, origin, 1, t
+
+
 def cube_face(d) -> int:
     """The face index for a direction, as ``cube_face`` in base_lighting.glsl."""
     a = np.abs(d)
@@ -118,14 +136,16 @@ def object_block(model, normal_matrix, subsurface_slot: int = -1) -> bytes:
 
 
 def light_block(e: Emitter, faces: np.ndarray, origin, texels: int, radius: float, shadows: bool = True,
-                normal_offset_texels: float = 1.5) -> bytes:
+                normal_offset_texels: float = 1.5, tan_half: float = 0.0) -> bytes:
+    """LightData (translucent_structs.glsl); ``tan_half`` > 0: the shadow map is one fitted face
+    (``shadow_faces``)."""
     data = np.zeros(LIGHT_FLOATS, np.float32)
     data[:96] = np.concatenate([_mat(f) for f in faces])
     data[96:99] = origin
     data[99] = float(e.kind)
     data[100:103] = e.direction
     data[104:107] = e.radiance
-    data[108:111] = (e.cos_half_angle, e.spot_smooth, 1.0 if e.cosine_lobe else 0.0)
+    data[108:112] = (e.cos_half_angle, e.spot_smooth, 1.0 if e.cosine_lobe else 0.0, tan_half)
     data[112:116] = (texels, radius, normal_offset_texels, 1.0 if shadows else 0.0)
     return data.tobytes()
 

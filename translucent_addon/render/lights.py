@@ -40,6 +40,16 @@ class Emitter:
     caustics: bool = True  # casters throw caustics of this emitter's light
 
 
+def fitted_tan_half(e: Emitter) -> float:
+    """The tangent of the half angle of one perspective face along a spot's axis that holds its whole cone
+    (1 % wider), where that face is finer than a cube face at the same texels (a cone under 45 degrees);
+    0 for other emitters. Outside the cone a spot sends no light, so no shadow is needed there."""
+    if e.kind == DIRECTIONAL or e.cos_half_angle < -1.0 or e.cosine_lobe:
+        return 0.0
+    half = math.acos(min(e.cos_half_angle, 1.0)) * 1.01
+    return math.tan(half) if half < math.pi / 4 else 0.0
+
+
 def _normalized(v) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
     n = np.linalg.norm(v)

@@ -29,7 +29,6 @@ import numpy as np
 
 from . import blocks, caustics, grass, relief, shaders
 from .methods import geocube, image_space, quadgraph, texture_space
-from .lights import DIRECTIONAL
 from .scene_data import FrameInputs, MeshInstance
 
 
@@ -167,9 +166,10 @@ class Pipeline:
         t_shadow = t_light = t_caustics = 0.0
         for e in frame.emitters:
             t1 = time.perf_counter()
-            faces, origin = blocks.shadow_projection(e, centre, radius)
-            light_ubo = gpu.types.GPUUniformBuf(blocks.light_block(e, faces, origin, texels, radius))
-            self._draw_shadow(e, batches, objects, light_ubo, atlas)
+            with_caustics = caustic_plan is not None and e.caustics
+            faces, origin, n_faces, tan_half = blocks.shadow_faces(e, centre, radius, fit_spot=not with_caustics)
+            light_ubo = gpu.types.GPUUniformBuf(blocks.light_block(e, faces, origin, texels, radius, tan_half=tan_half))
+            self._draw_shadow(n_faces, batches, objects, light_ubo, atlas)
             t2 = time.perf_counter()
             # The shadow pass bound the atlas: bind the target explicitly for the light pass.
             with fb.bind():
@@ -188,7 +188,7 @@ class Pipeline:
             if graphs:
                 quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1)
             t3 = time.perf_counter()
-            if caustic_plan is not None and e.caustics:
+            if with_caustics:
                 caustics.draw_emitter(caustic_plan, frame, e, light_ubo, batches, objects, frame_ubo, fb, self,
                                       atlas[1])
             t_shadow += t2 - t1
@@ -248,12 +248,11 @@ class Pipeline:
             base.draw(shader)
 
     @staticmethod
-    def _draw_shadow(e, batches, objects, light_ubo, atlas) -> None:
+    def _draw_shadow(n_faces: int, batches, objects, light_ubo, atlas) -> None:
         import gpu
 
         texels, _, _, fb = atlas
         shader = shaders.get("shadow_distance")
-        n_faces = 1 if e.kind == DIRECTIONAL else 6
         with fb.bind():
             clear_target(fb, (3.0e38, 0.0, 0.0, 0.0))
             gpu.state.depth_test_set("LESS_EQUAL")
