@@ -66,6 +66,12 @@ def orthographic(half_w: float, half_h: float, near: float, far: float) -> np.nd
     return m
 
 
+def _point_projection(pos, centre, radius: float, fov: float) -> np.ndarray:
+    """A point emitter's square perspective face of angle ``fov``, deep enough for the scene sphere."""
+    far = float(np.linalg.norm(pos - centre)) + 2.0 * radius
+    return perspective(fov, 1.0, max(far * 1e-4, 1e-5), far)
+
+
 def shadow_projection(e: Emitter, centre: np.ndarray, radius: float):
     """Face view-projection matrices (6, 4, 4) and the shadow origin of an emitter."""
     faces = np.tile(np.eye(4), (6, 1, 1))
@@ -75,9 +81,7 @@ def shadow_projection(e: Emitter, centre: np.ndarray, radius: float):
         faces[0] = orthographic(radius, radius, 0.0, 4.0 * radius) @ look_at(origin, axis, (0, 0, 1))
         return faces, origin
     pos = np.asarray(e.position, float)
-    far = float(np.linalg.norm(pos - centre)) + 2.0 * radius
-    near = max(far * 1e-4, 1e-5)
-    proj = perspective(math.pi / 2, 1.0, near, far)
+    proj = _point_projection(pos, centre, radius, math.pi / 2)
     for i, (fwd, up) in enumerate(CUBE_FACES):
         faces[i] = proj @ look_at(pos, fwd, up)
     return faces, pos
@@ -89,16 +93,15 @@ def shadow_faces(e: Emitter, centre: np.ndarray, radius: float, fit_spot: bool =
     as the cone (tan_half > 0): finer than a cube face at the same texels, and one face to draw instead of
     six; other emitters those of ``shadow_projection`` (tan_half 0). ``fit_spot`` False keeps the cube
     (the caustics passes address their atlases by cube faces)."""
-    faces, origin = shadow_projection(e, centre, radius)
     t = fitted_tan_half(e) if fit_spot else 0.0
     if t == 0.0:
-        return faces, origin, (1 if e.kind == DIRECTIONAL else 6), 0.0
+        return (*shadow_projection(e, centre, radius), 1 if e.kind == DIRECTIONAL else 6, 0.0)
+    pos = np.asarray(e.position, float)
     axis = np.asarray(e.direction, float)
     up = (1.0, 0.0, 0.0) if abs(axis[2]) > 0.9 else (0.0, 0.0, 1.0)
-    far = float(np.linalg.norm(origin - centre)) + 2.0 * radius
     faces = np.tile(np.eye(4), (6, 1, 1))
-    faces[0] = perspective(2.0 * math.atan(t), 1.0, max(far * 1e-4, 1e-5), far) @ look_at(origin, axis, up)
-    return faces, origin, 1, t
+    faces[0] = _point_projection(pos, centre, radius, 2.0 * math.atan(t)) @ look_at(pos, axis, up)
+    return faces, pos, 1, t
 
 
 def cube_face(d) -> int:
