@@ -1,6 +1,6 @@
 /* TEXTURE_SPACE local response and combination (Lensch Eq. 15, 12, 9): one point per texel. The
- * texel's source (itself, or across the seam for a border texel) is filtered with its 7x7 kernel
- * K' (row `row` of the kernel table, 49 entries) over the illumination map, and the vertex
+ * texel's source (itself, or across the seam for a border texel) is filtered with its local kernel
+ * K' ((2 local_half + 1)^2 entries, row `row` of the kernel table) over the illumination map, and the vertex
  * response B_v / T_p(v) is interpolated with the source's barycentrics. Outputs carry alpha 1 so
  * that the display can weigh texels by coverage. */
 #ifdef GPU_VERTEX_SHADER
@@ -18,13 +18,15 @@ void main()
 void main()
 {
   int width = textureSize(kernels, 0).x;
-  int base = int(v_row + 0.5) * 49;
+  int side = 2 * local_half + 1;
+  int taps = side * side;
+  int base = int(v_row + 0.5) * taps;
   ivec2 centre = ivec2(v_source + 0.5);
   vec3 B_l = vec3(0.0);
-  for (int k = 0; k < 49; k++) {
+  for (int k = 0; k < taps; k++) {
     int e = base + k;
     vec3 K = texelFetch(kernels, ivec2(e % width, e / width), 0).rgb;
-    B_l += K * texelFetch(irradiance, centre + ivec2(k % 7 - 3, k / 7 - 3), 0).rgb;
+    B_l += K * texelFetch(irradiance, centre + ivec2(k % side - local_half, k / side - local_half), 0).rgb;
   }
   vec3 B_g = vec3(0.0);
   for (int c = 0; c < 3; c++) {

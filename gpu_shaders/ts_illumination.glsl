@@ -1,12 +1,14 @@
 /* TEXTURE_SPACE illumination map (Lensch Sec. 6.1, Eq. 3): one point per texel of the atlas,
  * lit at the texel's surface point x_c with its normal. mode 0: the world, E_sh(n) in spherical
  * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
- * Border texels carry their source's point, so they take the irradiance across the seam. */
+ * Border texels carry their source's point, so they take the irradiance across the seam.
+ * As in the base pass, a point whose facet faces away from the light is in shadow. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
   v_world = (object.model * vec4(pos, 1.0)).xyz;
   v_normal = normalize(mat3(object.normal_matrix) * nor);
+  v_facet = mat3(object.normal_matrix) * facet;
   gl_Position = vec4((texel + 0.5) / atlas_size * 2.0 - 1.0, 0.0, 1.0);
 }
 #endif
@@ -21,7 +23,7 @@ void main()
   vec3 to_light;
   vec3 radiance = emitter_irradiance(v_world, to_light);
   float cos_i = dot(v_normal, to_light);
-  if (cos_i <= 0.0) {
+  if (cos_i <= 0.0 || dot(v_facet, to_light) <= 0.0) {
     discard;
   }
   vec3 E = radiance * cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);

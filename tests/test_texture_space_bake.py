@@ -150,16 +150,48 @@ def test_without_blending_light_is_counted_twice():
     assert np.all(ratio > 1.4), ratio
 
 
-def test_proxy_follows_the_atlas_resolution_and_subdivides_coarse_meshes():
+def _edges(v, f):
+    return np.concatenate([np.linalg.norm(v[f[:, (k + 1) % 3]] - v[f[:, k]], axis=1) for k in range(3)])
+
+
+def _min_angles(p):
+    out = []
+    for k in range(3):
+        a, b = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
+        cos = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        out.append(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    return np.min(out, axis=0)
+
+
+def test_refinement_splits_long_edges_evenly_and_keeps_the_surface():
+    """A coarse, uneven mesh (a UV sphere stretched 3x: long edges at the equator, short at the poles)
+    is refined until no edge passes MAX_EDGE_TEXELS of the atlas, conforming, on the same surface,
+    with bounded angles; its corners carry the display's attributes by barycentrics."""
     v, f = sphere()
+    v = v * np.array([3.0, 1.0, 1.0])
     area = proxy.surface_area(v, f)
-    target = proxy.target_triangles(area, 512)
-    v2, f2, levels = proxy.refine(v, f, target)
-    assert len(f2) == 4 ** levels * len(f)
-    assert len(f2) == 4 ** round(np.log(len(f2) / len(f)) / np.log(4)) * len(f)
-    assert abs(np.log(len(f2) / target)) <= np.log(2.0) + 1e-9
-    assert abs(proxy.surface_area(v2, f2) - area) < 1e-9 * area  # midpoints stay on the facets
+    r = proxy.refine_for_atlas(v, f, 256)
+    texel = np.sqrt(area / 0.5) / 256
+    lengths = _edges(r.vertices, r.triangles)
+    assert lengths.max() <= proxy.MAX_EDGE_TEXELS * texel * (1 + 1e-9)
+    assert lengths.max() < 2.5 * np.median(lengths)  # even: subdivision 1-to-4 keeps the input's 3x spread
+    assert len(f) < len(r.triangles) < proxy.MAX_TRIANGLES  # not capped: the bound above is the edge's
+    assert abs(proxy.surface_area(r.vertices, r.triangles) - area) < 1e-9 * area  # midpoints stay on the facets
+    edges = np.sort(np.concatenate([r.triangles[:, [0, 1]], r.triangles[:, [1, 2]], r.triangles[:, [2, 0]]]), axis=1)
+    _, count = np.unique(edges, axis=0, return_counts=True)
+    assert np.all(count == 2), "conforming: every edge of the closed sphere is shared by two triangles"
+    np.testing.assert_allclose(r.corners(v[f].reshape(-1, 3)).reshape(-1, 3, 3), r.vertices[r.triangles], atol=1e-9)
+    n0 = np.cross(v[f][:, 1] - v[f][:, 0], v[f][:, 2] - v[f][:, 0])[r.parent]
+    p = r.vertices[r.triangles]
+    assert np.all(np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), n0) > 0), "winding kept"
+    assert _min_angles(p).min() >= 0.5 * _min_angles(v[f]).min()  # longest-edge bisection bounds the angles
     assert proxy.target_triangles(area, 4096) == proxy.MAX_TRIANGLES
+
+
+def test_refinement_caps_the_triangle_count():
+    v, f = sphere()
+    r = proxy.refine_for_atlas(v, f, 4096)
+    assert 0.5 * proxy.MAX_TRIANGLES < len(r.triangles) <= proxy.MAX_TRIANGLES
 
 
 def test_display_mapping_of_the_proxy_itself_is_the_identity():
@@ -182,9 +214,17 @@ def test_float16_tables_survive_the_store():
 def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):
     v, f, atlas, bake = plate_bake
     arrays = {**atlas.to_arrays(), **bake.to_arrays(), "proxy_triangles": f.astype(np.int32),
+              "proxy_vertices_mm": v.astype(np.float32),
               "display_uv": np.zeros((3 * len(f), 2), np.float32), "vertex_corner": np.zeros(len(v), np.int32)}
     arrays["lensch_kernels"] = bake.kernels.astype(np.float16)
     t = tsd.gpu_tables(arrays, 1000.0)
+    assert t.local_half == lensch.LOCAL
+    # Each texel's facet: its proxy triangle's normal, on the side of its shading normal.
+    p = v[f[atlas.triangle]]
+    facet = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    facet /= np.linalg.norm(facet, axis=1, keepdims=True)
+    np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", t.facet, facet)), 1.0, atol=1e-5)
+    assert np.all(np.einsum("ij,ij->i", t.facet, t.normal) > 0)
     e = 123 * 49 + 17
     np.testing.assert_array_equal(t.kernels[e // tsd.TABLE_WIDTH, e % tsd.TABLE_WIDTH, :3],
                                   bake.kernels[123, 17].astype(np.float16))

@@ -131,8 +131,14 @@ def rasterize(uv: np.ndarray, width: int, height: int):
             np.clip(bary[first], 0.0, 1.0).astype(np.float64))
 
 
-def build_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int = 512) -> TexelAtlas:
-    """The atlas of a proxy mesh (vertices in mm) with its surface and gutter texels."""
+def build_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int = 512,
+                corner_normals: np.ndarray | None = None) -> TexelAtlas:
+    """The atlas of a proxy mesh (vertices in mm) with its surface and gutter texels.
+
+    ``corner_normals`` (T, 3, 3): the shading normals at the triangles' corners, interpolated to
+    each texel (default: the area-weighted vertex normals). The bake passes the display's: light
+    at grazing incidence changes with a few degrees of normal.
+    """
     from scipy import ndimage
     from scipy.spatial import cKDTree
 
@@ -140,17 +146,22 @@ def build_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int 
     t = np.asarray(triangles, np.int64)
     uv, chart, width, height = parametrize(v, t, resolution)
     xy, tri, bary = rasterize(uv, width, height)
-    normals = vertex_normals(v, t)
+    normals = vertex_normals(v, t)[t] if corner_normals is None else np.asarray(corner_normals, np.float64)
     corners = v[t]  # (T, 3, 3)
     area_3d = triangle_areas(v, t)
     e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
     area_uv = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).astype(np.float64)
     texel_area = np.divide(area_3d, area_uv, out=np.zeros_like(area_3d), where=area_uv > 0)  # mm^2 per texel^2
 
+    facet = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    facet /= np.maximum(np.linalg.norm(facet, axis=1, keepdims=True), 1e-30)
+
     def surface_point(tris, b):
         p = np.einsum("nk,nkd->nd", b, corners[tris])
-        n = np.einsum("nk,nkd->nd", b, normals[t[tris]])
-        return p, n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+        n = np.einsum("nk,nkd->nd", b, normals[tris])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        # Corner normals that cancel (a crease folded back) leave the facet's normal.
+        return p, np.where(length > 1e-6, n / np.maximum(length, 1e-30), facet[tris])
 
     position, normal = surface_point(tri, bary)
     area = texel_area[tri]

@@ -23,6 +23,13 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         mesh.vertices.foreach_get("co", vertices)
         triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
         mesh.loop_triangles.foreach_get("vertices", triangles)
+        corner_normals = None
+        if (method or original.translucent.method) == "TEXTURE_SPACE":
+            tri_loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+            mesh.loop_triangles.foreach_get("loops", tri_loops)
+            loop_normals = np.empty(len(mesh.loops) * 3, np.float32)
+            mesh.corner_normals.foreach_get("vector", loop_normals)
+            corner_normals = loop_normals.reshape(-1, 3)[tri_loops].reshape(-1, 3, 3)
     finally:
         ob_eval.to_mesh_clear()
     props = original.translucent
@@ -31,6 +38,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         method=method or props.method,
         vertices=vertices.reshape(-1, 3),
         triangles=triangles.reshape(-1, 3),
+        corner_normals=corner_normals,
         mm_per_unit=float(props.mm_per_unit),
         sigma_a=tuple(props.sigma_a),
         sigma_s_prime=tuple(props.sigma_s_prime),

@@ -235,6 +235,7 @@ class _GlobalResponse:
         self.v = np.asarray(vertices_mm, np.float64)
         self.A_v = A_v
         self.dual = dual  # (n_surface, 3)
+        self._edges = None
 
     def __call__(self, s: np.ndarray, o: np.ndarray):
         """(B^g0 (n, 3 channels), phi (n, 3 vertices)) for pairs (surface texel s, texel o)."""
@@ -254,7 +255,11 @@ class _GlobalResponse:
             phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
             return B_g0, phi
         g = self.gain[Vo]  # (U, 3 receivers, 3 channels)
-        F *= g[:, None, :, :]
+        V = len(self.v)
+        if self._edges is None:
+            self._edges = _edge_keys(self.t, V)
+        edge = np.isin(Vs[:, :, None] * V + Vo[:, None, :], self._edges)  # (U, 3 sources, 3 receivers)
+        F *= np.where(edge[..., None], g[:, None, :, :], 1.0)
         B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
         phi = np.einsum("pkjc,pj->pkc", (same[:, :, :, None] * g[:, None, :, :])[inverse], beta_o)
         return B_g0, phi
@@ -305,11 +310,33 @@ def local_kernels(atlas: TexelAtlas, material: Material, J: np.ndarray):
         i_idx = taps[o_idx, k_idx]
         for c in np.unique(ring[k_idx]):
             sel = ring[k_idx] == c
-            K[o_idx[sel], k_idx[sel]] = atlas.area_mm2[i_idx[sel], None] * _profile_texel(
+            K[o_idx[sel], k_idx[sel]] = atlas.area_mm2[atlas.source[i_idx[sel]], None] * _profile_texel(
                 atlas, material, J, o_idx[sel], i_idx[sel], SUBTEXELS.get(int(c), 1))
+    K[repeated_sources(atlas, taps)] = 0.0
     centre = len(LOCAL_OFFSETS) // 2
     K[:, centre] = material.R_d_disk(np.sqrt(atlas.area_mm2[:n] / math.pi))  # int over the texel's own disk
     return taps, K
+
+
+def repeated_sources(atlas: TexelAtlas, taps: np.ndarray) -> np.ndarray:
+    """(n, 49) bool: taps whose source an earlier tap of the row already holds.
+
+    A gutter tap stands for its source across the seam (its position, area and light). Beyond a
+    sharp ridge several gutter texels find the same source; counting it once per tap multiplied that
+    light (and its kernel correction) in the local response. Each source enters a kernel once, at
+    its nearest tap in the row order (the centre ring first)."""
+    src = np.where(taps >= 0, atlas.source[np.maximum(taps, 0)], -1).astype(np.int64)
+    order = np.argsort(np.max(np.abs(LOCAL_OFFSETS), axis=1), kind="stable")
+    ranked = src[:, order]
+    sort = np.argsort(ranked, axis=1, kind="stable")  # equal sources stay in ring order
+    sorted_src = np.take_along_axis(ranked, sort, axis=1)
+    dup_sorted = np.zeros_like(sorted_src, dtype=bool)
+    dup_sorted[:, 1:] = (sorted_src[:, 1:] == sorted_src[:, :-1]) & (sorted_src[:, 1:] >= 0)
+    dup_ranked = np.zeros_like(dup_sorted)
+    np.put_along_axis(dup_ranked, sort, dup_sorted, axis=1)
+    repeated = np.zeros_like(dup_ranked)
+    repeated[:, order] = dup_ranked
+    return repeated
 
 
 def fit_offsets(outer: int) -> tuple[np.ndarray, np.ndarray]:
@@ -360,15 +387,13 @@ def corrected_kernels(atlas: TexelAtlas, taps: np.ndarray, K: np.ndarray, w: np.
                       response: _GlobalResponse) -> np.ndarray:
     """K'_o(i) = K_o(i) - (B^g0 + B^d)(i -> o): the kernel minus the global response inside it (Lensch 5.4)."""
     K = K.copy()
-    o_idx, k_idx = np.nonzero(taps >= 0)
-    i_idx = taps[o_idx, k_idx]
-    s_idx = atlas.source[i_idx]  # a gutter texel's light enters at its source
-    scale = atlas.area_mm2[i_idx].astype(np.float64) / atlas.area_mm2[s_idx]
+    o_idx, k_idx = np.nonzero((taps >= 0) & ~repeated_sources(atlas, taps))
+    s_idx = atlas.source[taps[o_idx, k_idx]]  # a gutter texel's light enters at its source
     for a in range(0, len(o_idx), _CHUNK):
         sl = slice(a, a + _CHUNK)
         B_g0, phi = response(s_idx[sl], o_idx[sl])
         B_d = np.einsum("pk,pkc->pc" if phi.ndim == 2 else "pkc,pkc->pc", phi, w[s_idx[sl]])
-        K[o_idx[sl], k_idx[sl]] -= scale[sl, None] * (B_g0 + B_d)
+        K[o_idx[sl], k_idx[sl]] -= B_g0 + B_d
     return K
 
 
@@ -427,7 +452,7 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
             gain = uniform_gain(atlas, first, vertices_mm, triangles, material)
             response.gain = gain
             K_corrected = corrected_kernels(atlas, taps, K, w, response)
-            scaled = apply_gain(first, gain)
+            scaled = apply_gain(first, gain, triangles)
             w, data = scaled.blend_weights, scaled.F_data
         K = K_corrected
     else:
@@ -471,29 +496,56 @@ def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, 
         exact[:, c] += np.bincount(rows[near], weights=delta[:, c], minlength=V)
     own = np.arange(V)
     exact += hat_integrals(v, t, own, own, material, quadrature=12)
-    B_local, B_global = radiosity_parts(atlas, bake, np.ones((atlas.count, 3)))
+    E1 = np.ones((atlas.count, 3))
+    B_local, B_global = radiosity_parts(atlas, bake, E1)
+    # The gain scales the near global response only (B^d and F^0 from the one-ring): the light
+    # from farther away (across a ridge, through a thin part) is the point rule's, kept as it is.
+    near = edge_entries(t, bake.F_indptr, bake.F_indices)
+    far_only = dataclasses.replace(bake, blend_weights=np.zeros_like(bake.blend_weights),
+                                   F_data=np.where(near[:, None], 0.0, bake.F_data).astype(np.float32))
+    B_far = radiosity_parts(atlas, far_only, E1)[1]
     weight = atlas.bary[:n].astype(np.float64) ** 2
     verts = bake.dual_vertices.astype(np.int64)
     W = np.bincount(verts.ravel(), weights=weight.ravel(), minlength=V)
-    mean_l, mean_g = np.zeros((V, 3)), np.zeros((V, 3))
+    mean_l, mean_g, mean_f = np.zeros((V, 3)), np.zeros((V, 3)), np.zeros((V, 3))
     for c in range(3):
         mean_l[:, c] = np.bincount(verts.ravel(), weights=(weight * B_local[:, c, None]).ravel(), minlength=V)
         mean_g[:, c] = np.bincount(verts.ravel(), weights=(weight * B_global[:, c, None]).ravel(), minlength=V)
+        mean_f[:, c] = np.bincount(verts.ravel(), weights=(weight * B_far[:, c, None]).ravel(), minlength=V)
     ok = W > 0
     mean_l[ok] /= W[ok, None]
     mean_g[ok] /= W[ok, None]
+    mean_f[ok] /= W[ok, None]
+    mean_n = mean_g - mean_f
     gain = np.ones((V, 3))
-    good = ok[:, None] & (mean_g > 1e-6 * np.maximum(exact, 1e-30))
-    gain[good] = ((exact - mean_l) / np.where(good, mean_g, 1.0))[good]
+    good = ok[:, None] & (mean_n > 1e-6 * np.maximum(exact, 1e-30))
+    gain[good] = ((exact - mean_l - mean_f) / np.where(good, mean_n, 1.0))[good]
     return np.clip(gain, *GAIN_LIMITS)
 
 
-def apply_gain(bake: "LenschBake", gain: np.ndarray) -> "LenschBake":
-    """Scale each receiving vertex's global response: its row of F^0 and the B^d weights landing on it."""
+def edge_entries(triangles: np.ndarray, F_indptr: np.ndarray, F_indices: np.ndarray) -> np.ndarray:
+    """(nnz,) bool: entries of F (row j, column i) whose vertices share an edge (the one-ring)."""
+    V = len(F_indptr) - 1
+    rows = np.repeat(np.arange(V, dtype=np.int64), np.diff(F_indptr))
+    return np.isin(rows * V + F_indices, _edge_keys(triangles, V))
+
+
+def _edge_keys(triangles: np.ndarray, V: int) -> np.ndarray:
+    """Sorted keys a * V + b of the mesh's directed edges (both directions)."""
+    t = np.asarray(triangles, np.int64)
+    a = np.concatenate([t[:, 0], t[:, 1], t[:, 2], t[:, 1], t[:, 2], t[:, 0]])
+    b = np.concatenate([t[:, 1], t[:, 2], t[:, 0], t[:, 0], t[:, 1], t[:, 2]])
+    return np.unique(a * V + b)
+
+
+def apply_gain(bake: "LenschBake", gain: np.ndarray, triangles: np.ndarray) -> "LenschBake":
+    """Scale each receiving vertex's near global response: its one-ring entries of F^0 and the B^d
+    weights landing on it."""
     V = len(bake.A_v)
     rows = np.repeat(np.arange(V), np.diff(bake.F_indptr))
     w = bake.blend_weights * gain[bake.dual_vertices.astype(np.int64)]
-    return dataclasses.replace(bake, F_data=(bake.F_data * gain[rows]).astype(np.float32),
+    scale = np.where(edge_entries(triangles, bake.F_indptr, bake.F_indices)[:, None], gain[rows], 1.0)
+    return dataclasses.replace(bake, F_data=(bake.F_data * scale).astype(np.float32),
                                blend_weights=w.astype(np.float32))
 
 

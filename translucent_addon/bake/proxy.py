@@ -3,21 +3,26 @@
 Pure. The scattering is computed on a proxy whose vertex spacing follows the atlas: Lensch's
 blending works when a vertex hat is about as wide as the 7x7 kernel (his models: 10k vertices,
 512^2 atlas, about 4 texels between vertices; measured here on a plate, the error of a uniform
-irradiance grows from +2..5 % at 3.6 texels to +8..15 % at 14). So a coarse mesh is subdivided
-and a dense one decimated (by Blender, ``inputs.py``) to about ``SPACING_TEXELS`` texels per edge,
-at most ``MAX_TRIANGLES`` (the paper: under 20k). The displayed mesh keeps its own triangles:
-each display triangle takes the proxy triangle nearest its centroid and its corners are
-projected onto that triangle's plane, so its atlas coordinates stay inside one chart (the chart's
-border texels carry the radiosity across the seam). A subdivided proxy needs no mapping: it is
-drawn in place of the display, its triangles the display's own cut in four (``subdivide_corners``).
+irradiance grows from +2..5 % at 3.6 texels to +8..15 % at 14). So a coarse mesh is refined
+where its edges are long (``refine_to_edge``) and a dense one decimated (by Blender, ``inputs.py``)
+to about ``SPACING_TEXELS`` texels per edge, at most ``MAX_TRIANGLES`` (the paper: under 20k).
+A decimated proxy's display keeps its own triangles: each display triangle takes the proxy
+triangle nearest its centroid and its corners are projected onto that triangle's plane, so its
+atlas coordinates stay inside one chart (the chart's border texels carry the radiosity across the
+seam). A refined proxy needs no mapping: it is drawn in place of the display, each of its corners
+carrying the display's attributes by its barycentrics in the display triangle (``Refinement``).
 """
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from ..geometry.mesh_checks import triangle_areas
 
 SPACING_TEXELS = 3.5
+# Longest-edge bisection leaves edges between half this and this: about SPACING_TEXELS on average.
+MAX_EDGE_TEXELS = 5.0
 MAX_TRIANGLES = 20_000
 # Charts fill about this fraction of the atlas once the 8-texel gutters are counted.
 ATLAS_FILL = 0.37
@@ -36,45 +41,133 @@ def target_triangles(area_mm2: float, resolution: int, max_triangles: int = MAX_
     return int(min(max_triangles, max(64, round(area_mm2 / (np.sqrt(3.0) / 4.0 * edge**2)))))
 
 
-def subdivide(vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Midpoint 1-to-4 subdivision (shared edges split once)."""
-    v = np.asarray(vertices, np.float64)
-    f = np.asarray(triangles, np.int64)
-    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    unique, inverse = np.unique(edges, axis=0, return_inverse=True)
-    mid = len(v) + inverse.reshape(3, -1).T  # (T, 3): midpoints of edges 01, 12, 20
-    v2 = np.concatenate([v, 0.5 * (v[unique[:, 0]] + v[unique[:, 1]])])
-    a, b, c = f.T
-    m01, m12, m20 = mid.T
-    f2 = np.concatenate([np.stack(x, axis=1) for x in
-                         ((a, m01, m20), (m01, b, m12), (m20, m12, c), (m01, m12, m20))])
-    return v2, f2
+TRANSFER_CANDIDATES = 8
 
 
-def refine(vertices: np.ndarray, triangles: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """Subdivide while that brings the triangle count nearer the target: (vertices, triangles, levels)."""
-    v, f = np.asarray(vertices, np.float64), np.asarray(triangles, np.int64)
-    levels = 0
-    while abs(np.log(4 * len(f) / target)) < abs(np.log(len(f) / target)):
-        v, f = subdivide(v, f)
-        levels += 1
-    return v, f, levels
+def transfer_normals(display_vertices, display_triangles, display_normals, proxy_vertices,
+                     proxy_triangles) -> np.ndarray:
+    """Unit normals (V', 3) at a decimated proxy's vertices: the display's (the mean of a vertex's
+    corner normals ``display_normals`` (T, 3, 3)) at the nearest display vertex on the same side,
+    i.e. whose normal is within 90 degrees of the proxy's own (a thin part's far side can be
+    nearer); the proxy's own normal where there is none."""
+    from scipy.spatial import cKDTree
+
+    from ..geometry.mesh_measures import angle_weighted_normals
+
+    t = np.asarray(display_triangles, np.int64).reshape(-1)
+    n = np.zeros((len(display_vertices), 3))
+    np.add.at(n, t, np.asarray(display_normals, np.float64).reshape(-1, 3))
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    own = angle_weighted_normals(proxy_vertices, proxy_triangles)
+    k = min(TRANSFER_CANDIDATES, len(n))
+    _, near = cKDTree(np.asarray(display_vertices, np.float64)).query(np.asarray(proxy_vertices, np.float64), k=k)
+    near = near.reshape(len(own), k)
+    same_side = np.einsum("pkd,pd->pk", n[near], own) > 0.0
+    first = np.argmax(same_side, axis=1)
+    out = n[near[np.arange(len(own)), first]]
+    return np.where(same_side.any(axis=1)[:, None], out, own)
 
 
-def subdivide_corners(corners: np.ndarray, levels: int) -> np.ndarray:
-    """Per-corner attributes (3T, c) of a triangle list subdivided like ``subdivide`` (same order).
+@dataclasses.dataclass
+class Refinement:
+    """A proxy refined from the display: its mesh and, per proxy triangle, the display triangle it
+    lies in and its corners' barycentrics there (so display attributes carry over exactly)."""
 
-    A subdivided proxy is drawn as the display: its triangles are the display's cut in four,
-    each display corner attribute (position, split normal, colour) interpolated linearly.
+    vertices: np.ndarray  # (V', 3)
+    triangles: np.ndarray  # (T', 3)
+    parent: np.ndarray  # (T',) display triangle
+    bary: np.ndarray  # (T', 3 corners, 3) barycentrics of each corner in its parent
+
+    def corners(self, display_corners: np.ndarray) -> np.ndarray:
+        """Per-corner display attributes (3T, c) at the proxy's corners, (3T', c)."""
+        a = np.asarray(display_corners)
+        a = a.reshape(-1, 3, a.shape[-1])[self.parent]
+        return np.einsum("tkm,tmc->tkc", self.bary, a).reshape(-1, a.shape[-1]).astype(a.dtype)
+
+
+def refine_for_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int) -> Refinement:
+    """The display refined until no edge is longer than MAX_EDGE_TEXELS texels of the atlas (about
+    SPACING_TEXELS on average), coarser if that would pass MAX_TRIANGLES."""
+    area = surface_area(vertices_mm, triangles)
+    texel_mm = np.sqrt(area / 0.5) / resolution  # the atlas's texel (``atlas.parametrize``)
+    max_edge = MAX_EDGE_TEXELS * texel_mm
+    while True:
+        refinement = refine_to_edge(vertices_mm, triangles, max_edge)
+        if len(refinement.triangles) <= MAX_TRIANGLES or len(refinement.triangles) == len(triangles):
+            return refinement
+        max_edge *= 1.02 * np.sqrt(len(refinement.triangles) / MAX_TRIANGLES)
+
+
+def refine_to_edge(vertices: np.ndarray, triangles: np.ndarray, max_edge: float, max_passes: int = 12) -> Refinement:
+    """Split every edge longer than ``max_edge`` (longest-edge bisection with conforming closure).
+
+    A triangle with any edge to split also splits its longest, then becomes two, three or four
+    triangles (Rivara's refinement: angles stay bounded). Unlike 1-to-4 subdivision of every
+    triangle, a mesh of uneven triangles comes out with even vertex spacing, which Lensch's blending
+    needs (a vertex hat about as wide as the local kernel). Midpoints stay on the flat triangles.
     """
-    a = np.asarray(corners)
-    for _ in range(levels):
-        t = a.reshape(-1, 3, a.shape[-1])
-        p0, p1, p2 = t[:, 0], t[:, 1], t[:, 2]
-        m01, m12, m20 = 0.5 * (p0 + p1), 0.5 * (p1 + p2), 0.5 * (p2 + p0)
-        groups = [(p0, m01, m20), (m01, p1, m12), (m20, m12, p2), (m01, m12, m20)]
-        a = np.concatenate([np.stack(g, axis=1) for g in groups]).reshape(-1, a.shape[-1]).astype(a.dtype)
-    return a
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(triangles, np.int64).reshape(-1, 3)
+    parent = np.arange(len(f))
+    bary = np.broadcast_to(np.eye(3), (len(f), 3, 3)).copy()
+    for _ in range(max_passes):
+        length = np.stack([np.linalg.norm(v[f[:, (k + 1) % 3]] - v[f[:, k]], axis=1) for k in range(3)], axis=1)
+        if length.max() <= max_edge:
+            break
+        # Rotate each triangle so that its longest edge is (0, 1).
+        r = np.argmax(length, axis=1)
+        idx = (r[:, None] + np.arange(3)[None, :]) % 3
+        f = np.take_along_axis(f, idx, axis=1)
+        bary = np.take_along_axis(bary, idx[:, :, None], axis=1)
+        length = np.take_along_axis(length, idx, axis=1)
+        edges = np.sort(np.stack([f, np.roll(f, -1, axis=1)], axis=2), axis=2)  # (T, 3, 2): 01, 12, 20
+        keys = edges[..., 0] * len(v) + edges[..., 1]
+        unique, inverse = np.unique(keys.ravel(), return_inverse=True)
+        inverse = inverse.reshape(-1, 3)
+        split = np.zeros(len(unique), bool)
+        split[inverse[length > max_edge]] = True
+        while True:  # closure: a triangle with a split edge splits its longest (edge 0) too
+            need = split[inverse].any(axis=1) & ~split[inverse[:, 0]]
+            if not need.any():
+                break
+            split[inverse[need, 0]] = True
+        mid = np.full(len(unique), -1, np.int64)
+        mid[split] = len(v) + np.arange(split.sum())
+        a_, b_ = unique[split] // len(v), unique[split] % len(v)
+        v = np.concatenate([v, 0.5 * (v[a_] + v[b_])])
+        m = mid[inverse]  # (T, 3): midpoint of edges 01, 12, 20 or -1
+        s01, s12, s20 = m[:, 0] >= 0, m[:, 1] >= 0, m[:, 2] >= 0
+        a, b, c = f.T
+        ba, bb, bc = bary[:, 0], bary[:, 1], bary[:, 2]
+        m01, m12, m20 = m.T
+        b01, b12, b20 = 0.5 * (ba + bb), 0.5 * (bb + bc), 0.5 * (bc + ba)
+        out_f, out_b, out_p = [f[~s01]], [bary[~s01]], [parent[~s01]]
+
+        def emit(sel, corners):
+            out_f.append(np.stack([x[0][sel] for x in corners], axis=1))
+            out_b.append(np.stack([x[1][sel] for x in corners], axis=1))
+            out_p.append(parent[sel])
+
+        A, B, C = (a, ba), (b, bb), (c, bc)
+        M01, M12, M20 = (m01, b01), (m12, b12), (m20, b20)
+        one = s01 & ~s12 & ~s20
+        emit(one, (A, M01, C))
+        emit(one, (M01, B, C))
+        right = s01 & s12 & ~s20
+        emit(right, (A, M01, C))
+        emit(right, (M01, B, M12))
+        emit(right, (M01, M12, C))
+        left = s01 & ~s12 & s20
+        emit(left, (A, M01, M20))
+        emit(left, (M20, M01, C))
+        emit(left, (M01, B, C))
+        full = s01 & s12 & s20
+        emit(full, (A, M01, M20))
+        emit(full, (M01, B, M12))
+        emit(full, (M20, M12, C))
+        emit(full, (M01, M12, M20))
+        f, bary, parent = np.concatenate(out_f), np.concatenate(out_b), np.concatenate(out_p)
+    return Refinement(v, f, parent, bary)
 
 
 def display_mapping(display_vertices: np.ndarray, display_triangles: np.ndarray, proxy_vertices: np.ndarray,

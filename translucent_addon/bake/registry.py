@@ -53,6 +53,9 @@ class BakeInputs:
     # TEXTURE_SPACE: a decimated proxy made by Blender (object space), or None to derive it here.
     proxy_vertices: np.ndarray | None = None
     proxy_triangles: np.ndarray | None = None
+    # TEXTURE_SPACE: the shading normals at each triangle corner (T, 3, 3), object space, or None
+    # (smooth, angle-weighted): the illumination map lights each texel with the normal the display shows.
+    corner_normals: np.ndarray | None = None
     # The object's stretch (scale without rotation, 3x3, the symmetric factor of the polar
     # decomposition of its world matrix): the physical size is stretch @ vertex * mm_per_unit.
     stretch: np.ndarray | None = None
@@ -89,6 +92,8 @@ class BakeInputs:
             # An automatic resolution is chosen once, at bake time: moving the camera later does not stale it.
             extra = {"res": int(self.geocube_resolution) or "auto", **stretch}
         geometry = {"vertices": self.vertices, "triangles": self.triangles}
+        if self.method == "TEXTURE_SPACE" and self.corner_normals is not None:
+            geometry["corner_normals"] = np.asarray(self.corner_normals, np.float32)
         if self.method == "QUADGRAPH":
             geometry = {"triangles": self.triangles}
             extra["vertex_count"] = int(len(self.vertices))

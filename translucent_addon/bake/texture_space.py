@@ -11,6 +11,7 @@ import time
 import numpy as np
 
 from . import lensch, proxy
+from ..geometry.mesh_measures import angle_weighted_normals
 from .atlas import build_atlas
 
 
@@ -36,18 +37,23 @@ def bake(inputs):
     S = inputs.stretch_matrix()  # physical mm = S @ object-space vertex * mm per unit
     display_v = np.asarray(inputs.vertices, np.float64) @ S.T * mm
     display_t = np.asarray(inputs.triangles, np.int64)
-    area = proxy.surface_area(display_v, display_t)
-    target = proxy.target_triangles(area, inputs.atlas_resolution)
-    yield 0.02, f"TEXTURE_SPACE: proxy mesh (about {target:,} triangles)"
-    levels = 0
+    yield 0.02, "TEXTURE_SPACE: proxy mesh"
+    # The display's shading normals at its corners, in mm space (normals transform with S^-T).
+    display_n = (angle_weighted_normals(display_v, display_t)[display_t] if inputs.corner_normals is None
+                 else np.asarray(inputs.corner_normals, np.float64).reshape(-1, 3, 3) @ np.linalg.inv(S))
+    refinement = None
     if inputs.proxy_vertices is not None:
         proxy_v = np.asarray(inputs.proxy_vertices, np.float64) @ S.T * mm
         proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
+        proxy_n = proxy.transfer_normals(display_v, display_t, display_n, proxy_v, proxy_t)[proxy_t]
     else:
-        proxy_v, proxy_t, levels = proxy.refine(display_v, display_t, target)
+        refinement = proxy.refine_for_atlas(display_v, display_t, inputs.atlas_resolution)
+        proxy_v, proxy_t = refinement.vertices, refinement.triangles
+        # The refined display's corners carry its normals, interpolated like the positions.
+        proxy_n = refinement.corners(display_n.reshape(-1, 3)).reshape(-1, 3, 3)
     yield 0.05, f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
     t_atlas = time.perf_counter()
-    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution)
+    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n)
     t_atlas = time.perf_counter() - t_atlas
     material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta))
     job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)
@@ -58,22 +64,24 @@ def bake(inputs):
     except StopIteration as done:
         tables = done.value
     yield 0.96, "TEXTURE_SPACE: display mapping"
-    if levels:  # the display, subdivided like the proxy, is drawn with the proxy's own coordinates
+    if refinement is not None:  # the refined display is drawn with the proxy's own coordinates
         display_uv = atlas.uv.reshape(-1, 2).astype(np.float64)
+        corners = refinement.corners(display_v[display_t].reshape(-1, 3))
     else:
         tri, bary = proxy.display_mapping(display_v, display_t, proxy_v, proxy_t)
         display_uv = _display_uv(atlas, tri, bary)
-    # T_p at each proxy vertex (Lensch Eq. 13): the base colour of the nearest display corner.
+        corners = display_v[display_t].reshape(-1, 3)
+    # T_p at each proxy vertex (Lensch Eq. 13): the base colour of the nearest (drawn) display corner.
     from scipy.spatial import cKDTree
 
-    corners = proxy.subdivide_corners(display_v[display_t].reshape(-1, 3), levels)
     _, vertex_corner = cKDTree(corners).query(proxy_v)
     arrays = {
         "proxy_vertices_mm": proxy_v.astype(np.float32),
         "proxy_triangles": proxy_t.astype(np.int32),
         "display_uv": display_uv.astype(np.float32),
         "vertex_corner": vertex_corner.astype(np.int32),
-        "display_subdivisions": np.array([levels], np.int32),
+        **({} if refinement is None else {"display_parent": refinement.parent.astype(np.int32),
+                                          "display_bary": refinement.bary.astype(np.float32)}),
         "stretch": S.astype(np.float64),
         **atlas.to_arrays(),
         **tables.to_arrays(),

@@ -390,8 +390,9 @@ def texture_space_series(scene, objects, resolutions, width: int, height: int, p
 
 def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
     """The CPU dipole model of the translucent objects (cached): (image, seconds, from cache)."""
-    # model 3: visibility by facet; the far side of thin parts in the far field; SH environment light
-    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 3}
+    # model 4: visibility by facet; the far side of thin parts in the far field; SH environment light;
+    # the near disk corrected by the samples' irradiance where it differs from E(x_o)
+    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 4}
     hit = cache.load(cache_dir, desc)
     if hit is not None:
         progress("dipole model reference: from the cache")

@@ -29,6 +29,23 @@ def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
 
+def angle_weighted_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unit vertex normals weighted by each corner's angle, as Blender computes a smooth mesh's."""
+    v = np.asarray(vertices, np.float64)
+    t = np.asarray(triangles, np.int64).reshape(-1, 3)
+    p = v[t]
+    face_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-30)
+    n = np.zeros_like(v)
+    for k in range(3):
+        a = p[:, (k + 1) % 3] - p[:, k]
+        b = p[:, (k + 2) % 3] - p[:, k]
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
+        np.add.at(n, t[:, k], face_n * np.arccos(np.clip(cos, -1.0, 1.0))[:, None])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+
+
 def facing_side(facet_normals, normals):
     """Facet normals turned to the side of the interpolated normals (whatever the winding)."""
     return facet_normals * np.where(np.einsum("ij,ij->i", facet_normals, normals) < 0, -1.0, 1.0)[:, None]

@@ -8,7 +8,8 @@ For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, J
 
 The integral is split by a smooth partition of unity w(r) (0 below rho, 1 above 2 rho): the near
 part takes E as E(x_o) and integrates R_d (1 - w) radially (1-D quadrature, so the sharp peak at
-r = 0 costs nothing); the far part is a midpoint quadrature over the surface, each triangle cut into
+r = 0 costs nothing), and the samples inside 2 rho add R_d (1 - w) (E(x_i) - E(x_o)) dA, the part
+of a shadow edge crossing the disk that E(x_o) misses (nothing where E is uniform); the far part is a midpoint quadrature over the surface, each triangle cut into
 n x n equal sub-triangles no larger than the target sample area, gathered with a KD-tree up to
 r_max (99.9 % of the profile's energy). rho is two sample spacings, so the far integrand is smooth
 on the sample grid. The near part stands for x_o's tangent disk: points well off that plane (the far
@@ -140,9 +141,12 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             rows, cols = pairs.row, pairs.col
             h_mm = np.abs(np.einsum("ij,ij->i", x_i[cols] - x_o[start + rows], n_o[start + rows])) * mm
             weight = partition_off_plane(r_mm, rho, h_mm) * area_mm2[cols]
-            far = weight > 0
-            rows, cols = rows[far], cols[far]
-            contrib = R_d(r_mm[far, None], sa, ss, medium.eta) * (E_i[cols] * weight[far, None])
+            # Far part: E_i w A_i. Near part: the disk integral took E(x_o); the samples add what E
+            # differs from it there, (E_i - E_o)(1 - w) A_i, so a shadow edge inside the disk is
+            # resolved on the sample grid (zero for a uniform E, which the disk integral has exactly).
+            near_share = area_mm2[cols] - weight
+            contrib = R_d(r_mm[:, None], sa, ss, medium.eta) * (
+                E_i[cols] * area_mm2[cols, None] - E_o[start + rows] * near_share[:, None])
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]

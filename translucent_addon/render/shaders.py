@@ -115,8 +115,8 @@ SPECS = {
     "ts_illumination": ShaderSpec(
         source="ts_illumination.glsl",
         libraries=_SHADOW_LIBS + ("translucent_world_sh.glsl",),
-        vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor")),
-        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
+        vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "facet")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_facet")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"),),
         push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("VEC3", "world_kernel"), ("VEC2", "atlas_size")),
@@ -144,7 +144,7 @@ SPECS = {
         varyings=(("flat", "VEC2", "v_source"), ("flat", "FLOAT", "v_row"), ("flat", "VEC3", "v_bary"),
                   ("flat", "VEC3", "v_verts")),
         samplers=((0, "FLOAT_2D", "irradiance"), (1, "FLOAT_2D", "kernels"), (2, "FLOAT_2D", "B_vertex")),
-        push_constants=(("INT", "vertex_width"), ("VEC2", "atlas_size")),
+        push_constants=(("INT", "vertex_width"), ("INT", "local_half"), ("VEC2", "atlas_size")),
         fragment_out=((0, "VEC4", "out_local"), (1, "VEC4", "out_global")),
     ),
     "ts_display": ShaderSpec(

@@ -67,7 +67,7 @@ class LevelGpu:
         nor = t.normals @ np.linalg.inv(self.stretch_inv)  # normals transform with S (S symmetric)
         nor = (nor / np.linalg.norm(nor, axis=1, keepdims=True)).astype(np.float32)
         self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.surface_texels, "pos": pos, "nor": nor})
+            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": nor})
 
     def set_material(self, kappa: np.ndarray, mu: np.ndarray) -> None:
         self.kappa = texture_from_array(self.tables.image(kappa))

@@ -22,7 +22,6 @@ import time
 import numpy as np
 
 from ...bake.lensch import global_product, throughput_matrices
-from ...bake.proxy import subdivide_corners
 from ...physics.sh_irradiance import transmittance_kernel
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
@@ -44,7 +43,7 @@ class Resources:
             self.F_indices = texture_from_array(t.F_indices, "R32F")
             self.F_data = texture_from_array(t.F_data, "RGBA32F")
         self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.texel, "pos": t.position, "nor": t.normal})
+            "texel": t.texel, "pos": t.position, "nor": t.normal, "facet": t.facet})
         self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
             "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
         self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
@@ -62,11 +61,11 @@ class Resources:
             from gpu_extras.batch import batch_for_shader
 
             self.display.clear()
-            k = self.tables.display_subdivisions
+            drawn = self.tables.drawn_corners
             batch = self.display[mesh.key] = batch_for_shader(shaders.get("ts_display"), "TRIS", {
-                "pos": np.ascontiguousarray(subdivide_corners(mesh.positions, k), np.float32),
-                "nor": np.ascontiguousarray(subdivide_corners(mesh.normals, k), np.float32),
-                "col": np.ascontiguousarray(subdivide_corners(mesh.colors, k), np.float32),
+                "pos": np.ascontiguousarray(drawn(mesh.positions), np.float32),
+                "nor": np.ascontiguousarray(drawn(mesh.normals), np.float32),
+                "col": np.ascontiguousarray(drawn(mesh.colors), np.float32),
                 "uv": self.tables.display_uv})
         return batch
 
@@ -83,7 +82,7 @@ def prepare(frame) -> list[Active]:
     return bake_cache.prepare(
         frame, "TEXTURE_SPACE",
         lambda arrays, mesh: Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays),
-        lambda res, mesh: len(res.tables.display_uv) == len(mesh.positions) * 4 ** res.tables.display_subdivisions)
+        lambda res, mesh: res.tables.fits(len(mesh.positions)))
 
 
 def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float) -> None:
@@ -147,7 +146,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
         t1 = time.perf_counter()
-        T_p = subdivide_corners(np.asarray(a.mesh.colors, np.float32), t.display_subdivisions)[t.vertex_corner]
+        T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
         vout_fb, (B_vertex,), _ = res.vertex_out
         if product_here == "CPU":
             B = global_product(res.sparse(), E_g, B_d) / np.maximum(T_p, 1e-4)
@@ -179,6 +178,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("kernels", res.kernels)
             shader.uniform_sampler("B_vertex", B_vertex)
             shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+            shader.uniform_int("local_half", t.local_half)
             shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
             res.filter_points.draw(shader)
             if pipeline.capture is not None:

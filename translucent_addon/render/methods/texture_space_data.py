@@ -12,7 +12,9 @@ import dataclasses
 import numpy as np
 
 from ...bake.atlas import TexelAtlas
+from ...geometry.mesh_measures import facing_side
 from ...bake.lensch import LenschBake, local_radiosity, vertex_radiosity
+from ...bake.proxy import Refinement
 
 TABLE_WIDTH = 4096
 GPU_PRODUCT_LIMIT = 1 << 24  # form factors the GPU product can index (float texels hold integers exactly)
@@ -36,10 +38,12 @@ class GpuTables:
     texel_count: int
     surface_count: int
     vertex_count: int
-    # Illumination points (every texel): atlas texel, surface point (object units), normal.
+    # Illumination points (every texel): atlas texel, surface point (object units), normal and
+    # the normal of its proxy triangle (turned to the normal's side).
     texel: np.ndarray
     position: np.ndarray
     normal: np.ndarray
+    facet: np.ndarray
     # Filter points (every texel): the source's texel, kernel row, barycentrics and vertices.
     source_texel: np.ndarray
     row: np.ndarray
@@ -51,12 +55,15 @@ class GpuTables:
     gather_dual: np.ndarray
     gather_blend: np.ndarray
     kernels: np.ndarray  # (rows, TABLE_WIDTH, 4) float16
+    local_half: int  # the local kernels are (2 local_half + 1)^2 texels
     F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
     F_indices: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
     F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
-    display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the (subdivided) display
-    vertex_corner: np.ndarray  # (V,) int32: display corner (after subdivision) nearest each proxy vertex
-    display_subdivisions: int
+    display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the drawn display
+    vertex_corner: np.ndarray  # (V,) int32: drawn display corner nearest each proxy vertex
+    # A refined proxy drawn in place of the display: each triangle's display triangle and corner
+    # barycentrics there (None: the display is drawn with its own triangles).
+    display_refinement: Refinement | None
     form_factors: int
 
     @property
@@ -67,18 +74,37 @@ class GpuTables:
     def vertex_size(self) -> tuple:
         return VERTEX_WIDTH, max(1, -(-self.vertex_count // VERTEX_WIDTH))
 
+    def drawn_corners(self, display_corners: np.ndarray) -> np.ndarray:
+        """Per-corner display attributes (3T, c) at the corners that are drawn (3T', c)."""
+        r = self.display_refinement
+        return np.asarray(display_corners) if r is None else r.corners(np.asarray(display_corners))
+
+    def fits(self, display_corner_count: int) -> bool:
+        """Whether the bake's display arrays belong to a display of this many corners."""
+        r = self.display_refinement
+        if r is None:
+            return len(self.display_uv) == display_corner_count
+        return len(self.display_uv) == 3 * len(r.parent) and int(r.parent.max()) < display_corner_count // 3
+
 
 def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
     """The atlas and Lensch tables of a stored bake. Kernel taps are not stored: with ``taps`` they
     are recomputed from the atlas (the CPU twin needs them, the GPU finds its taps itself)."""
-    from ...bake.lensch import LOCAL_OFFSETS, _taps
+    from ...bake.lensch import _offsets, _taps
 
     atlas = TexelAtlas.from_arrays(arrays)
     fields = {f.name: arrays.get(f"lensch_{f.name}") for f in dataclasses.fields(LenschBake)}
     fields["kernels"] = np.asarray(fields["kernels"], np.float32)
     if fields["kernel_taps"] is None and taps:
-        fields["kernel_taps"] = _taps(atlas, np.arange(atlas.surface_count), LOCAL_OFFSETS)
+        offsets = _offsets(local_half(fields["kernels"]))
+        fields["kernel_taps"] = _taps(atlas, np.arange(atlas.surface_count), offsets)
     return atlas, LenschBake(**fields)
+
+
+def local_half(kernels: np.ndarray) -> int:
+    """h of a bake's (2h+1)^2 local kernels (n, taps, 3)."""
+    side = int(round(np.sqrt(np.asarray(kernels).shape[1])))
+    return (side - 1) // 2
 
 
 def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
@@ -92,14 +118,19 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
     normal = atlas.normal.astype(np.float64) @ S
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
     tri = np.asarray(arrays["proxy_triangles"], np.int64)
+    p = np.asarray(arrays["proxy_vertices_mm"], np.float64)[tri[atlas.triangle]]
+    facet = facing_side(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) @ S, normal)
+    facet /= np.maximum(np.linalg.norm(facet, axis=1, keepdims=True), 1e-30)
     verts = tri[atlas.triangle]
     src = atlas.source
-    rows = np.asarray(arrays["lensch_kernels"], np.float16).reshape(n * 49, 3)
+    kernels = np.asarray(arrays["lensch_kernels"], np.float16)
+    rows = kernels.reshape(-1, 3)
     return GpuTables(
         atlas_size=(atlas.width, atlas.height), texel_count=N, surface_count=n, vertex_count=len(lensch.A_v),
         texel=atlas.texel_xy.astype(np.float32),
         position=position.astype(np.float32),
         normal=normal.astype(np.float32),
+        facet=facet.astype(np.float32),
         source_texel=atlas.texel_xy[src].astype(np.float32),
         row=src.astype(np.float32),
         bary=atlas.bary.astype(np.float32),
@@ -109,13 +140,16 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         gather_dual=lensch.dual_weights.reshape(-1).astype(np.float32),
         gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
         kernels=wrap(rows),
+        local_half=local_half(kernels),
         F_indptr=wrap(lensch.F_indptr.astype(np.int32), channels=1) if gpu_product else None,
         F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1) if gpu_product else None,
         F_data=wrap(np.asarray(lensch.F_data, np.float32)) if gpu_product else None,
         form_factors=int(len(lensch.F_indices)),
         display_uv=np.asarray(arrays["display_uv"], np.float32),
         vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
-        display_subdivisions=int(np.asarray(arrays.get("display_subdivisions", [0])).ravel()[0]),
+        display_refinement=None if "display_parent" not in arrays else Refinement(
+            None, None, np.asarray(arrays["display_parent"], np.int64),
+            np.asarray(arrays["display_bary"], np.float32).reshape(-1, 3, 3)),
     )
 
 
