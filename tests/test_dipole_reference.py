@@ -15,11 +15,8 @@ from translucent_addon.render.lights import emitters_from_light
 from translucent_addon.render.scene_data import CameraView, FrameInputs, MeshInstance
 
 
-def _plate(half=0.1, depth=0.05):
-    """A box half-width 'half' (units), top face at z = 0 (two triangles per face, flat normals)."""
-    h, d = half, depth
-    corners = np.array([[x, y, z] for z in (-d, 0.0) for y in (-h, h) for x in (-h, h)], float)
-    quads = [(4, 5, 7, 6), (0, 2, 3, 1), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+def _quads(corners, quads):
+    """Triangle corners and flat normals of quads (a, b, c, d) counter-clockwise."""
     pos, nor = [], []
     for q in quads:
         a, b, c, dd = corners[list(q)]
@@ -28,8 +25,54 @@ def _plate(half=0.1, depth=0.05):
         for tri in ((a, b, c), (a, c, dd)):
             pos.extend(tri)
             nor.extend([n] * 3)
-    pos = np.array(pos, np.float32)
-    return MeshInstance("plate", "Plate", pos, np.array(nor, np.float32), np.full_like(pos, 0.8), np.eye(4))
+    return np.array(pos, np.float32), np.array(nor, np.float32)
+
+
+def _plate(half=0.1, depth=0.05):
+    """A box half-width 'half' (units), top face at z = 0 (two triangles per face, flat normals)."""
+    h, d = half, depth
+    corners = np.array([[x, y, z] for z in (-d, 0.0) for y in (-h, h) for x in (-h, h)], float)
+    quads = [(4, 5, 7, 6), (0, 2, 3, 1), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    pos, nor = _quads(corners, quads)
+    return MeshInstance("plate", "Plate", pos, nor, np.full_like(pos, 0.8), np.eye(4))
+
+
+def _half_plane_profile(R_d, delta_mm):
+    """int R_d over the half-plane {x - x_o > delta} of a flat surface: (3,)."""
+    r = 60.0 * np.linspace(0.0, 1.0, 400_001) ** 2  # dense near r = 0, where R_d peaks
+    angle = 2.0 * np.arccos(np.clip(delta_mm / np.maximum(r, 1e-12), -1.0, 1.0))
+    return np.trapz(R_d(r[:, None]) * (r * angle)[:, None], r, axis=0)
+
+
+def test_a_shadow_edge_inside_the_near_disk_is_resolved():
+    """A wall shades the plate for -6 mm < x < 0 under a sun 45 degrees off the vertical. Across the
+    edge, L = F_t/pi E int_lit R_d: two half-plane integrals in closed form (1-D quadrature). The
+    near disk alone (E taken as E(x_o) out to 2 rho, rho = 0.36 mm here) is off by up to 53 % within
+    a millimetre of the edge; with the samples' correction the model holds to 2 %."""
+    from translucent_addon.physics.dipole import R_d
+
+    sa, ss, eta = (0.05, 0.2, 0.5), (1.0, 1.5, 2.0), 1.3
+    medium = Medium(sa, ss, eta, mm_per_unit=1000.0)  # a 40 mm plate, 20 mm thick
+    phi = math.radians(-45.0)
+    m = np.eye(4)
+    m[:3, :3] = [[math.cos(phi), 0, math.sin(phi)], [0, 1, 0], [-math.sin(phi), 0, math.cos(phi)]]
+    sun = emitters_from_light("sun", "SUN", m, (1, 1, 1), 3.0)
+    wall_pos, wall_nor = _quads(np.array([[-0.006, y, z] for z in (1e-5, 0.006) for y in (-0.03, 0.03)]),
+                                [(0, 1, 3, 2)])
+    wall = MeshInstance("wall", "Wall", wall_pos, wall_nor, np.full_like(wall_pos, 0.5), np.eye(4))
+    view = blocks.look_at((0, 0, 1.0), (0, 0, -1.0), (0, 1, 0))
+    width = 24
+    proj = blocks.orthographic(0.0024, 0.0001, 0.1, 10.0)  # x from -2.4 to 2.4 mm, one row
+    frame = FrameInputs([_plate(0.02, 0.02), wall], sun, CameraView(view, proj, width, 1), np.zeros(3))
+    img = render_dipole(frame, {"Plate": medium}, samples=200_000)
+    x_o = (np.arange(width) + 0.5) / width * 4.8 - 2.4  # pixel centres, mm
+    profile = lambda r: R_d(r, np.array(sa), np.array(ss), eta)  # noqa: E731
+    E = 3.0 * math.cos(math.radians(45)) * (1 - fresnel_dielectric(math.cos(math.radians(45)), eta))
+    lit = np.array([_half_plane_profile(profile, -x) + _half_plane_profile(profile, 6.0 + x) for x in x_o])
+    expected = (1 - fresnel_dielectric(1.0, eta)) / math.pi * E * lit
+    got = img[0, :, :3]
+    assert got[-1, 0] > 5 * got[0, 0] and got[0, 2] < 0.2 * got[-1, 2], "the edge is in the image"
+    np.testing.assert_allclose(got, expected, rtol=0.02)
 
 
 def test_plate_under_a_sun_matches_the_closed_form():

@@ -128,6 +128,50 @@ def test_inside_the_kernel_local_plus_global_is_the_kernel(plate_bake):
         np.testing.assert_allclose(B[o], exact, rtol=2e-3, atol=1e-6 * exact.max())
 
 
+def test_a_source_across_a_seam_enters_a_kernel_once():
+    """Across a sharp crease several gutter taps of a kernel can find the same source on the other
+    side. That source's light enters the kernel once: an impulse there gives A_s R_d at the texel,
+    as inside a chart, not that times the number of taps holding it."""
+    v, f = plate(30)
+    v[:, 2] = -3.0 * np.abs(v[:, 0])  # a ridge of 37 degrees along x = 0: the atlas cuts it
+    atlas, bake = baked(v, f, 128)
+    n = atlas.surface_count
+    repeated = lensch.repeated_sources(atlas, bake.kernel_taps)
+    rows = np.flatnonzero(repeated.any(axis=1))
+    assert len(rows) > 5, "the crease gives kernels with a source in several gutter taps"
+    assert np.all(bake.kernels[repeated] == 0.0)
+    J = lensch.texel_jacobians(atlas, v, f)
+    for o in rows[:6]:
+        k_rep = np.flatnonzero(repeated[o])[0]
+        s_src = atlas.source[bake.kernel_taps[o, k_rep]]
+        taps = bake.kernel_taps[o]
+        kept = [k for k in range(len(taps)) if taps[k] >= 0 and atlas.source[taps[k]] == s_src and not repeated[o, k]]
+        assert len(kept) == 1
+        E = np.zeros((atlas.count, 3))
+        E[s_src] = 1.0
+        E[n:] = E[atlas.source[n:]]
+        B = lensch.radiosity(atlas, bake, E)
+        ring = int(np.max(np.abs(lensch.LOCAL_OFFSETS[kept[0]])))
+        exact = atlas.area_mm2[s_src] * lensch._profile_texel(atlas, MATERIAL, J, np.array([o]), taps[kept],
+                                                             lensch.SUBTEXELS.get(ring, 1))[0]
+        np.testing.assert_allclose(B[o], exact, rtol=2e-3, atol=1e-6 * exact.max())
+
+
+def test_the_uniform_light_gain_leaves_the_far_response_alone(plate_bake):
+    """The calibration scales only a vertex's one-ring entries of F^0 (and B^d): light from farther
+    away keeps Lensch's point rule A_i / 3 R_d(|v_i - v_j|) exactly."""
+    v, f, atlas, bake = plate_bake
+    V = len(v)
+    rows = np.repeat(np.arange(V), np.diff(bake.F_indptr))
+    near = lensch.edge_entries(f, bake.F_indptr, bake.F_indices)
+    assert near.any() and (~near).any()
+    r = np.linalg.norm(v[bake.F_indices] - v[rows], axis=1)
+    point_rule = bake.A_v[bake.F_indices, None].astype(np.float64) / 3.0 * MATERIAL.R_d(r)
+    np.testing.assert_allclose(bake.F_data[~near], point_rule[~near], rtol=1e-5)
+    gain = bake.F_data[near] / point_rule[near]
+    assert np.abs(gain - 1.0).max() > 0.01, "the one-ring carries the calibration"
+
+
 def test_uniform_light_on_a_plate_gives_the_total_diffuse_reflectance(plate_bake):
     """B = R_dt (Jensen Eq. 6) far from the edges: +1..2 % after the uniform-light calibration
     (+2..5 % before it: the hats overshoot the convex R_d)."""
@@ -192,6 +236,33 @@ def test_refinement_caps_the_triangle_count():
     v, f = sphere()
     r = proxy.refine_for_atlas(v, f, 4096)
     assert 0.5 * proxy.MAX_TRIANGLES < len(r.triangles) <= proxy.MAX_TRIANGLES
+
+
+def test_texels_take_the_corner_normals_they_are_given():
+    """The atlas interpolates the shading normals it is given per corner: flat-shaded corners give
+    every texel its facet's normal; none gives the smooth vertex normals."""
+    v, f = sphere(rings=8, segments=12)
+    p = v[f]
+    facet = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    facet /= np.linalg.norm(facet, axis=1, keepdims=True)
+    flat = build_atlas(v, f, 128, np.repeat(facet[:, None, :], 3, axis=1))
+    np.testing.assert_allclose(flat.normal, facet[flat.triangle], atol=1e-6)
+    smooth = build_atlas(v, f, 128)
+    assert np.median(np.einsum("ij,ij->i", smooth.normal, facet[smooth.triangle])) < 0.9999
+
+
+def test_a_decimated_proxy_takes_the_display_normal_on_its_own_side():
+    """A proxy vertex of a thin part can lie nearer the far side's display vertices; it takes the
+    nearest display normal that faces its own way."""
+    top = np.array([[-1, -1, 0.3], [1, -1, 0.3], [0, 1, 0.3]], float)
+    bottom = top * [1, 1, 0] + [0, 0, -0.1]
+    display_v = np.concatenate([top, bottom])
+    display_t = np.array([[0, 1, 2], [3, 5, 4]])
+    up, down = np.array([0, 0, 1.0]), np.array([0, 0, -1.0])
+    display_n = np.stack([np.tile(up, (3, 1)), np.tile(down, (3, 1))])
+    proxy_v = top * [1, 1, 0]  # the mid plane, nearer the bottom
+    n = proxy.transfer_normals(display_v, display_t, display_n, proxy_v, np.array([[0, 1, 2]]))
+    np.testing.assert_allclose(n, np.tile(up, (3, 1)))
 
 
 def test_display_mapping_of_the_proxy_itself_is_the_identity():

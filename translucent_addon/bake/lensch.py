@@ -228,8 +228,13 @@ class _GlobalResponse:
     vertices of a triangle pair is evaluated once per distinct pair.
     """
 
-    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material, gain=None):
+    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material, throughput_csr, gain=None):
         self.atlas, self.material = atlas, material
+        # F^0 as stored (dropped entries, hat-integrated pairs across thin parts), looked up by the
+        # sorted keys receiver * V + source, so that the correction removes exactly what the run adds.
+        indptr, self.F_indices, self.F_data = throughput_csr
+        V = len(indptr) - 1
+        self.F_keys = np.repeat(np.arange(V, dtype=np.int64), np.diff(indptr)) * V + self.F_indices
         self.gain = gain  # (V, 3): the uniform-light calibration of each receiving vertex, or None
         self.t = np.asarray(triangles, np.int64)
         self.v = np.asarray(vertices_mm, np.float64)
@@ -245,10 +250,12 @@ class _GlobalResponse:
         unique, inverse = np.unique(key, return_inverse=True)
         us, uo = unique // len(self.t), unique % len(self.t)
         Vs, Vo = self.t[us], self.t[uo]  # (U, 3)
-        r = np.linalg.norm(self.v[Vs][:, :, None, :] - self.v[Vo][:, None, :, :], axis=3)  # (U, 3, 3)
-        F = (self.A_v[Vs][:, :, None, None] / 3.0) * self.material.R_d(r.ravel()).reshape(len(unique), 3, 3, 3)
-        same = Vs[:, :, None] == Vo[:, None, :]
-        F[same] = 0.0  # F^0: no vertex sends to itself
+        V = len(self.v)
+        keys = (Vo[:, None, :] * V + Vs[:, :, None]).ravel()  # (U, 3 sources, 3 receivers)
+        pos = np.minimum(np.searchsorted(self.F_keys, keys), max(len(self.F_keys) - 1, 0))
+        found = self.F_keys[pos] == keys if len(self.F_keys) else np.zeros(len(keys), bool)
+        F = np.where(found[:, None], self.F_data[pos], 0.0).reshape(len(unique), 3, 3, 3)
+        same = Vs[:, :, None] == Vo[:, None, :]  # F^0 has no diagonal: no vertex sends to itself
         beta_o = at.bary[o].astype(np.float64)
         if self.gain is None:
             B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
@@ -435,7 +442,7 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
     taps, K = local_kernels(atlas, material, J)
     n = atlas.surface_count
     if blend:
-        response = _GlobalResponse(atlas, triangles, vertices_mm, A_v, dual_w, material)
+        response = _GlobalResponse(atlas, triangles, vertices_mm, A_v, dual_w, material, (indptr, indices, data))
         yield 0.45, "blending weights on the 9x9 ring (Lensch 5.4)"
         # Reach of B^d: one edge (A_v is six triangles of sqrt(3)/4 h^2) beyond the 7x7 kernel, in texels.
         texel = float(np.sqrt(np.median(atlas.area_mm2[:n])))
