@@ -65,6 +65,23 @@ def test_bake_survives_save_and_reload_and_edits_mark_it_stale(tr, scene, tmp_pa
     assert _status(tr, ob) == "STALE"
 
 
+def test_texture_space_bakes_the_shading_normals_and_goes_stale_when_they_change(tr, scene):
+    """The illumination map lights each texel with the normal the display shows: the bake takes the
+    mesh's corner normals, and shading it flat (same vertices) needs a new bake."""
+    ob = _spot(tr, scene)
+    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    got = inputs.gather(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+    me = ob.data
+    me.calc_loop_triangles()
+    loops = np.array([lt.loops[:] for lt in me.loop_triangles])
+    corner = np.array([c.vector[:] for c in me.corner_normals])[loops]
+    np.testing.assert_allclose(got.corner_normals, corner, atol=1e-6)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    assert _status(tr, ob) == "OK"
+    bpy.ops.object.shade_flat()
+    assert _status(tr, ob) == "STALE"
+
+
 def test_clear_bake_removes_it(tr, scene):
     ob = _spot(tr, scene)
     bpy.ops.translucent.bake()

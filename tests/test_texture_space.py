@@ -14,9 +14,9 @@ from conftest import ext_module  # noqa: E402
 RESOLUTION = 192  # atlas texels: a 5 cm ball bakes in a few seconds
 
 
-def _baked_ball(scene, tr, location=(0, 0, 0.05), preset="skin1"):
+def _baked_ball(scene, tr, location=(0, 0, 0.05), preset="skin1", segments=32, rings=16):
     set_world(scene, (0.02, 0.02, 0.025))
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.05, location=location)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=0.05, location=location)
     ob = bpy.context.active_object
     ob.name = "Ball"
     bpy.ops.object.shade_smooth()
@@ -56,6 +56,31 @@ def test_gpu_passes_equal_the_cpu_twin_of_the_same_irradiance(tr, scene):
     for gpu_values, cpu in ((gpu_local, local), (gpu_global, glob)):
         assert cpu.max() > 0
         np.testing.assert_allclose(gpu_values, cpu, rtol=1e-3, atol=1e-4 * cpu.max())
+
+
+def test_a_facet_turned_away_from_the_light_gets_only_the_world(tr, scene):
+    """On a coarse smooth ball the terminator runs inside facets: texels whose interpolated normal
+    still faces the lamp but whose facet does not get the world's irradiance only (as the base
+    pass, the dipole model and Cycles' shadow rays see them); texels just across, on facets facing
+    the lamp at the same normal angles, are lit."""
+    ob = _baked_ball(scene, tr, segments=10, rings=6)
+    render(scene, 64, 48)
+    ts = _maps(tr)
+    data = ext_module(tr, "translucent_addon.render.methods.texture_space_data")
+    t = data.gpu_tables(ts["arrays"], ob.translucent.mm_per_unit)
+    M = np.array(ob.matrix_world)
+    p = t.position @ M[:3, :3].T + M[:3, 3]
+    to_light = np.array(bpy.data.objects["POINT light"].location) - p
+    to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
+    cos_n = np.einsum("ij,ij->i", t.normal @ np.linalg.inv(M[:3, :3]), to_light)
+    cos_g = np.einsum("ij,ij->i", t.facet @ np.linalg.inv(M[:3, :3]), to_light)
+    E = ts["irradiance"][t.texel[:, 1].astype(int), t.texel[:, 0].astype(int), :3]
+    world = np.median(E[cos_n < -0.3], axis=0)  # a uniform world: the same everywhere
+    turned = (cos_g < -0.01) & (cos_n > 0.02)
+    assert turned.sum() > 50
+    np.testing.assert_allclose(E[turned], np.broadcast_to(world, E[turned].shape), rtol=1e-3)
+    across = (cos_g > 0.01) & (cos_n > 0.02) & (cos_n < cos_n[turned].max())
+    assert across.sum() > 50 and np.median(E[across][:, 0]) > 1.5 * world[0]
 
 
 def test_cpu_product_draws_the_same_image_as_the_gpu_product(tr, scene):

@@ -252,9 +252,12 @@ class _GlobalResponse:
         Vs, Vo = self.t[us], self.t[uo]  # (U, 3)
         V = len(self.v)
         keys = (Vo[:, None, :] * V + Vs[:, :, None]).ravel()  # (U, 3 sources, 3 receivers)
-        pos = np.minimum(np.searchsorted(self.F_keys, keys), max(len(self.F_keys) - 1, 0))
-        found = self.F_keys[pos] == keys if len(self.F_keys) else np.zeros(len(keys), bool)
-        F = np.where(found[:, None], self.F_data[pos], 0.0).reshape(len(unique), 3, 3, 3)
+        F = np.zeros((len(keys), 3))
+        if len(self.F_keys):
+            pos = np.minimum(np.searchsorted(self.F_keys, keys), len(self.F_keys) - 1)
+            found = self.F_keys[pos] == keys
+            F[found] = self.F_data[pos[found]]
+        F = F.reshape(len(unique), 3, 3, 3)
         same = Vs[:, :, None] == Vo[:, None, :]  # F^0 has no diagonal: no vertex sends to itself
         beta_o = at.bary[o].astype(np.float64)
         if self.gain is None:
