@@ -163,6 +163,12 @@ def hat_integrals(vertices, triangles, src, dst, material, quadrature: int = HAT
     return out
 
 
+def _across(n_src, n_dst, r, A_src) -> np.ndarray:
+    """Pairs across a thin part: vertex normals more than 90 degrees apart, closer than
+    ACROSS_REACH sqrt(A_i) (broadcasting over leading axes; normals on the last)."""
+    return (np.sum(n_src * n_dst, axis=-1) < 0.0) & (r < ACROSS_REACH * np.sqrt(A_src))
+
+
 def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, threshold: float = THRESHOLD,
                triangles: np.ndarray | None = None):
     """F^0 gathered by receiver as CSR: row j holds the sources i with F_ij (Lensch 5.2).
@@ -192,8 +198,7 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
     if triangles is not None:
         n = vertex_normals(v, np.asarray(triangles, np.int64))
         r = np.linalg.norm(v[src] - v[dst], axis=1)
-        across = np.flatnonzero((np.einsum("ij,ij->i", n[src], n[dst]) < 0.0)
-                                & (r < ACROSS_REACH * np.sqrt(A_v[src])))
+        across = np.flatnonzero(_across(n[src], n[dst], r, A_v[src]))
         data[across] = hat_integrals(v, triangles, src[across], dst[across], material)
     keep = data.max(axis=1) >= threshold
     src, dst, data = src[keep], dst[keep], data[keep]
@@ -225,20 +230,23 @@ class _GlobalResponse:
 
     B^g0(o) = sum_j beta_j(o) sum_k d_k(s) F^0_kj and phi_k(o) = sum_j beta_j(o) [v_j(o) = v_k(s)],
     the hat of s's vertex k seen at o (what B^d of weight w_k adds there). F^0 between the six
-    vertices of a triangle pair is evaluated once per distinct pair.
+    vertices of a triangle pair is evaluated once per distinct pair, as ``throughput`` stores it
+    (the point rule, entries under the threshold dropped, the hat integral across thin parts, looked
+    up), so that the correction removes exactly what the run adds.
     """
 
-    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material, throughput_csr, gain=None):
-        self.atlas, self.material = atlas, material
-        # F^0 as stored (dropped entries, hat-integrated pairs across thin parts), looked up by the
-        # sorted keys receiver * V + source, so that the correction removes exactly what the run adds.
-        indptr, self.F_indices, self.F_data = throughput_csr
-        V = len(indptr) - 1
-        self.F_keys = np.repeat(np.arange(V, dtype=np.int64), np.diff(indptr)) * V + self.F_indices
-        self.gain = gain  # (V, 3): the uniform-light calibration of each receiving vertex, or None
+    def __init__(self, atlas, triangles, vertices_mm, A_v, dual, material, throughput_csr,
+                 threshold: float = THRESHOLD, gain=None):
+        self.atlas, self.material, self.threshold = atlas, material, threshold
         self.t = np.asarray(triangles, np.int64)
         self.v = np.asarray(vertices_mm, np.float64)
+        self.V = len(self.v)
         self.A_v = A_v
+        self.normals = vertex_normals(self.v, self.t)
+        indptr, F_indices, self.F_data = throughput_csr
+        # Sorted keys receiver * V + source of the stored entries (rows by receiver, columns ascending).
+        self.F_keys = np.repeat(np.arange(self.V, dtype=np.int64), np.diff(indptr)) * self.V + F_indices
+        self.gain = gain  # (V, 3): the uniform-light calibration of each receiving vertex, or None
         self.dual = dual  # (n_surface, 3)
         self._edges = None
 
@@ -250,27 +258,31 @@ class _GlobalResponse:
         unique, inverse = np.unique(key, return_inverse=True)
         us, uo = unique // len(self.t), unique % len(self.t)
         Vs, Vo = self.t[us], self.t[uo]  # (U, 3)
-        V = len(self.v)
-        keys = (Vo[:, None, :] * V + Vs[:, :, None]).ravel()  # (U, 3 sources, 3 receivers)
-        F = np.zeros((len(keys), 3))
-        if len(self.F_keys):
-            pos = np.minimum(np.searchsorted(self.F_keys, keys), len(self.F_keys) - 1)
-            found = self.F_keys[pos] == keys
-            F[found] = self.F_data[pos[found]]
-        F = F.reshape(len(unique), 3, 3, 3)
+        r = np.linalg.norm(self.v[Vs][:, :, None, :] - self.v[Vo][:, None, :, :], axis=3)  # (U, 3, 3)
+        F = ((self.A_v[Vs][:, :, None, None] / 3.0) * self.material.R_d(r.ravel()).reshape(len(unique), 3, 3, 3)
+             ).astype(np.float32)
+        F[F.max(axis=3) < self.threshold] = 0.0
         same = Vs[:, :, None] == Vo[:, None, :]  # F^0 has no diagonal: no vertex sends to itself
+        F[same] = 0.0
+        across = _across(self.normals[Vs][:, :, None, :], self.normals[Vo][:, None, :, :], r,
+                         self.A_v[Vs][:, :, None]) & ~same
+        if across.any() and len(self.F_keys):  # hat-integrated in the stored F: looked up
+            keys = (Vo[:, None, :] * self.V + Vs[:, :, None])[across]
+            pos = np.minimum(np.searchsorted(self.F_keys, keys), len(self.F_keys) - 1)
+            F[across] = np.where((self.F_keys[pos] == keys)[:, None], self.F_data[pos], 0.0)
+        F = F.astype(np.float64)
         beta_o = at.bary[o].astype(np.float64)
+        dual_s = self.dual[s]
         if self.gain is None:
-            B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
+            B_g0 = np.einsum("pk,pkjc,pj->pc", dual_s, F[inverse], beta_o)
             phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
             return B_g0, phi
         g = self.gain[Vo]  # (U, 3 receivers, 3 channels)
-        V = len(self.v)
         if self._edges is None:
-            self._edges = _edge_keys(self.t, V)
-        edge = np.isin(Vs[:, :, None] * V + Vo[:, None, :], self._edges)  # (U, 3 sources, 3 receivers)
+            self._edges = _edge_keys(self.t, self.V)
+        edge = _in_sorted(Vs[:, :, None] * self.V + Vo[:, None, :], self._edges)  # (U, 3 sources, 3 receivers)
         F *= np.where(edge[..., None], g[:, None, :, :], 1.0)
-        B_g0 = np.einsum("pk,pkjc,pj->pc", self.dual[s], F[inverse], beta_o)
+        B_g0 = np.einsum("pk,pkjc,pj->pc", dual_s, F[inverse], beta_o)
         phi = np.einsum("pkjc,pj->pkc", (same[:, :, :, None] * g[:, None, :, :])[inverse], beta_o)
         return B_g0, phi
 
@@ -445,7 +457,8 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
     taps, K = local_kernels(atlas, material, J)
     n = atlas.surface_count
     if blend:
-        response = _GlobalResponse(atlas, triangles, vertices_mm, A_v, dual_w, material, (indptr, indices, data))
+        response = _GlobalResponse(atlas, triangles, vertices_mm, A_v, dual_w, material, (indptr, indices, data),
+                                   threshold)
         yield 0.45, "blending weights on the 9x9 ring (Lensch 5.4)"
         # Reach of B^d: one edge (A_v is six triangles of sqrt(3)/4 h^2) beyond the 7x7 kernel, in texels.
         texel = float(np.sqrt(np.median(atlas.area_mm2[:n])))
@@ -537,7 +550,15 @@ def edge_entries(triangles: np.ndarray, F_indptr: np.ndarray, F_indices: np.ndar
     """(nnz,) bool: entries of F (row j, column i) whose vertices share an edge (the one-ring)."""
     V = len(F_indptr) - 1
     rows = np.repeat(np.arange(V, dtype=np.int64), np.diff(F_indptr))
-    return np.isin(rows * V + F_indices, _edge_keys(triangles, V))
+    return _in_sorted(rows * V + F_indices, _edge_keys(triangles, V))
+
+
+def _in_sorted(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
+    """keys (any shape) found in the sorted 1-D ``sorted_keys`` (np.isin without sorting again)."""
+    if len(sorted_keys) == 0:
+        return np.zeros(np.shape(keys), bool)
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), len(sorted_keys) - 1)
+    return sorted_keys[pos] == keys
 
 
 def _edge_keys(triangles: np.ndarray, V: int) -> np.ndarray:
