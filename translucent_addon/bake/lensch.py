@@ -244,8 +244,11 @@ class _GlobalResponse:
         self.A_v = A_v
         self.normals = vertex_normals(self.v, self.t)
         indptr, F_indices, self.F_data = throughput_csr
+        rows = np.repeat(np.arange(self.V, dtype=np.int64), np.diff(indptr))
         # Sorted keys receiver * V + source of the stored entries (rows by receiver, columns ascending).
-        self.F_keys = np.repeat(np.arange(self.V, dtype=np.int64), np.diff(indptr)) * self.V + F_indices
+        self.F_keys = rows * self.V + F_indices
+        r = np.linalg.norm(self.v[F_indices] - self.v[rows], axis=1)
+        self.has_across = bool(_across(self.normals[F_indices], self.normals[rows], r, self.A_v[F_indices]).any())
         self.gain = gain  # (V, 3): the uniform-light calibration of each receiving vertex, or None
         self.dual = dual  # (n_surface, 3)
         self._edges = None
@@ -259,18 +262,16 @@ class _GlobalResponse:
         us, uo = unique // len(self.t), unique % len(self.t)
         Vs, Vo = self.t[us], self.t[uo]  # (U, 3)
         r = np.linalg.norm(self.v[Vs][:, :, None, :] - self.v[Vo][:, None, :, :], axis=3)  # (U, 3, 3)
-        F = ((self.A_v[Vs][:, :, None, None] / 3.0) * self.material.R_d(r.ravel()).reshape(len(unique), 3, 3, 3)
-             ).astype(np.float32)
+        F = (self.A_v[Vs][:, :, None, None] / 3.0) * self.material.R_d(r.ravel()).reshape(len(unique), 3, 3, 3)
         F[F.max(axis=3) < self.threshold] = 0.0
         same = Vs[:, :, None] == Vo[:, None, :]  # F^0 has no diagonal: no vertex sends to itself
         F[same] = 0.0
-        across = _across(self.normals[Vs][:, :, None, :], self.normals[Vo][:, None, :, :], r,
-                         self.A_v[Vs][:, :, None]) & ~same
-        if across.any() and len(self.F_keys):  # hat-integrated in the stored F: looked up
+        if self.has_across:  # pairs hat-integrated in the stored F: looked up
+            across = _across(self.normals[Vs][:, :, None, :], self.normals[Vo][:, None, :, :], r,
+                             self.A_v[Vs][:, :, None]) & ~same
             keys = (Vo[:, None, :] * self.V + Vs[:, :, None])[across]
             pos = np.minimum(np.searchsorted(self.F_keys, keys), len(self.F_keys) - 1)
             F[across] = np.where((self.F_keys[pos] == keys)[:, None], self.F_data[pos], 0.0)
-        F = F.astype(np.float64)
         beta_o = at.bary[o].astype(np.float64)
         dual_s = self.dual[s]
         if self.gain is None:
@@ -406,10 +407,12 @@ def blending_weights(atlas: TexelAtlas, material: Material, response: _GlobalRes
 
 
 def corrected_kernels(atlas: TexelAtlas, taps: np.ndarray, K: np.ndarray, w: np.ndarray,
-                      response: _GlobalResponse) -> np.ndarray:
-    """K'_o(i) = K_o(i) - (B^g0 + B^d)(i -> o): the kernel minus the global response inside it (Lensch 5.4)."""
+                      response: _GlobalResponse, repeated: np.ndarray | None = None) -> np.ndarray:
+    """K'_o(i) = K_o(i) - (B^g0 + B^d)(i -> o): the kernel minus the global response inside it (Lensch 5.4).
+    ``repeated``: ``repeated_sources(atlas, taps)`` if already known."""
     K = K.copy()
-    o_idx, k_idx = np.nonzero((taps >= 0) & ~repeated_sources(atlas, taps))
+    repeated = repeated_sources(atlas, taps) if repeated is None else repeated
+    o_idx, k_idx = np.nonzero((taps >= 0) & ~repeated)
     s_idx = atlas.source[taps[o_idx, k_idx]]  # a gutter texel's light enters at its source
     for a in range(0, len(o_idx), _CHUNK):
         sl = slice(a, a + _CHUNK)
@@ -467,14 +470,15 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
         outer = FIT_OUTER if FIT_OUTER is not None else outer
         w = blending_weights(atlas, material, response, outer)
         yield 0.7, "kernel correction (Lensch 5.4)"
-        K_corrected = corrected_kernels(atlas, taps, K, w, response)
+        repeated = repeated_sources(atlas, taps)
+        K_corrected = corrected_kernels(atlas, taps, K, w, response, repeated)
         if calibrate:
             yield 0.8, "uniform-light calibration of the global response"
             first = LenschBake(A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w, blend_weights=w,
                                kernel_taps=taps, kernels=K_corrected, F_indptr=indptr, F_indices=indices, F_data=data)
             gain = uniform_gain(atlas, first, vertices_mm, triangles, material)
             response.gain = gain
-            K_corrected = corrected_kernels(atlas, taps, K, w, response)
+            K_corrected = corrected_kernels(atlas, taps, K, w, response, repeated)
             scaled = apply_gain(first, gain, triangles)
             w, data = scaled.blend_weights, scaled.F_data
         K = K_corrected
