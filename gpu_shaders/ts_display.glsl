@@ -42,6 +42,9 @@ void main()
   vec4 l = bilinear(local_map, v_uv);
   vec4 g = bilinear(global_map, v_uv);
   vec3 B = (l.a > 0.0 ? l.rgb / l.a : vec3(0.0)) + v_color * (g.a > 0.0 ? g.rgb / g.a : vec3(0.0));
+  /* The corrected kernels are negative where the vertex response overshoots; at a terminator the sum
+   * can dip below zero in a short channel. Radiosity cannot. */
+  B = max(B, vec3(0.0));
   out_color = vec4((1.0 - F_r) / PI * B + F_r * frame.world_color.rgb, 1.0);
 }
 #endif
