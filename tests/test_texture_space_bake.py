@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from translucent_addon.bake import lensch, proxy, store
-from translucent_addon.bake.atlas import build_atlas, rasterize
+from translucent_addon.bake.atlas import build_atlas, rasterize, texel_mm
 from translucent_addon.geometry.mesh_measures import vertex_areas
 from translucent_addon.physics.dipole import total_diffuse_reflectance
 from translucent_addon.physics.presets import load_presets
@@ -215,7 +215,7 @@ def test_refinement_splits_long_edges_evenly_and_keeps_the_surface():
     v = v * np.array([3.0, 1.0, 1.0])
     area = proxy.surface_area(v, f)
     r = proxy.refine_for_atlas(v, f, 256)
-    texel = np.sqrt(area / 0.5) / 256
+    texel = texel_mm(area, 256)
     lengths = _edges(r.vertices, r.triangles)
     assert lengths.max() <= proxy.MAX_EDGE_TEXELS * texel * (1 + 1e-9)
     assert lengths.max() < 2.5 * np.median(lengths)  # even: subdivision 1-to-4 keeps the input's 3x spread

@@ -69,6 +69,12 @@ class TexelAtlas:
         return cls(width=width, height=height, surface_count=surface, **{n: arrays[f"{prefix}{n}"] for n in names})
 
 
+def texel_mm(area_mm2: float, resolution: int) -> float:
+    """The side of a texel in mm for a surface of this area at about ``resolution`` texels a side: charts
+    cover about half of the square once the wide gutters are counted."""
+    return float(np.sqrt(max(area_mm2, 1e-30) / 0.5)) / float(resolution)
+
+
 def parametrize(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int, padding: int = 2 * BORDER):
     """xatlas charts packed at about ``resolution`` texels a side: (uv (T,3,2) texel units, chart (T,), w, h)."""
     import xatlas
@@ -82,8 +88,7 @@ def parametrize(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int,
     pack.padding = int(padding)
     pack.bilinear = True
     pack.resolution = 0  # one atlas, as large as the texel density makes it
-    # Charts cover about half of the square once the wide gutters are counted.
-    pack.texels_per_unit = float(resolution) * float(np.sqrt(0.5 / max(area, 1e-30)))
+    pack.texels_per_unit = 1.0 / texel_mm(area, resolution)
     atlas.generate(pack_options=pack)
     vmapping, indices, uvs = atlas[0]
     if len(indices) != len(t) or not np.array_equal(vmapping[indices], t):

@@ -25,11 +25,9 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         mesh.loop_triangles.foreach_get("vertices", triangles)
         corner_normals = None
         if (method or original.translucent.method) == "TEXTURE_SPACE":
-            tri_loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-            mesh.loop_triangles.foreach_get("loops", tri_loops)
-            loop_normals = np.empty(len(mesh.loops) * 3, np.float32)
-            mesh.corner_normals.foreach_get("vector", loop_normals)
-            corner_normals = loop_normals.reshape(-1, 3)[tri_loops].reshape(-1, 3, 3)
+            from ..render.extract import mesh_corner_arrays
+
+            corner_normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
     finally:
         ob_eval.to_mesh_clear()
     props = original.translucent

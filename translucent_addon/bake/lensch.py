@@ -476,10 +476,11 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
             yield 0.8, "uniform-light calibration of the global response"
             first = LenschBake(A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w, blend_weights=w,
                                kernel_taps=taps, kernels=K_corrected, F_indptr=indptr, F_indices=indices, F_data=data)
-            gain = uniform_gain(atlas, first, vertices_mm, triangles, material)
+            one_ring = edge_entries(triangles, indptr, indices)
+            gain = uniform_gain(atlas, first, vertices_mm, triangles, material, one_ring)
             response.gain = gain
             K_corrected = corrected_kernels(atlas, taps, K, w, response, repeated)
-            scaled = apply_gain(first, gain, triangles)
+            scaled = apply_gain(first, gain, one_ring)
             w, data = scaled.blend_weights, scaled.F_data
         K = K_corrected
     else:
@@ -498,7 +499,8 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
 GAIN_LIMITS = (0.5, 2.0)
 
 
-def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, material: Material) -> np.ndarray:
+def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, material: Material,
+                 one_ring: np.ndarray) -> np.ndarray:
     """Per-vertex calibration of the global response (V, 3), so that uniform light is exact.
 
     Under a uniform irradiance the exact radiosity at v_j is int_S R_d(|x - v_j|) dx = sum_i int psi_i
@@ -527,9 +529,9 @@ def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, 
     B_local, B_global = radiosity_parts(atlas, bake, E1)
     # The gain scales the near global response only (B^d and F^0 from the one-ring): the light
     # from farther away (across a ridge, through a thin part) is the point rule's, kept as it is.
-    near = edge_entries(t, bake.F_indptr, bake.F_indices)
+    # ``one_ring``: edge_entries of the bake's F.
     far_only = dataclasses.replace(bake, blend_weights=np.zeros_like(bake.blend_weights),
-                                   F_data=np.where(near[:, None], 0.0, bake.F_data).astype(np.float32))
+                                   F_data=np.where(one_ring[:, None], 0.0, bake.F_data).astype(np.float32))
     B_far = radiosity_parts(atlas, far_only, E1)[1]
     weight = atlas.bary[:n].astype(np.float64) ** 2
     verts = bake.dual_vertices.astype(np.int64)
@@ -573,13 +575,13 @@ def _edge_keys(triangles: np.ndarray, V: int) -> np.ndarray:
     return np.unique(a * V + b)
 
 
-def apply_gain(bake: "LenschBake", gain: np.ndarray, triangles: np.ndarray) -> "LenschBake":
-    """Scale each receiving vertex's near global response: its one-ring entries of F^0 and the B^d
-    weights landing on it."""
+def apply_gain(bake: "LenschBake", gain: np.ndarray, one_ring: np.ndarray) -> "LenschBake":
+    """Scale each receiving vertex's near global response: its one-ring entries of F^0 (``one_ring``,
+    ``edge_entries``) and the B^d weights landing on it."""
     V = len(bake.A_v)
     rows = np.repeat(np.arange(V), np.diff(bake.F_indptr))
     w = bake.blend_weights * gain[bake.dual_vertices.astype(np.int64)]
-    scale = np.where(edge_entries(triangles, bake.F_indptr, bake.F_indices)[:, None], gain[rows], 1.0)
+    scale = np.where(one_ring[:, None], gain[rows], 1.0)
     return dataclasses.replace(bake, F_data=(bake.F_data * scale).astype(np.float32),
                                blend_weights=w.astype(np.float32))
 

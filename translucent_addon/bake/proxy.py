@@ -52,13 +52,13 @@ def transfer_normals(display_vertices, display_triangles, display_normals, proxy
     nearer); the proxy's own normal where there is none."""
     from scipy.spatial import cKDTree
 
-    from ..geometry.mesh_measures import angle_weighted_normals
+    from ..geometry.mesh_measures import vertex_normals
 
     t = np.asarray(display_triangles, np.int64).reshape(-1)
     n = np.zeros((len(display_vertices), 3))
     np.add.at(n, t, np.asarray(display_normals, np.float64).reshape(-1, 3))
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    own = angle_weighted_normals(proxy_vertices, proxy_triangles)
+    own = vertex_normals(proxy_vertices, proxy_triangles, by_angle=True)
     k = min(TRANSFER_CANDIDATES, len(n))
     _, near = cKDTree(np.asarray(display_vertices, np.float64)).query(np.asarray(proxy_vertices, np.float64), k=k)
     near = near.reshape(len(own), k)
@@ -80,17 +80,23 @@ class Refinement:
 
     def corners(self, display_corners: np.ndarray) -> np.ndarray:
         """Per-corner display attributes (3T, c) at the proxy's corners, (3T', c)."""
-        a = np.asarray(display_corners)
-        a = a.reshape(-1, 3, a.shape[-1])[self.parent]
-        return np.einsum("tkm,tmc->tkc", self.bary, a).reshape(-1, a.shape[-1]).astype(a.dtype)
+        return carry_corners(display_corners, self.parent, self.bary)
+
+
+def carry_corners(display_corners: np.ndarray, parent: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """Per-corner attributes (3T, c) of the display at the corners of triangles lying in display
+    triangles ``parent`` (T',) with corner barycentrics ``bary`` (T', 3, 3): (3T', c)."""
+    a = np.asarray(display_corners)
+    a = a.reshape(-1, 3, a.shape[-1])[parent]
+    return np.einsum("tkm,tmc->tkc", bary, a).reshape(-1, a.shape[-1]).astype(a.dtype)
 
 
 def refine_for_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int) -> Refinement:
     """The display refined until no edge is longer than MAX_EDGE_TEXELS texels of the atlas (about
     SPACING_TEXELS on average), coarser if that would pass MAX_TRIANGLES."""
-    area = surface_area(vertices_mm, triangles)
-    texel_mm = np.sqrt(area / 0.5) / resolution  # the atlas's texel (``atlas.parametrize``)
-    max_edge = MAX_EDGE_TEXELS * texel_mm
+    from .atlas import texel_mm
+
+    max_edge = MAX_EDGE_TEXELS * texel_mm(surface_area(vertices_mm, triangles), resolution)
     while True:
         refinement = refine_to_edge(vertices_mm, triangles, max_edge)
         if len(refinement.triangles) <= MAX_TRIANGLES or len(refinement.triangles) == len(triangles):

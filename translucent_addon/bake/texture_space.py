@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from . import lensch, proxy
-from ..geometry.mesh_measures import angle_weighted_normals
+from ..geometry.mesh_measures import vertex_normals
 from .atlas import build_atlas
 
 
@@ -39,7 +39,7 @@ def bake(inputs):
     display_t = np.asarray(inputs.triangles, np.int64)
     yield 0.02, "TEXTURE_SPACE: proxy mesh"
     # The display's shading normals at its corners, in mm space (normals transform with S^-T).
-    display_n = (angle_weighted_normals(display_v, display_t)[display_t] if inputs.corner_normals is None
+    display_n = (vertex_normals(display_v, display_t, by_angle=True)[display_t] if inputs.corner_normals is None
                  else np.asarray(inputs.corner_normals, np.float64).reshape(-1, 3, 3) @ np.linalg.inv(S))
     refinement = None
     if inputs.proxy_vertices is not None:

@@ -17,31 +17,23 @@ def vertex_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return A_v
 
 
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (zero for vertices no triangle uses)."""
-    v = np.asarray(vertices, np.float64)
-    t = np.asarray(triangles, np.int64).reshape(-1, 3)
-    face_n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # length = 2 * area
-    n = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(n, t[:, k], face_n)
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-
-
-def angle_weighted_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Unit vertex normals weighted by each corner's angle, as Blender computes a smooth mesh's."""
+def vertex_normals(vertices: np.ndarray, triangles: np.ndarray, by_angle: bool = False) -> np.ndarray:
+    """Unit vertex normals (zero for vertices no triangle uses), the facet normals weighted by area, or
+    with ``by_angle`` by each corner's angle, as Blender computes a smooth mesh's."""
     v = np.asarray(vertices, np.float64)
     t = np.asarray(triangles, np.int64).reshape(-1, 3)
     p = v[t]
-    face_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-30)
+    face_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # length = 2 * area
+    if by_angle:
+        face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-30)
     n = np.zeros_like(v)
     for k in range(3):
-        a = p[:, (k + 1) % 3] - p[:, k]
-        b = p[:, (k + 2) % 3] - p[:, k]
-        cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
-        np.add.at(n, t[:, k], face_n * np.arccos(np.clip(cos, -1.0, 1.0))[:, None])
+        weight = 1.0
+        if by_angle:
+            a, b = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
+            cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
+            weight = np.arccos(np.clip(cos, -1.0, 1.0))[:, None]
+        np.add.at(n, t[:, k], face_n * weight)
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 

@@ -12,9 +12,9 @@ import dataclasses
 import numpy as np
 
 from ...bake.atlas import TexelAtlas
-from ...geometry.mesh_measures import facing_side
 from ...bake.lensch import LenschBake, local_radiosity, vertex_radiosity
-from ...bake.proxy import Refinement
+from ...bake.proxy import carry_corners
+from ...geometry.mesh_measures import facing_side
 
 TABLE_WIDTH = 4096
 GPU_PRODUCT_LIMIT = 1 << 24  # form factors the GPU product can index (float texels hold integers exactly)
@@ -61,9 +61,10 @@ class GpuTables:
     F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
     display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the drawn display
     vertex_corner: np.ndarray  # (V,) int32: drawn display corner nearest each proxy vertex
-    # A refined proxy drawn in place of the display: each triangle's display triangle and corner
-    # barycentrics there (None: the display is drawn with its own triangles).
-    display_refinement: Refinement | None
+    # A refined proxy drawn in place of the display: each triangle's display triangle (T',) and corner
+    # barycentrics there (T', 3, 3) (None: the display is drawn with its own triangles).
+    display_parent: np.ndarray | None
+    display_bary: np.ndarray | None
     form_factors: int
 
     @property
@@ -76,15 +77,16 @@ class GpuTables:
 
     def drawn_corners(self, display_corners: np.ndarray) -> np.ndarray:
         """Per-corner display attributes (3T, c) at the corners that are drawn (3T', c)."""
-        r = self.display_refinement
-        return np.asarray(display_corners) if r is None else r.corners(np.asarray(display_corners))
+        if self.display_parent is None:
+            return np.asarray(display_corners)
+        return carry_corners(display_corners, self.display_parent, self.display_bary)
 
     def fits(self, display_corner_count: int) -> bool:
         """Whether the bake's display arrays belong to a display of this many corners."""
-        r = self.display_refinement
-        if r is None:
+        if self.display_parent is None:
             return len(self.display_uv) == display_corner_count
-        return len(self.display_uv) == 3 * len(r.parent) and int(r.parent.max()) < display_corner_count // 3
+        return (len(self.display_uv) == 3 * len(self.display_parent)
+                and int(self.display_parent.max()) < display_corner_count // 3)
 
 
 def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
@@ -147,9 +149,9 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         form_factors=int(len(lensch.F_indices)),
         display_uv=np.asarray(arrays["display_uv"], np.float32),
         vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
-        display_refinement=None if "display_parent" not in arrays else Refinement(
-            None, None, np.asarray(arrays["display_parent"], np.int64),
-            np.asarray(arrays["display_bary"], np.float32).reshape(-1, 3, 3)),
+        display_parent=np.asarray(arrays["display_parent"], np.int64) if "display_parent" in arrays else None,
+        display_bary=(np.asarray(arrays["display_bary"], np.float32).reshape(-1, 3, 3)
+                      if "display_parent" in arrays else None),
     )
 
 
