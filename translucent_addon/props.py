@@ -356,8 +356,9 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     quadgraph_tolerance: bpy.props.FloatProperty(
         name="Solver tolerance",
         description="QUADGRAPH: a level's relaxation stops when one iteration changes the flux by less than "
-                    "this (relative to its largest value; checked every 16 iterations), or at the cap",
-        min=1e-7, max=0.1, default=2e-5, precision=6,
+                    "this (relative to its largest value; checked every 16 iterations), or at the cap. "
+                    "The GPU holds the flux in 32-bit floats: 1e-6 is the smallest change it can resolve",
+        min=1e-6, max=0.1, default=2e-5, precision=6,
     )
     quadgraph_iterations: bpy.props.IntProperty(
         name="Max iterations", description="QUADGRAPH: iteration cap per level", min=8, max=20000, default=1000,

@@ -163,6 +163,17 @@ def relax(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta, phi, it
     return phi
 
 
+# The GPU relaxation holds phi in RGBA32F: once converged, successive iterates still differ by a few units
+# in the last place (2**-23 of the largest value each), so a tolerance below this floor can never be met and
+# would run every level to its iteration cap. 1e-6 is eight such units.
+FLOAT32_TOLERANCE = 1e-6
+
+
+def reachable_tolerance(tolerance: float) -> float:
+    """The convergence threshold the float32 relaxation can meet: at least ``FLOAT32_TOLERANCE``."""
+    return max(float(tolerance), FLOAT32_TOLERANCE)
+
+
 def relative_change(new, old) -> float:
     """max |new - old| / max |new|: the convergence test of the relaxation (Sec. 5.2)."""
     scale = float(np.abs(new).max())

@@ -216,6 +216,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
     from ..pipeline import clear_target
 
     res = a.resources
+    tolerance = df.reachable_tolerance(tolerance)
     eta = float(a.mesh.medium.eta)
     A, F = float(internal_reflection(eta)), float(diffuse_fresnel(eta))
     res.iterations = []
