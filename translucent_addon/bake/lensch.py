@@ -72,17 +72,15 @@ class Material:
         """(n, 3) profile at distances r (n,) in mm: linear in sqrt(r) between 2^14 table samples out
         out to 40 / sigma_tr of the slowest channel; exact beyond."""
         r = np.asarray(r_mm, np.float64)
-        root, table = _profile_table(self)
+        root, table, slope = _profile_table(self)
         u = np.sqrt(r) * ((len(table) - 1) / root)
-        inside = u < len(table) - 1
-        out = np.empty((len(r), 3))
+        inside = u <= len(table) - 1
         if inside.all():
             i = u.astype(np.int64)
-            f = (u - i)[:, None]
-            return table[i] * (1.0 - f) + table[i + 1] * f
+            return table[i] + (u - i)[:, None] * slope[i]
+        out = np.empty((len(r), 3))
         i = u[inside].astype(np.int64)
-        f = (u[inside] - i)[:, None]
-        out[inside] = table[i] * (1.0 - f) + table[i + 1] * f
+        out[inside] = table[i] + (u[inside] - i)[:, None] * slope[i]
         out[~inside] = self.R_d_exact(r[~inside])
         return out
 
@@ -96,13 +94,15 @@ TABLE_SAMPLES = 1 << 14
 
 @functools.lru_cache(maxsize=8)
 def _profile_table(material: Material):
-    """(sqrt of the table's reach, R_d at r = (k / (n-1) * sqrt(reach))^2): interpolation error < 1e-4."""
+    """(sqrt of the table's reach, R_d at r = (k / (n-1) * sqrt(reach))^2, the slope to the next
+    sample (zero after the last)): interpolation error < 1e-4."""
     sigma_t = np.asarray(material.sigma_a) + np.asarray(material.sigma_s_prime)
     sigma_tr = np.sqrt(3.0 * np.asarray(material.sigma_a) * sigma_t)
     reach = float(np.max(40.0 / sigma_tr))  # R_d is e^-40 of its peak scale there
     root = math.sqrt(reach)
     r = (np.linspace(0.0, root, TABLE_SAMPLES)) ** 2
-    return root, material.R_d_exact(r)
+    table = material.R_d_exact(r)
+    return root, table, np.diff(table, axis=0, append=table[-1:])
 
 
 def dual_weights(atlas: TexelAtlas, triangles: np.ndarray, A_v: np.ndarray):
@@ -146,6 +146,7 @@ def hat_integrals(vertices, triangles, src, dst, material, quadrature: int = HAT
     uv = subtriangle_centroids(quadrature)
     bary = np.stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]], axis=1)
     area = triangle_areas(v, t)
+    tri_points = np.einsum("qc,tcd->tqd", bary, v[t])  # (T, q, 3): the quadrature points of every triangle
     out = np.zeros((len(src), 3))
     step = max(1, _CHUNK // (8 * len(bary)))
     for a in range(0, len(src), step):
@@ -154,10 +155,12 @@ def hat_integrals(vertices, triangles, src, dst, material, quadrature: int = HAT
         local = np.arange(len(pair)) - np.repeat(np.cumsum(degree[i]) - degree[i], degree[i])
         inc = start[i][pair] + local
         tri, k = inc_tri[inc], inc_k[inc]
-        points = np.einsum("qc,pcd->pqd", bary, v[t[tri]])
-        r = np.linalg.norm(points - v[j[pair]][:, None, :], axis=2)
+        # Neighbouring sources share triangles: R_d at a triangle's points from v_j is evaluated once.
+        seen, item = np.unique(tri * len(v) + j[pair], return_inverse=True)
+        r = np.linalg.norm(tri_points[seen // len(v)] - v[seen % len(v)][:, None, :], axis=2)
+        R = material.R_d(r.ravel()).reshape(len(seen), len(bary), 3)
         weight = (area[tri] / len(bary))[:, None] * bary[:, k].T  # beta_i at each point
-        sums = (material.R_d(r.ravel()).reshape(len(pair), len(bary), 3) * weight[..., None]).sum(axis=1)
+        sums = np.einsum("pqc,pq->pc", R[item], weight)
         for c in range(3):
             out[a:a + step, c] = np.bincount(pair, weights=sums[:, c], minlength=len(i))
     return out
@@ -191,14 +194,16 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
     src = np.concatenate([pairs[:, 0], pairs[:, 1]])
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]])
     data = np.empty((len(src), 3), np.float32)
+    n = vertex_normals(v, np.asarray(triangles, np.int64)) if triangles is not None else None
+    across = []
     for a in range(0, len(src), _CHUNK):
         b = min(a + _CHUNK, len(src))
         r = np.linalg.norm(v[src[a:b]] - v[dst[a:b]], axis=1)
         data[a:b] = A_v[src[a:b], None] / 3.0 * material.R_d(r)
-    if triangles is not None:
-        n = vertex_normals(v, np.asarray(triangles, np.int64))
-        r = np.linalg.norm(v[src] - v[dst], axis=1)
-        across = np.flatnonzero(_across(n[src], n[dst], r, A_v[src]))
+        if n is not None:
+            across.append(a + np.flatnonzero(_across(n[src[a:b]], n[dst[a:b]], r, A_v[src[a:b]])))
+    if across:
+        across = np.concatenate(across)
         data[across] = hat_integrals(v, triangles, src[across], dst[across], material)
     keep = data.max(axis=1) >= threshold
     src, dst, data = src[keep], dst[keep], data[keep]
@@ -253,6 +258,15 @@ class _GlobalResponse:
         self.dual = dual  # (n_surface, 3)
         self._edges = None
 
+    def shares_vertex(self, s: np.ndarray, o: np.ndarray) -> np.ndarray:
+        """(n,) bool: the triangles of texels s and o share a vertex (else phi of the pair is zero)."""
+        out = np.empty(len(s), bool)
+        for a in range(0, len(s), 4 * _CHUNK):
+            Vs = self.t[self.atlas.triangle[s[a:a + 4 * _CHUNK]]]
+            Vo = self.t[self.atlas.triangle[o[a:a + 4 * _CHUNK]]]
+            out[a:a + 4 * _CHUNK] = (Vs[:, :, None] == Vo[:, None, :]).any(axis=(1, 2))
+        return out
+
     def __call__(self, s: np.ndarray, o: np.ndarray):
         """(B^g0 (n, 3 channels), phi (n, 3 vertices)) for pairs (surface texel s, texel o)."""
         at = self.atlas
@@ -273,19 +287,20 @@ class _GlobalResponse:
             pos = np.minimum(np.searchsorted(self.F_keys, keys), len(self.F_keys) - 1)
             F[across] = np.where((self.F_keys[pos] == keys)[:, None], self.F_data[pos], 0.0)
         beta_o = at.bary[o].astype(np.float64)
-        dual_s = self.dual[s]
+        # d_k(s) beta_j(o) for the 9 (source vertex, receiver vertex) pairs: one contraction with F.
+        weight = (self.dual[s][:, :, None] * beta_o[:, None, :]).reshape(len(s), 9)
+        phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
         if self.gain is None:
-            B_g0 = np.einsum("pk,pkjc,pj->pc", dual_s, F[inverse], beta_o)
-            phi = np.einsum("pkj,pj->pk", same[inverse].astype(np.float64), beta_o)
-            return B_g0, phi
+            return np.einsum("pq,pqc->pc", weight, F.reshape(-1, 9, 3)[inverse]), phi
         g = self.gain[Vo]  # (U, 3 receivers, 3 channels)
         if self._edges is None:
             self._edges = _edge_keys(self.t, self.V)
         edge = _in_sorted(Vs[:, :, None] * self.V + Vo[:, None, :], self._edges)  # (U, 3 sources, 3 receivers)
         F *= np.where(edge[..., None], g[:, None, :, :], 1.0)
-        B_g0 = np.einsum("pk,pkjc,pj->pc", dual_s, F[inverse], beta_o)
-        phi = np.einsum("pkjc,pj->pkc", (same[:, :, :, None] * g[:, None, :, :])[inverse], beta_o)
-        return B_g0, phi
+        B_g0 = np.einsum("pq,pqc->pc", weight, F.reshape(-1, 9, 3)[inverse])
+        # A source vertex k is at most one receiver vertex j: its phi_k scaled by that j's gain.
+        g_k = np.einsum("ukj,ujc->ukc", same.astype(np.float64), g)
+        return B_g0, phi[:, :, None] * g_k[inverse]
 
 
 # Sub-samples per texel side for the taps next to the centre, where R_d changes within a texel.
@@ -389,6 +404,9 @@ def blending_weights(atlas: TexelAtlas, material: Material, response: _GlobalRes
     ring = _taps(atlas, np.arange(n), offsets)
     s_idx, k_idx = np.nonzero(ring >= 0)
     o_idx = ring[s_idx, k_idx]
+    # A tap outside the hats of s's vertices has phi = 0: it adds nothing to either sum.
+    keep = response.shares_vertex(s_idx, o_idx)
+    s_idx, k_idx, o_idx = s_idx[keep], k_idx[keep], o_idx[keep]
     normal = np.zeros((n, 3, 3))
     rhs = np.zeros((n, 3, 3))
     for a in range(0, len(s_idx), _CHUNK):
@@ -397,10 +415,11 @@ def blending_weights(atlas: TexelAtlas, material: Material, response: _GlobalRes
         target = atlas.area_mm2[s, None] * _profile_pairs(atlas, material, s, o)
         B_g0, phi = response(s, o)
         residual = (target - B_g0) * wt[:, None]
-        for r in range(3):
-            for c in range(3):
-                rhs[:, r, c] += np.bincount(s, weights=phi[:, r] * residual[:, c], minlength=n)
-                normal[:, r, c] += np.bincount(s, weights=wt * phi[:, r] * phi[:, c], minlength=n)
+        # Sums per texel s: the pairs come in rows of s (np.nonzero is row-major).
+        first = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
+        rows = s[first]
+        rhs[rows] += np.add.reduceat(phi[:, :, None] * residual[:, None, :], first, axis=0)
+        normal[rows] += np.add.reduceat((wt[:, None] * phi)[:, :, None] * phi[:, None, :], first, axis=0)
     scale = np.trace(normal, axis1=1, axis2=2) / 3.0
     ridge = RIDGE * scale + RIDGE_FLOOR
     return np.linalg.solve(normal + ridge[:, None, None] * np.eye(3), rhs)
