@@ -1,7 +1,8 @@
 /* TEXTURE_SPACE global response at the vertices (Lensch Eq. 9, 11, 13): for vertex j,
  * B_j = B^d_j + sum_i F^0_ij E^g_i over row j of the sparse matrix (CSR in integer textures),
  * divided by the surface texture at the vertex, T_p(v_j). One fragment per vertex. Indices are
- * stored as exact floats (below 2^24). */
+ * stored as exact floats (below 2^24); a row start as two of them, hi * 4096 + lo
+ * (texture_space_data.ROW_SPLIT), so that F may hold more than 2^24 entries. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -15,6 +16,12 @@ ivec2 entry(int e, int width)
   return ivec2(e % width, e / width);
 }
 
+int row_start(int j)
+{
+  ivec2 hi_lo = ivec2(texelFetch(F_indptr, entry(j, textureSize(F_indptr, 0).x), 0).rg + 0.5);
+  return hi_lo.x * 4096 + hi_lo.y;
+}
+
 void main()
 {
   ivec2 p = ivec2(gl_FragCoord.xy);
@@ -24,8 +31,8 @@ void main()
     return;
   }
   int width = textureSize(F_indices, 0).x;
-  int begin = int(texelFetch(F_indptr, entry(j, textureSize(F_indptr, 0).x), 0).r + 0.5);
-  int end = int(texelFetch(F_indptr, entry(j + 1, textureSize(F_indptr, 0).x), 0).r + 0.5);
+  int begin = row_start(j);
+  int end = row_start(j + 1);
   vec3 B = texelFetch(B_direct, p, 0).rgb;
   for (int e = begin; e < end; e++) {
     ivec2 at = entry(e, width);

@@ -1,10 +1,12 @@
 """TEXTURE_SPACE precomputation (Lensch 2002), pure: atlas, proxy, kernels, throughput, blending."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from translucent_addon.bake import lensch, proxy, store
+from translucent_addon.bake import lensch, proxy, registry, store
 from translucent_addon.bake.atlas import build_atlas, rasterize, texel_mm
 from translucent_addon.geometry.mesh_measures import vertex_areas
 from translucent_addon.physics.dipole import total_diffuse_reflectance
@@ -209,7 +211,7 @@ def _min_angles(p):
 
 def test_refinement_splits_long_edges_evenly_and_keeps_the_surface():
     """A coarse, uneven mesh (a UV sphere stretched 3x: long edges at the equator, short at the poles)
-    is refined until no edge passes MAX_EDGE_TEXELS of the atlas, conforming, on the same surface,
+    is refined until no edge passes the spacing's bound in atlas texels, conforming, on the same surface,
     with bounded angles; its corners carry the display's attributes by barycentrics."""
     v, f = sphere()
     v = v * np.array([3.0, 1.0, 1.0])
@@ -217,7 +219,7 @@ def test_refinement_splits_long_edges_evenly_and_keeps_the_surface():
     r = proxy.refine_for_atlas(v, f, 256)
     texel = texel_mm(area, 256)
     lengths = _edges(r.vertices, r.triangles)
-    assert lengths.max() <= proxy.MAX_EDGE_TEXELS * texel * (1 + 1e-9)
+    assert lengths.max() <= proxy.SPACING_TEXELS * proxy.MAX_EDGE_RATIO * texel * (1 + 1e-9)
     assert lengths.max() < 2.5 * np.median(lengths)  # even: subdivision 1-to-4 keeps the input's 3x spread
     assert len(f) < len(r.triangles) < proxy.MAX_TRIANGLES  # not capped: the bound above is the edge's
     assert abs(proxy.surface_area(r.vertices, r.triangles) - area) < 1e-9 * area  # midpoints stay on the facets
@@ -230,6 +232,24 @@ def test_refinement_splits_long_edges_evenly_and_keeps_the_surface():
     assert np.all(np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), n0) > 0), "winding kept"
     assert _min_angles(p).min() >= 0.5 * _min_angles(v[f]).min()  # longest-edge bisection bounds the angles
     assert proxy.target_triangles(area, 4096) == proxy.MAX_TRIANGLES
+
+
+def test_a_finer_proxy_spacing_refines_and_decimates_to_shorter_edges():
+    """Proxy spacing 2.5 instead of 3.5 texels: refined edges bounded 2.5/3.5 as long, Blender's decimation
+    target (3.5/2.5)^2 = 1.96 times the triangles; and the bake goes stale."""
+    v, f = sphere()
+    area = proxy.surface_area(v, f)
+    texel = texel_mm(area, 256)
+    coarse, fine = proxy.refine_for_atlas(v, f, 256), proxy.refine_for_atlas(v, f, 256, spacing=2.5)
+    assert _edges(fine.vertices, fine.triangles).max() <= 2.5 * proxy.MAX_EDGE_RATIO * texel * (1 + 1e-9)
+    assert _edges(coarse.vertices, coarse.triangles).max() > 2.5 * proxy.MAX_EDGE_RATIO * texel
+    assert len(fine.triangles) > len(coarse.triangles)  # by bisection steps: here 12.9k against 11.0k
+    ratio = proxy.target_triangles(area, 512, 2.5) / proxy.target_triangles(area, 512)
+    assert ratio == pytest.approx((3.5 / 2.5) ** 2, rel=0.01)
+    inputs = registry.BakeInputs(name="s", method="TEXTURE_SPACE", vertices=v.astype(np.float32),
+                                 triangles=f.astype(np.int32), mm_per_unit=1.0, sigma_a=(0.1,) * 3,
+                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0)
+    assert inputs.hash() != dataclasses.replace(inputs, proxy_spacing=2.5).hash()
 
 
 def test_refinement_caps_the_triangle_count():
@@ -300,5 +320,11 @@ def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):
     np.testing.assert_array_equal(t.kernels[e // tsd.TABLE_WIDTH, e % tsd.TABLE_WIDTH, :3],
                                   bake.kernels[123, 17].astype(np.float16))
     j = 77
-    assert t.F_indptr[j // tsd.TABLE_WIDTH, j % tsd.TABLE_WIDTH, 0] == bake.F_indptr[j]
+    hi, lo = t.F_indptr[j // tsd.TABLE_WIDTH, j % tsd.TABLE_WIDTH]
+    assert hi * tsd.ROW_SPLIT + lo == bake.F_indptr[j]
+    # Row starts past 2^24 (a float's exact integers) still come back exactly from two float32 halves.
+    starts = np.array([0, 4095, 4096, (1 << 24) + 1, tsd.GPU_PRODUCT_LIMIT - 1], np.int64)
+    halves = tsd.split_rows(starts).astype(np.float32)
+    np.testing.assert_array_equal(halves[:, 0].astype(np.int64) * tsd.ROW_SPLIT + halves[:, 1].astype(np.int64),
+                                  starts)
     assert t.vertex_size[0] * t.vertex_size[1] >= len(v)

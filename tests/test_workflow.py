@@ -34,6 +34,7 @@ def test_quality_tiers_and_the_preferences_default(tr, scene):
     assert scene.translucent.shadow_resolution == 512 and cube.translucent.atlas_resolution == 256
     assert bpy.ops.translucent.apply_quality(tier="HIGH") == {"FINISHED"}
     assert scene.translucent.caustics_grid == 256 and cube.translucent.quadgraph_K == pytest.approx(0.5)
+    assert cube.translucent.proxy_spacing == pytest.approx(2.4)  # High refines TEXTURE_SPACE's proxy
     with pytest.raises(ValueError, match="unknown quality 'ULTRA'"):
         quality.apply(scene.translucent, quality.SCENE, "ULTRA")
     prefs = ext_module(tr, "translucent_addon.preferences").get()

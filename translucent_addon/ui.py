@@ -59,6 +59,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         if s.method == "TEXTURE_SPACE":
             col = layout.column(align=True)
             col.prop(s, "atlas_resolution")
+            col.prop(s, "proxy_spacing")
             col.prop(s, "texture_blending")
         if s.method == "QUADGRAPH":
             col = layout.column(align=True)

@@ -43,6 +43,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         eta=float(props.eta),
         g=float(props.g),
         atlas_resolution=int(props.atlas_resolution),
+        proxy_spacing=float(props.proxy_spacing),
         blending=bool(props.texture_blending),
         stretch=stretch_of(np.array(ob_eval.matrix_world)[:3, :3]),
         quadgraph_K=float(props.quadgraph_K),
@@ -55,7 +56,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         from .proxy import surface_area, target_triangles
 
         target = target_triangles(surface_area(inputs.vertices * inputs.mm_per_unit, inputs.triangles),
-                                  inputs.atlas_resolution)
+                                  inputs.atlas_resolution, inputs.proxy_spacing)
         if target < 0.8 * len(inputs.triangles):
             inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
     if for_bake and inputs.method == "QUADGRAPH" and len(inputs.triangles):

@@ -49,6 +49,7 @@ class BakeInputs:
     eta: float
     g: float
     atlas_resolution: int = 512  # TEXTURE_SPACE
+    proxy_spacing: float = 3.5  # TEXTURE_SPACE: mean proxy edge in atlas texels (bake/proxy.py)
     blending: bool = True  # TEXTURE_SPACE
     # TEXTURE_SPACE: a decimated proxy made by Blender (object space), or None to derive it here.
     proxy_vertices: np.ndarray | None = None
@@ -83,7 +84,8 @@ class BakeInputs:
         stretch = {"stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
         extra = {}
         if self.method == "TEXTURE_SPACE":
-            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending), **stretch}
+            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
+                     "proxy_spacing": round(float(self.proxy_spacing), 4), **stretch}
         elif self.method == "QUADGRAPH":
             material = {}
             extra = {"K": float(self.quadgraph_K), "levels": int(self.quadgraph_levels), **stretch}

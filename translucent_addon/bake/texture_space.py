@@ -47,7 +47,7 @@ def bake(inputs):
         proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
         proxy_n = proxy.transfer_normals(display_v, display_t, display_n, proxy_v, proxy_t)[proxy_t]
     else:
-        refinement = proxy.refine_for_atlas(display_v, display_t, inputs.atlas_resolution)
+        refinement = proxy.refine_for_atlas(display_v, display_t, inputs.atlas_resolution, inputs.proxy_spacing)
         proxy_v, proxy_t = refinement.vertices, refinement.triangles
         # The refined display's corners carry its normals, interpolated like the positions.
         proxy_n = refinement.corners(display_n.reshape(-1, 3)).reshape(-1, 3, 3)
@@ -90,7 +90,7 @@ def bake(inputs):
     del arrays["lensch_kernel_taps"]  # recomputed from the atlas when loaded
     meta = {
         "proxy_vertices": int(len(proxy_v)), "proxy_triangles": int(len(proxy_t)),
-        "atlas": [atlas.width, atlas.height], "surface_texels": int(atlas.surface_count),
+        "proxy_spacing": float(inputs.proxy_spacing), "atlas": [atlas.width, atlas.height], "surface_texels": int(atlas.surface_count),
         "border_texels": int(atlas.count - atlas.surface_count), "form_factors": int(len(tables.F_indices)),
         "texel_mm": float(np.sqrt(np.median(atlas.area_mm2[:atlas.surface_count]))),
         "atlas_seconds": round(t_atlas, 3), "seconds": round(time.perf_counter() - t0, 3),

@@ -21,6 +21,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ..bake.proxy import SPACING_TEXELS
 from ..geometry.camera import pixel_rays
 from ..reference.dipole_model import Medium, render_dipole
 from ..reference.lambert import scene_triangles
@@ -293,11 +294,12 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
             img, sec = render_pixels(scene, width, height)
         add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
             methods=methods, **{k: v for k, v in quality.items() if k != "label"})
-    for res, product, bake_seconds, _, img, sec in texture_space_series(scene, objects, settings.texture_space_atlas,
-                                                                      width, height, lambda text: None):
-        yield step(f"Translucent (TEXTURE_SPACE) {res} texels, {product} product: done")
-        add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", f"{res} texels, {product} product", sec, img,
-            methods=["TEXTURE_SPACE"], atlas_resolution=res, product=product, bake_seconds=bake_seconds)
+    for (res, spacing), product, bake_seconds, _, img, sec in texture_space_series(
+            scene, objects, settings.texture_space_atlas, width, height, lambda text: None):
+        label = f"{texture_space_label(res, spacing)}, {product} product"
+        yield step(f"Translucent (TEXTURE_SPACE) {label}: done")
+        add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", label, sec, img, methods=["TEXTURE_SPACE"],
+            atlas_resolution=res, proxy_spacing=spacing, product=product, bake_seconds=bake_seconds)
     model_image = None
     if settings.model_reference_samples:
         yield step(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
@@ -362,30 +364,44 @@ def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict
     return time.perf_counter() - t0, metas
 
 
-def texture_space_series(scene, objects, resolutions, width: int, height: int, progress=print):
-    """TEXTURE_SPACE at each atlas resolution: yields (resolution, product, bake seconds, bake metas, image,
-    seconds).
+def texture_space_setting(item) -> tuple[int, float]:
+    """(atlas texels, proxy spacing in texels) from an atlas resolution or such a pair."""
+    res, spacing = (item, SPACING_TEXELS) if np.ndim(item) == 0 else item
+    return int(res), float(spacing)
 
-    Every resolution is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
-    The objects' method and resolution are restored afterwards.
+
+def texture_space_label(res: int, spacing: float) -> str:
+    return f"{res} texels" + ("" if spacing == SPACING_TEXELS else f", spacing {spacing:g}")
+
+
+def texture_space_series(scene, objects, settings, width: int, height: int, progress=print):
+    """TEXTURE_SPACE at each setting (an atlas resolution, or a pair of it and the proxy spacing): yields
+    ((resolution, spacing), product, bake seconds, bake metas, image, seconds).
+
+    Every setting is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
+    The objects' method, resolution and spacing are restored afterwards.
     """
-    saved = [(ob, ob.translucent.method, ob.translucent.atlas_resolution) for ob in objects]
+    saved = [(ob, ob.translucent.method, ob.translucent.atlas_resolution, ob.translucent.proxy_spacing)
+             for ob in objects]
     try:
-        for i, res in enumerate(resolutions):
+        for i, item in enumerate(settings):
+            res, spacing = texture_space_setting(item)
             for ob in objects:
                 ob.translucent.method = "TEXTURE_SPACE"
-                ob.translucent.atlas_resolution = int(res)
+                ob.translucent.atlas_resolution = res
+                ob.translucent.proxy_spacing = spacing
             bake_seconds, metas = bake_objects(objects, "TEXTURE_SPACE", progress)
             for product in ("GPU", "CPU") if i == 0 else ("GPU",):
                 with engine_setup(scene, "TRANSLUCENT_RT", translucent_texture_product=product):
-                    progress(f"Translucent (TEXTURE_SPACE) {res} texels, {product} product ...")
+                    progress(f"Translucent (TEXTURE_SPACE) {texture_space_label(res, spacing)}, {product} product ...")
                     render_pixels(scene, width, height)  # first frame uploads the bake to the GPU
                     img, sec = render_pixels(scene, width, height)
-                yield res, product, bake_seconds, metas, img, sec
+                yield (res, spacing), product, bake_seconds, metas, img, sec
     finally:
-        for ob, method, res in saved:
+        for ob, method, res, spacing in saved:
             ob.translucent.method = method
             ob.translucent.atlas_resolution = res
+            ob.translucent.proxy_spacing = spacing
 
 
 def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
@@ -463,10 +479,11 @@ def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 4
 
 def texture_space_discretisation(scene, objects, output_dir, resolutions=(256, 512), samples: int = 200_000,
                                  cache_dir=None, progress=print, name: str = "texture_space"):
-    """TEXTURE_SPACE at several atlas resolutions against the CPU dipole model (its discretisation error).
+    """TEXTURE_SPACE at several atlas resolutions (or (resolution, proxy spacing) pairs) against the CPU
+    dipole model (its discretisation error).
 
-    Returns rows (atlas, proxy vertices, bake seconds, frame seconds, rel. RMSE, mean ratio) and writes
-    <name>.json and the images into output_dir.
+    Returns rows (atlas, spacing, proxy vertices, bake seconds, frame seconds, rel. RMSE, mean ratio) and
+    writes <name>.json and the images into output_dir.
     """
     import json
 
@@ -475,19 +492,22 @@ def texture_space_discretisation(scene, objects, output_dir, resolutions=(256, 5
     width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
                                                                    progress)
     rows = []
-    for res, product, bake_seconds, metas, img, sec in texture_space_series(scene, objects, resolutions, width,
-                                                                              height, progress):
+    for (res, spacing), product, bake_seconds, metas, img, sec in texture_space_series(scene, objects, resolutions,
+                                                                                         width, height, progress):
         if product != "GPU":
             continue
         meta = metas[0]
         ratio = img[mask][:, :3].sum(axis=0) / np.maximum(model_image[mask][:, :3].sum(axis=0), 1e-30)
-        rows.append({"atlas": res, "proxy_vertices": meta.get("proxy_vertices"), "texel_mm": meta.get("texel_mm"),
+        rows.append({"atlas": res, "proxy_spacing": spacing, "proxy_vertices": meta.get("proxy_vertices"),
+                     "texel_mm": meta.get("texel_mm"),
                      "form_factors": meta.get("form_factors"), "bake_seconds": round(bake_seconds, 2),
                      "seconds": sec, "rel_rmse_vs_model": relative_rmse(img, model_image, mask),
                      "mean_ratio_rgb": [round(float(x), 4) for x in ratio]})
-        save_error_png(out / f"{name}_{res}_vs_model_error.png", img, model_image, mask)
-        save_image_png(out / f"{name}_{res}.png", img)
-        progress(f"TEXTURE_SPACE {res}: rel. RMSE against the dipole model {rows[-1]['rel_rmse_vs_model']:.4f}")
+        tag = f"{res}" if spacing == SPACING_TEXELS else f"{res}_s{spacing:g}"
+        save_error_png(out / f"{name}_{tag}_vs_model_error.png", img, model_image, mask)
+        save_image_png(out / f"{name}_{tag}.png", img)
+        progress(f"TEXTURE_SPACE {texture_space_label(res, spacing)}: rel. RMSE against the dipole model "
+                 f"{rows[-1]['rel_rmse_vs_model']:.4f}")
     save_image_png(out / "dipole_model.png", model_image)
     (out / f"{name}.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
                                                   "model_seconds": model_seconds, "rows": rows}, indent=2))

@@ -39,7 +39,7 @@ class Resources:
         self.arrays = arrays  # for the CPU product and the tests' twin
         self.kernels = texture_from_array(t.kernels, "RGBA16F")
         if t.gpu_product:
-            self.F_indptr = texture_from_array(t.F_indptr, "R32F")
+            self.F_indptr = texture_from_array(t.F_indptr, "RG32F")
             self.F_indices = texture_from_array(t.F_indices, "R32F")
             self.F_data = texture_from_array(t.F_data, "RGBA32F")
         self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {

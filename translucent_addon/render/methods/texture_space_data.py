@@ -17,7 +17,11 @@ from ...bake.proxy import carry_corners
 from ...geometry.mesh_measures import facing_side
 
 TABLE_WIDTH = 4096
-GPU_PRODUCT_LIMIT = 1 << 24  # form factors the GPU product can index (float texels hold integers exactly)
+# Row starts of F travel as two exact floats, start = hi * ROW_SPLIT + lo (a float holds integers below
+# 2^24 exactly); the form factors' table is TABLE_WIDTH texels wide and at most 16384 rows (the least
+# texture size OpenGL 4.5 guarantees). Beyond that the product runs on the CPU.
+ROW_SPLIT = 1 << 12
+GPU_PRODUCT_LIMIT = TABLE_WIDTH * 16384
 VERTEX_WIDTH = 256
 
 
@@ -56,7 +60,7 @@ class GpuTables:
     gather_blend: np.ndarray
     kernels: np.ndarray  # (rows, TABLE_WIDTH, 4) float16
     local_half: int  # the local kernels are (2 local_half + 1)^2 texels
-    F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
+    F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 2) int32: each row start as (hi, lo), see ROW_SPLIT
     F_indices: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
     F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
     display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the drawn display
@@ -103,6 +107,12 @@ def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
     return atlas, LenschBake(**fields)
 
 
+def split_rows(indptr: np.ndarray) -> np.ndarray:
+    """(V+1, 2) int32: the row starts of F as (hi, lo) with start = hi * ROW_SPLIT + lo, both exact in float32."""
+    indptr = np.asarray(indptr, np.int64)
+    return np.stack([indptr // ROW_SPLIT, indptr % ROW_SPLIT], axis=1).astype(np.int32)
+
+
 def local_half(kernels: np.ndarray) -> int:
     """h of a bake's (2h+1)^2 local kernels (n, taps, 3)."""
     side = int(round(np.sqrt(np.asarray(kernels).shape[1])))
@@ -111,8 +121,7 @@ def local_half(kernels: np.ndarray) -> int:
 
 def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
     atlas, lensch = load(arrays, taps=False)
-    # Indices travel as exact floats: beyond 2^24 form factors the product runs on the CPU.
-    gpu_product = len(lensch.F_indices) < GPU_PRODUCT_LIMIT
+    gpu_product = len(lensch.F_indices) <= GPU_PRODUCT_LIMIT
     n, N = atlas.surface_count, atlas.count
     # Back to object space: p = S^-1 x / mm, and normals n_o ~ S^T n (their transform is S^-T).
     S = np.asarray(arrays.get("stretch", np.eye(3)), np.float64).reshape(3, 3)
@@ -143,7 +152,7 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
         kernels=wrap(rows),
         local_half=local_half(kernels),
-        F_indptr=wrap(lensch.F_indptr.astype(np.int32), channels=1) if gpu_product else None,
+        F_indptr=wrap(split_rows(lensch.F_indptr), channels=2) if gpu_product else None,
         F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1) if gpu_product else None,
         F_data=wrap(np.asarray(lensch.F_data, np.float32)) if gpu_product else None,
         form_factors=int(len(lensch.F_indices)),
