@@ -11,9 +11,9 @@ from blender_helpers import add_camera, add_light, render, set_world  # noqa: E4
 from conftest import ext_module  # noqa: E402
 
 
-def _baked_ball(scene, levels=2, preset="skin1"):
+def _baked_ball(scene, levels=2, preset="skin1", subdivisions=3):
     set_world(scene, (0.02, 0.02, 0.025))
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.03, location=(0, 0, 0.03))
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions, radius=0.03, location=(0, 0, 0.03))
     ob = bpy.context.active_object
     ob.name = "Ball"
     bpy.ops.object.shade_smooth()
@@ -50,6 +50,30 @@ def test_gpu_relaxation_converges_to_the_direct_solution(tr, scene):
     err = np.abs(rec["phi"] - exact).max(axis=0) / np.abs(exact).max(axis=0)
     assert err.max() < 1e-3, err
     assert rec["iterations"][-1] < 6000  # converged, not capped
+
+
+def test_a_node_on_a_facet_turned_away_from_the_light_gets_only_the_world(tr, scene):
+    """Surface nodes whose smooth normal still faces the lamp but whose surface triangle does not get the
+    world's light only (the base pass's rule, which Cycles' shadow rays and the dipole model share);
+    nodes across the terminator, on facets facing the lamp at the same normal angles, are lit."""
+    ob = _baked_ball(scene, levels=1, subdivisions=1)  # 20 facets: the terminator runs inside them
+    render(scene, 64, 48)
+    (rec,) = _capture(tr)["quadgraph"]
+    t = rec["resources"].levels_cpu[-1]
+    S = t.n_surface
+    M = np.array(ob.matrix_world)
+    p = t.positions_mm[:S] / ob.translucent.mm_per_unit @ M[:3, :3].T + M[:3, 3]
+    to_light = np.array(bpy.data.objects["POINT light"].location) - p
+    to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
+    cos_n = np.einsum("ij,ij->i", t.normals, to_light)  # the ball is not rotated or scaled
+    cos_g = np.einsum("ij,ij->i", t.facets, to_light)
+    q = rec["q"][-1][:S]
+    world = np.median(q[cos_n < -0.3], axis=0)  # a uniform world: the same everywhere
+    turned = (cos_g < -0.01) & (cos_n > 0.02)
+    assert turned.sum() > 20, turned.sum()  # 34 to 56 over five bakes
+    np.testing.assert_allclose(q[turned], np.broadcast_to(world, q[turned].shape), rtol=1e-3)
+    across = (cos_g > 0.01) & (cos_n > 0.02) & (cos_n < cos_n[turned].max())
+    assert across.sum() > 20 and np.median(q[across][:, 0]) > 1.5 * world[0]
 
 
 def test_material_edits_and_light_moves_re_render_without_a_new_bake(tr, scene):

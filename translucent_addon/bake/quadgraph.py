@@ -36,6 +36,9 @@ class QuadGraph:
     weights: np.ndarray  # (N, 4) geometric Laplacian weights a_ij [mm^-2]; surface rows: 0
     d_surface: np.ndarray  # (S,) d_sk, surface node to its inner node [mm]
     normals: np.ndarray  # (S, 3) unit surface normals at the surface nodes
+    # (S, 3) unit normals of the surface triangles the nodes lie on: a node on a facet turned away
+    # from a light gets none of it, though its smooth normal may still face the light (the base pass's rule).
+    facets: np.ndarray
     volumes: np.ndarray  # (N - S,) tetrahedron volume of each inner node [mm^3]
     # Where each node lies, for deformation and for painted maps: inner nodes by tetrahedron and
     # barycentric coordinates in (points, tets); surface nodes by surface triangle and barycentrics.
@@ -171,9 +174,12 @@ def build(points, tets, surface_v, surface_t) -> QuadGraph:
     neighbours[:S, 0] = S + boundary_tet
     positions = np.concatenate([s_pos, inner_pos])
     weights, d_surface, _ = link_geometry(positions, neighbours, S, points, tets)
+    corners = surface_v[surface_t[s_tri]]
+    facets = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    facets /= np.maximum(np.linalg.norm(facets, axis=1, keepdims=True), 1e-300)
     graph = QuadGraph(
         positions=positions, n_surface=S, neighbours=neighbours, weights=weights, d_surface=d_surface,
-        normals=s_normal, volumes=volumes, points=points, tets=tets, inner_bary=inner_bary,
+        normals=s_normal, facets=facets, volumes=volumes, points=points, tets=tets, inner_bary=inner_bary,
         surface_triangle=s_tri, surface_bary=s_bary, split=n_split)
     return graph
 
@@ -291,6 +297,7 @@ def pack(graph: QuadGraph) -> tuple[QuadGraph, np.ndarray]:
     packed = dataclasses.replace(
         graph, positions=graph.positions[old], neighbours=nb, weights=graph.weights[old],
         d_surface=graph.d_surface[surface_order], normals=graph.normals[surface_order],
+        facets=graph.facets[surface_order],
         volumes=graph.volumes[inner_old], tets=graph.tets[inner_old], inner_bary=graph.inner_bary[inner_old],
         surface_triangle=graph.surface_triangle[surface_order], surface_bary=graph.surface_bary[surface_order])
     return packed, old

@@ -94,6 +94,7 @@ def bake(inputs):
         arrays[p + "weights"] = graph.weights.astype(np.float32)
         arrays[p + "d_surface"] = graph.d_surface.astype(np.float32)
         arrays[p + "normals"] = graph.normals.astype(np.float32)
+        arrays[p + "facets"] = graph.facets.astype(np.float32)
         arrays[p + "n_surface"] = np.array([graph.n_surface], np.int32)
         # Where the nodes lie, so that a deformation of the mesh can move them (quadgraph_data.LevelEmbedding).
         arrays[p + "points"] = graph.points.astype(np.float64)  # float32 would flatten slivers

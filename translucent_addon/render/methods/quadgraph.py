@@ -64,10 +64,14 @@ class LevelGpu:
         self.weights = texture_from_array(t.weights_image)
         S = t.n_surface
         pos = (t.positions_mm[:S] @ self.stretch_inv.T / self.mm).astype(np.float32)
-        nor = t.normals @ np.linalg.inv(self.stretch_inv)  # normals transform with S (S symmetric)
-        nor = (nor / np.linalg.norm(nor, axis=1, keepdims=True)).astype(np.float32)
+        nor, facet = (self._object_normals(n) for n in (t.normals, t.facets))
         self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": nor})
+            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": facet})
+
+    def _object_normals(self, normals_mm: np.ndarray) -> np.ndarray:
+        """Unit normals in object space from mm space: normals transform with S (S symmetric)."""
+        n = normals_mm @ np.linalg.inv(self.stretch_inv)
+        return (n / np.linalg.norm(n, axis=1, keepdims=True)).astype(np.float32)
 
     def set_material(self, kappa: np.ndarray, mu: np.ndarray) -> None:
         self.kappa = texture_from_array(self.tables.image(kappa))

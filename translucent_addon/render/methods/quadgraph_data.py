@@ -21,6 +21,7 @@ class LevelTables:
     layout: TextureLayout
     positions_mm: np.ndarray  # (N, 3)
     normals: np.ndarray  # (S, 3) unit, mm space
+    facets: np.ndarray  # (S, 3) unit normals of the nodes' surface triangles, mm space (bake.quadgraph.QuadGraph)
     neighbours: np.ndarray  # (N, 4) node ids
     weights: np.ndarray  # (N, 4)
     d_surface: np.ndarray  # (S,)
@@ -68,7 +69,10 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
     slots = np.where(nb >= 0, layout.slots(np.maximum(nb, 0)), -1)
     d = arrays[p + "d_surface"].astype(np.float64)
     weights = arrays[p + "weights"].astype(np.float64)
-    t = LevelTables(layout=layout, positions_mm=positions, normals=arrays[p + "normals"].astype(np.float64),
+    normals = arrays[p + "normals"].astype(np.float64)
+    # A bake from before the facets were stored: its normals stand in (no facet rule).
+    facets = arrays[p + "facets"].astype(np.float64) if p + "facets" in arrays else normals
+    t = LevelTables(layout=layout, positions_mm=positions, normals=normals, facets=facets,
                     neighbours=nb, weights=weights, d_surface=d, links_image=None, weights_image=None,
                     surface_texels=layout.texels(np.arange(S)).astype(np.float32))
     t.links_image = t.image(slots)
@@ -129,7 +133,8 @@ class LevelEmbedding:
         vd.check_folds(self.rest_volumes, volumes, label)
         frames, _ = vd.point_frames(vertices, self.triangles, e.triangle, e.bary, normals)
         moved = dataclasses.replace(rest, positions_mm=positions, weights=weights, d_surface=d_surface,
-                                    normals=vd.rotate_with_surface(rest.normals, self.rest_node_frames, frames))
+                                    normals=vd.rotate_with_surface(rest.normals, self.rest_node_frames, frames),
+                                    facets=vd.rotate_with_surface(rest.facets, self.rest_node_frames, frames))
         moved.weights_image = moved.link_image()
         return moved
 
