@@ -1,6 +1,7 @@
-/* QUADGRAPH display (Wang Eq. 4, 7): each displayed vertex interpolates the radiosity
- * B = (phi_s - 2 q_s) / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the bake),
- * and the fragment leaves L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
+/* QUADGRAPH display (Wang Eq. 4, 7): each displayed vertex interpolates the exitance
+ * B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the
+ * bake; physics/diffusion.py says why the (1 - F_dr)), and the fragment leaves
+ * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
  * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -15,7 +16,7 @@ void main()
     vec3 q = texelFetch(incident, t, 0).rgb * texelFetch(q_factor, t, 0).rgb;
     B += link_weights[j] * (phi_s - 2.0 * q);
   }
-  v_radiosity = max(B / (2.0 * (1.0 + F_dr)), vec3(0.0));
+  v_radiosity = max((1.0 - F_dr) * B / (2.0 * (1.0 + F_dr)), vec3(0.0));
   v_mask = mask;
   gl_Position = frame.view_proj * world;
 }

@@ -9,7 +9,7 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    assumed: lights do move), then Jacobi steps (``qg_relax``, Eq. 8-9) into two textures in turn;
    every ``CHECK_EVERY`` steps the last step's relative change is read back and the level stops
    below the scene's tolerance or at its iteration cap (Sec. 5.2);
-3. display: the original mesh interpolates B = (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
+3. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
    nodes per vertex and draws L = F_t / pi B + F_r L_world over the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
