@@ -158,7 +158,7 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         name="Proxy spacing",
         description="TEXTURE_SPACE: mean edge of the proxy mesh, in atlas texels. Finer follows shadow edges "
                     "more closely (back-lit bunny, atlas 512: 6.9 % from the dipole model at 3.5, 4.7 % at 2.4) "
-                    "but bakes longer (51 s and 91 s here) and stores 3.4 times the form factors. "
+                    "but bakes longer (44 s and 76 s here) and stores 3.4 times the form factors. "
                     "Changing it needs a new bake",
         min=1.5, max=8.0, default=3.5, precision=2,
     )
