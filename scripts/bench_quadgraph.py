@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -210,4 +211,9 @@ def summary(rows, fig14) -> str:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    code = main()
+    # Blender's teardown at interpreter exit segfaults after this run (exit 139 once every file is written,
+    # also before this session's changes), which would stop ``make bench`` before the next script.
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
