@@ -1,7 +1,7 @@
 /* TEXTURE_SPACE global response at the vertices (Lensch Eq. 9, 11, 13): for vertex j,
  * B_j = B^d_j + sum_i F^0_ij E^g_i over row j of the sparse matrix (CSR in integer textures),
  * divided by the surface texture at the vertex, T_p(v_j). One fragment per vertex. Indices are
- * stored as exact floats (below 2^24); a row start as two of them, hi * 4096 + lo
+ * stored as exact floats (below 2^24); a row start as two of them, hi * row_split + lo
  * (texture_space_data.ROW_SPLIT), so that F may hold more than 2^24 entries. */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -19,7 +19,7 @@ ivec2 entry(int e, int width)
 int row_start(int j)
 {
   ivec2 hi_lo = ivec2(texelFetch(F_indptr, entry(j, textureSize(F_indptr, 0).x), 0).rg + 0.5);
-  return hi_lo.x * 4096 + hi_lo.y;
+  return hi_lo.x * row_split + hi_lo.y;
 }
 
 void main()

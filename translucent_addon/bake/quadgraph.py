@@ -104,8 +104,9 @@ def _relax(points, tets, adjacency, face_centroid):
 
 def _surface_hits(origins, targets, surface_v, surface_t, surface_normals):
     """Nearest intersection of the ray origin -> target (beyond the origin) with the surface mesh,
-    among the RAY_CANDIDATES triangles nearest to the target. Returns (point, triangle, bary, normal);
-    a ray that hits nothing keeps the target and the nearest triangle's plane."""
+    among the RAY_CANDIDATES triangles nearest to the target. Returns (point, triangle, bary, normal,
+    facet, found): ``normal`` interpolated from ``surface_normals``, ``facet`` the triangle's unit
+    normal; a ray that hits nothing keeps the target and the nearest triangle's plane."""
     from scipy.spatial import cKDTree
 
     tri = surface_v[surface_t]  # (F, 3, 3)
@@ -143,7 +144,8 @@ def _surface_hits(origins, targets, surface_v, surface_t, surface_normals):
     bary = np.stack([1.0 - w_b - w_c, w_b, w_c], axis=1)
     normal = np.einsum("sk,skd->sd", bary, surface_normals[surface_t[triangle]])
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    return point, triangle, bary, normal, found
+    facet = n / np.sqrt(nn)[:, None]
+    return point, triangle, bary, normal, facet, found
 
 
 def build(points, tets, surface_v, surface_t) -> QuadGraph:
@@ -164,7 +166,7 @@ def build(points, tets, surface_v, surface_t) -> QuadGraph:
     S, T = len(boundary_tet), len(tets)
     surface_v = np.asarray(surface_v, np.float64)
     surface_t = np.asarray(surface_t, np.int64)
-    s_pos, s_tri, s_bary, s_normal, _ = _surface_hits(
+    s_pos, s_tri, s_bary, s_normal, s_facet, _ = _surface_hits(
         inner_pos[boundary_tet], face_centroid[boundary_tet, boundary_face], surface_v, surface_t,
         vertex_normals(surface_v, surface_t))
     neighbours = np.full((S + T, 4), -1, np.int64)
@@ -174,12 +176,9 @@ def build(points, tets, surface_v, surface_t) -> QuadGraph:
     neighbours[:S, 0] = S + boundary_tet
     positions = np.concatenate([s_pos, inner_pos])
     weights, d_surface, _ = link_geometry(positions, neighbours, S, points, tets)
-    corners = surface_v[surface_t[s_tri]]
-    facets = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    facets /= np.maximum(np.linalg.norm(facets, axis=1, keepdims=True), 1e-300)
     graph = QuadGraph(
         positions=positions, n_surface=S, neighbours=neighbours, weights=weights, d_surface=d_surface,
-        normals=s_normal, facets=facets, volumes=volumes, points=points, tets=tets, inner_bary=inner_bary,
+        normals=s_normal, facets=s_facet, volumes=volumes, points=points, tets=tets, inner_bary=inner_bary,
         surface_triangle=s_tri, surface_bary=s_bary, split=n_split)
     return graph
 

@@ -90,7 +90,8 @@ def bake(inputs):
     del arrays["lensch_kernel_taps"]  # recomputed from the atlas when loaded
     meta = {
         "proxy_vertices": int(len(proxy_v)), "proxy_triangles": int(len(proxy_t)),
-        "proxy_spacing": float(inputs.proxy_spacing), "atlas": [atlas.width, atlas.height], "surface_texels": int(atlas.surface_count),
+        "proxy_spacing": float(inputs.proxy_spacing), "atlas": [atlas.width, atlas.height],
+        "surface_texels": int(atlas.surface_count),
         "border_texels": int(atlas.count - atlas.surface_count), "form_factors": int(len(tables.F_indices)),
         "texel_mm": float(np.sqrt(np.median(atlas.area_mm2[:atlas.surface_count]))),
         "atlas_seconds": round(t_atlas, 3), "seconds": round(time.perf_counter() - t0, 3),

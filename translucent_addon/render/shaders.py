@@ -135,7 +135,7 @@ SPECS = {
         vertex_in=(("VEC2", "corner"),),
         samplers=((0, "FLOAT_2D", "F_indptr"), (1, "FLOAT_2D", "F_indices"), (2, "FLOAT_2D", "F_data"),
                   (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex")),
-        push_constants=(("INT", "vertex_width"), ("INT", "vertex_count")),
+        push_constants=(("INT", "vertex_width"), ("INT", "vertex_count"), ("INT", "row_split")),
         fragment_out=((0, "VEC4", "out_vertex"),),
     ),
     "ts_filter": ShaderSpec(

@@ -166,6 +166,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 shader.uniform_sampler("T_p_vertex", T_p_texture)
                 shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
                 shader.uniform_int("vertex_count", t.vertex_count)
+                shader.uniform_int("row_split", tsd.ROW_SPLIT)
                 screen_quad(pipeline, "ts_product").draw(shader)
         t2 = time.perf_counter()
         maps_fb, (local_map, global_map), _ = res.maps
