@@ -122,15 +122,16 @@ def engine_setup(scene, engine: str, **options):
 
 
 @contextlib.contextmanager
-def twin_materials_applied(objects, kind: str):
-    """Give each translucent object the twin material of its medium, restore afterwards."""
+def twin_materials_applied(objects, kind: str, **options):
+    """Give each translucent object the twin material of its medium, restore afterwards (``options`` go
+    to the material's factory in ``twin_materials``)."""
     saved = []
     made = []
     try:
         for ob in objects:
             s = ob.translucent
             mat = getattr(twin_materials, kind)(f"{ob.name} ({kind})", tuple(s.sigma_a), tuple(s.sigma_s_prime),
-                                                s.eta, s.g, s.mm_per_unit)
+                                                s.eta, s.g, s.mm_per_unit, **options)
             made.append(mat)
             saved.append((ob, [slot.material for slot in ob.material_slots]))
             if not ob.material_slots:

@@ -1,7 +1,9 @@
 """Blender materials that render our medium in Cycles and EEVEE (bpy-facing, thin).
 
 * ``brute_force``: a smooth dielectric boundary (Glass BSDF, roughness 0, IOR eta) around a
-  homogeneous volume (Volume Scatter + Volume Absorption) with our sigma_s and sigma_a;
+  homogeneous volume (Volume Scatter + Volume Absorption) with our sigma_s and sigma_a. At eta = 1 the
+  boundary is index-matched and has no surface shader: Cycles then samples the lights from inside the
+  volume (next-event estimation), which a Glass boundary blocks, so the reference converges;
 * ``random_walk``: the Principled BSDF with random-walk subsurface, inputs converted by
   ``compare.conversion.random_walk_inputs`` (also what EEVEE gets, as the real-time peer).
 """
@@ -10,6 +12,9 @@ from __future__ import annotations
 import bpy
 
 from .conversion import random_walk_inputs, volume_inputs
+
+
+INDEX_MATCHED = 1.0 + 1e-6  # eta at or below this has no boundary to refract at
 
 
 def _new_material(name: str):
@@ -22,14 +27,20 @@ def _new_material(name: str):
     return mat, tree, out
 
 
-def brute_force(name, sigma_a, sigma_s_prime, eta, g, mm_per_unit):
+def brute_force(name, sigma_a, sigma_s_prime, eta, g, mm_per_unit, surface_reflection: bool = True,
+                self_interreflection: bool = True):
+    """The volume behind a smooth boundary: exact transport, Cycles' ground truth for the diffusion methods.
+
+    ``surface_reflection=False`` keeps the boundary's reflection from camera rays: the camera sees only the
+    refracted part ((1 - F) of what leaves the medium), the translucency alone, as Wang 2010's ground truth
+    (Fig. 11) is. ``self_interreflection=False`` makes the boundary black to rays arriving from outside
+    other than camera rays: light that leaves the object and would enter it again elsewhere (from one ear
+    into the other) is dropped, and the object still shadows itself. That is the transport every method
+    here models (lights and world to the surface, through the medium, to the camera), so the difference
+    that remains is the method's own. Inside, paths reflect and refract at the boundary with Fresnel's
+    weights either way."""
     v = volume_inputs(sigma_a, sigma_s_prime, eta, g, mm_per_unit)
     mat, tree, out = _new_material(name)
-    glass = tree.nodes.new("ShaderNodeBsdfGlass")
-    glass.distribution = "SHARP" if "SHARP" in {i.identifier for i in glass.bl_rna.properties["distribution"].enum_items} else "BECKMANN"
-    glass.inputs["Roughness"].default_value = 0.0
-    glass.inputs["IOR"].default_value = v.ior
-    glass.inputs["Color"].default_value = (1, 1, 1, 1)
     scatter = tree.nodes.new("ShaderNodeVolumeScatter")
     scatter.inputs["Color"].default_value = (*v.scatter_color, 1)
     scatter.inputs["Density"].default_value = v.scatter_density
@@ -40,8 +51,51 @@ def brute_force(name, sigma_a, sigma_s_prime, eta, g, mm_per_unit):
     add = tree.nodes.new("ShaderNodeAddShader")
     tree.links.new(scatter.outputs[0], add.inputs[0])
     tree.links.new(absorb.outputs[0], add.inputs[1])
-    tree.links.new(glass.outputs[0], out.inputs["Surface"])
     tree.links.new(add.outputs[0], out.inputs["Volume"])
+    index_matched = v.ior <= INDEX_MATCHED
+    if index_matched and surface_reflection and self_interreflection:
+        return mat  # no surface shader: light and camera rays cross the boundary unbent
+    if index_matched:
+        # Transparent: rays cross unbent, and shadow rays from inside reach the lights (next-event estimation).
+        boundary = tree.nodes.new("ShaderNodeBsdfTransparent")
+        camera_view = boundary
+    else:
+        boundary = tree.nodes.new("ShaderNodeBsdfGlass")
+        boundary.distribution = "SHARP" if "SHARP" in {
+            i.identifier for i in boundary.bl_rna.properties["distribution"].enum_items} else "BECKMANN"
+        boundary.inputs["Roughness"].default_value = 0.0
+        boundary.inputs["IOR"].default_value = v.ior
+        boundary.inputs["Color"].default_value = (1, 1, 1, 1)
+        camera_view = boundary
+        if not surface_reflection:
+            camera_view = tree.nodes.new("ShaderNodeBsdfRefraction")
+            camera_view.distribution = boundary.distribution
+            camera_view.inputs["Roughness"].default_value = 0.0
+            camera_view.inputs["IOR"].default_value = v.ior
+            fresnel = tree.nodes.new("ShaderNodeFresnel")
+            fresnel.inputs["IOR"].default_value = v.ior
+            transmitted = tree.nodes.new("ShaderNodeMath")
+            transmitted.operation = "SUBTRACT"
+            transmitted.inputs[0].default_value = 1.0
+            tree.links.new(fresnel.outputs[0], transmitted.inputs[1])
+            tree.links.new(transmitted.outputs[0], camera_view.inputs["Color"])
+    others = boundary
+    if not self_interreflection:
+        # Rays that are not camera rays and hit the outside (front face) end there: a black boundary.
+        geometry = tree.nodes.new("ShaderNodeNewGeometry")
+        from_inside = tree.nodes.new("ShaderNodeMixShader")
+        tree.links.new(geometry.outputs["Backfacing"], from_inside.inputs[0])
+        tree.links.new(boundary.outputs[0], from_inside.inputs[2])  # input 1 left empty: no closure, black
+        others = from_inside
+    if camera_view is others:
+        tree.links.new(others.outputs[0], out.inputs["Surface"])
+        return mat
+    path = tree.nodes.new("ShaderNodeLightPath")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(path.outputs["Is Camera Ray"], mix.inputs[0])
+    tree.links.new(others.outputs[0], mix.inputs[1])
+    tree.links.new(camera_view.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 
 
