@@ -218,9 +218,65 @@ def test_closest_hit_picks_the_nearest_triangle():
 # -- meshes --------------------------------------------------------------------
 def test_bundled_meshes_match_their_sources():
     v, t = load_npz(MESHES / "bunny.npz")
-    assert (len(v), len(t)) == (35947, 69451)
-    report = check_mesh(*load_npz(MESHES / "spot.npz"))
-    assert report.closed_manifold and report.zero_area_triangles == 0
+    assert (len(v), len(t)) == (35947, 69451 + 213)  # the scan's five holes closed by 213 triangles
+    for name in ("bunny", "spot", "cow"):
+        report = check_mesh(*load_npz(MESHES / f"{name}.npz"))
+        assert report.closed_manifold and report.zero_area_triangles == 0, name
+
+
+def _unit_cube():
+    v = np.array([(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return v, np.array([tri for a, b, c, d in quads for tri in ((a, b, c), (a, c, d))], np.int64)
+
+
+def _signed_volume(v, t):
+    p = v[t]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+
+
+def test_close_holes_caps_a_cube_wound_like_the_mesh():
+    from translucent_addon.geometry.mesh_repair import boundary_loops, close_holes
+
+    v, t = _unit_cube()
+    assert _signed_volume(v, t) == pytest.approx(1.0)
+    open_t = t[2:]  # one face gone: a square hole
+    (loop,) = boundary_loops(open_t)
+    assert sorted(loop.tolist()) == [0, 1, 2, 3]
+    v2, t2 = close_holes(v, open_t)
+    assert check_mesh(v2, t2).closed_manifold
+    assert len(v2) == len(v) and len(t2) == len(t)
+    assert _signed_volume(v2, t2) == pytest.approx(1.0)  # outward, as the rest: not a hole turned inside out
+    assert close_holes(v, t)[1] is t or np.array_equal(close_holes(v, t)[1], t)  # closed: unchanged
+
+
+def test_close_holes_follows_a_curved_hole_without_cutting_the_surface():
+    """A tube open at both ends, bent: ear clipping closes each rim with no triangle crossing the wall."""
+    from translucent_addon.geometry.mesh_checks import self_intersections
+    from translucent_addon.geometry.mesh_repair import close_holes
+
+    n, rings = 24, 6
+    a = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    v = np.array([(np.cos(s) * (1 + 0.4 * np.sin(2 * s)), np.sin(s), 0.8 * h + 0.3 * np.cos(s) ** 2)
+                  for h in range(rings) for s in a])
+    t = []
+    for h in range(rings - 1):
+        for i in range(n):
+            p, q, r, w = h * n + i, h * n + (i + 1) % n, (h + 1) * n + (i + 1) % n, (h + 1) * n + i
+            t += [(p, q, r), (p, r, w)]
+    t = np.array(t, np.int64)
+    v2, t2 = close_holes(v, t)
+    assert check_mesh(v2, t2).closed_manifold
+    assert self_intersections(v2, t2) == 0
+    assert _signed_volume(v2, t2) > 0
+
+
+def test_boundary_loops_refuse_holes_that_touch():
+    from translucent_addon.geometry.mesh_repair import boundary_loops
+
+    # Two triangles sharing only vertex 0: vertex 0 starts two boundary edges.
+    with pytest.raises(ValueError, match="touch"):
+        boundary_loops(np.array([(0, 1, 2), (0, 3, 4)]))
 
 
 def test_mesh_checks_find_open_and_degenerate_and_non_manifold(tmp_path):
