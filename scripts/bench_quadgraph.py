@@ -266,7 +266,7 @@ def chart(rows, fig14, exact_rows, out: Path) -> None:
     a.set_xscale("log")
     a.set_xlabel("seconds per frame (llvmpipe)")
     a.set_ylabel("median relative error vs Cycles brute force")
-    a.set_title("QUADGRAPH density against IMAGE_SPACE and EEVEE")
+    a.set_title("Scene set (floor, eta 1.3): QUADGRAPH, IMAGE_SPACE, EEVEE")
     for f in fig14:
         its = [c[0] + (f["coarse_iterations"] if f["multiresolution"] else 0) for c in f["curve"]]
         b.semilogy(its, [c[1] for c in f["curve"]],
