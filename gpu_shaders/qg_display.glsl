@@ -2,7 +2,8 @@
  * B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the
  * bake; physics/diffusion.py says why the (1 - F_dr)), and the fragment leaves
  * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
- * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. */
+ * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. The
+ * single scattering of qg_single, summed over the emitters in a screen target, is added to L. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -31,6 +32,7 @@ void main()
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
-  out_color = vec4((1.0 - F_r) / PI * v_radiosity + F_r * frame.world_color.rgb, clamp(v_mask, 0.0, 1.0));
+  vec3 L_single = texelFetch(single, ivec2(gl_FragCoord.xy), 0).rgb;
+  out_color = vec4((1.0 - F_r) / PI * v_radiosity + L_single + F_r * frame.world_color.rgb, clamp(v_mask, 0.0, 1.0));
 }
 #endif

@@ -10,7 +10,11 @@ index-matched (eta = 1: Cycles then samples the lights from inside the volume, w
 leaves it to hit a 5 mm light by chance, and 1024 spp still left 65 % noise). The reference is Cycles'
 brute force with the boundary black to light coming back from outside (``self_interreflection=False``:
 light leaving one ear into the other is the one transport no method here models; the full brute force
-is reported beside it), two seeds averaged, their difference giving the noise floor. Iterations to
+is reported beside it), two seeds averaged, their difference giving the noise floor. QUADGRAPH is also
+drawn without its single-scattering term and compared with Cycles' multiple scattering (the reference less
+Cycles' single scattering, rendered with no volume bounce): the part Wang's diffusion models (Sec. 7).
+Our images are box-filtered from 3 x 3 samples per pixel, as Cycles' BOX filter averages each pixel's area;
+the frame times are those of one sample per pixel. Iterations to
 tolerance with and without the multi-resolution start (the paper's Fig. 14, on the CPU twin with the
 frame's captured q); GPU memory per 100k nodes; images of spot, cow and a torus knot to look at.
 Writes bench/results/quadgraph/ (summary.md, results.json, chart.png, images).
@@ -30,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import blender_env  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+SUPERSAMPLE = 3  # samples per pixel side of our images against exact transport (box-filtered, as Cycles')
 
 
 def main() -> int:
@@ -125,29 +130,72 @@ def main() -> int:
                     cache.store(Path(args.cache), desc, image, sec)
                     hit = (image, sec)
                 exact_images[label] = hit[0]
+            # Single scattering alone (Cycles with no volume bounce after the first scattering): the term
+            # QUADGRAPH adds to its diffusion, and what Wang's multiple scattering leaves out.
+            desc = {**description_x, "engine": "CYCLES", "kind": "brute_force", "samples": args.exact_samples,
+                    "bounces": settings.cycles_bounces, "seed": 1, "self_interreflection": False,
+                    "volume_bounces": 0}
+            hit = cache.load(Path(args.cache), desc)
+            if hit is None:
+                print(f"[{name}] exact transport: Cycles single scattering, {args.exact_samples} spp ...", flush=True)
+                with runner.twin_materials_applied([subject], "brute_force", self_interreflection=False), \
+                        runner.engine_setup(scene, "CYCLES", **{**runner.cycles_options(
+                            args.exact_samples, settings.cycles_bounces, seed=1), "volume_bounces": 0}):
+                    image, sec = runner.render_pixels(scene, w, h)
+                cache.store(Path(args.cache), desc, image, sec)
+                hit = (image, sec)
+            exact_single = hit[0]
             exact_ref = 0.5 * (exact_images["seed 1"] + exact_images["seed 2"])
+            exact_multiple = exact_ref.copy()
+            exact_multiple[..., :3] -= exact_single[..., :3]
             # The average's own noise: half the RMSE between the two seeds.
             noise = 0.5 * metrics.relative_rmse(exact_images["seed 1"], exact_images["seed 2"], mask_x)
             report.save_image_png(out / f"{name}_exact_brute_force.png", exact_ref)
             report.save_image_png(out / f"{name}_exact_brute_force_full.png", exact_images["full"])
+            report.save_image_png(out / f"{name}_exact_single.png", exact_single)
 
-        def measure_exact(label, **extra):
-            """Draw the isolated, index-matched scene with our engine and compare with exact transport."""
+        def draw_exact(single: bool = True):
+            """Our engine on the isolated, index-matched scene: the frame time at the bench's size, and the
+            image box-filtered from SUPERSAMPLE^2 samples per pixel, as Cycles' BOX filter averages each
+            pixel's area (rims lit at grazing angles change within a pixel)."""
+            subject.translucent.single_scattering = single
+            S = SUPERSAMPLE
             with isolated(scene, subject), runner.engine_setup(scene, "TRANSLUCENT_RT"):
                 runner.render_pixels(scene, w, h)  # uploads
-                image, sec = runner.render_pixels(scene, w, h)
+                _, sec = runner.render_pixels(scene, w, h)
+                image, _ = runner.render_pixels(scene, w * S, h * S)
+            subject.translucent.single_scattering = True
+            return image.reshape(h, S, w, S, 4).mean(axis=(1, 3)), sec
+
+        def measure_exact(label, quadgraph: bool = False, **extra):
+            """Draw the isolated, index-matched scene with our engine and compare with exact transport;
+            QUADGRAPH also without its single scattering, against Cycles' multiple scattering."""
+            image, sec = draw_exact()
             row = {"scene": name, "label": label, "seconds": round(sec, 3), "reference_noise": noise,
                    "rel_rmse": metrics.relative_rmse(image, exact_ref, mask_x),
                    "median": metrics.median_relative_error(image, exact_ref, mask_x),
                    "rel_rmse_full": metrics.relative_rmse(image, exact_images["full"], mask_x),
                    "mean_ratio": [float(v) for v in image[mask_x][:, :3].mean(0) / exact_ref[mask_x][:, :3].mean(0)],
                    **extra}
+            if quadgraph:
+                diffusion, _ = draw_exact(single=False)
+                single = image - diffusion
+                row.update(rel_rmse_diffusion_only=metrics.relative_rmse(diffusion, exact_ref, mask_x),
+                           rel_rmse_multiple=metrics.relative_rmse(diffusion, exact_multiple, mask_x),
+                           mean_ratio_multiple=[float(v) for v in diffusion[mask_x][:, :3].mean(0)
+                                                / exact_multiple[mask_x][:, :3].mean(0)],
+                           rel_rmse_single=metrics.relative_rmse(single, exact_single, mask_x),
+                           mean_ratio_single=float(metrics.luminance(single)[mask_x].mean()
+                                                   / metrics.luminance(exact_single)[mask_x].mean()))
             slug = "".join(c if c.isalnum() else "_" for c in f"{name}_exact_{label}").lower()
             report.save_image_png(out / f"{slug}.png", image)
             report.save_error_png(out / f"{slug}_error.png", image, exact_ref, mask_x)
             exact_rows.append(row)
             print(f"[{name}] exact transport, {label}: RMSE {row['rel_rmse']:.3f} (noise {noise:.3f}), median "
-                  f"{row['median']:.3f}, RMSE with self-interreflection {row['rel_rmse_full']:.3f}", flush=True)
+                  f"{row['median']:.3f}, RMSE with self-interreflection {row['rel_rmse_full']:.3f}"
+                  + (f"; diffusion alone {row['rel_rmse_diffusion_only']:.3f}, against multiple scattering "
+                     f"{row['rel_rmse_multiple']:.3f}, single scattering {row['rel_rmse_single']:.3f}"
+                     if quadgraph else ""), flush=True)
 
         subject.translucent.method = "IMAGE_SPACE"
         with runner.engine_setup(scene, "TRANSLUCENT_RT"):
@@ -205,7 +253,7 @@ def main() -> int:
                     fig14.append({"scene": name, "multiresolution": multi, "coarse_iterations": coarse_its,
                                   "curve": curve})
             # After Fig. 14, which reads this bake's resources as the scene-set frame left them.
-            measure_exact(f"QUADGRAPH K={K:g}", K=K, surface_nodes=meta["surface_nodes"],
+            measure_exact(f"QUADGRAPH K={K:g}", quadgraph=True, K=K, surface_nodes=meta["surface_nodes"],
                           inner_nodes=meta["inner_nodes"])
     (out / "results.json").write_text(json.dumps({"rows": rows, "fig14": fig14, "exact_transport": exact_rows,
                                                   "exact_samples": args.exact_samples}, indent=2, default=float))
@@ -246,6 +294,8 @@ def chart(rows, fig14, exact_rows, out: Path) -> None:
                label=f"{scene.split('_')[0]} QUADGRAPH")
         c.plot([r["K"] for r in qg], [r["rel_rmse_full"] for r in qg], "o:", color=colour, alpha=0.5,
                label=f"{scene.split('_')[0]} QUADGRAPH vs full brute force")
+        c.plot([r["K"] for r in qg], [r["rel_rmse_multiple"] for r in qg], "s--", color=colour, alpha=0.7,
+               label=f"{scene.split('_')[0]} diffusion alone vs multiple scattering")
         for r in rs:
             if "K" not in r:
                 c.axhline(r["rel_rmse"], color=colour, ls="--", lw=0.8, label=f"{scene.split('_')[0]} {r['label']}")
@@ -290,13 +340,23 @@ def summary(rows, fig14, exact_rows, exact_samples) -> str:
              "RMSE (half the difference of the seeds); 'full' compares with the brute force that keeps "
              "self-interreflection. 192x144, relative RMSE and median relative error over the object's "
              "pixels.\n",
-             "| scene | method | RMSE | noise | median | RMSE vs full | mean ratio (r, g, b) | surface / inner nodes |",
-             "|---|---|---|---|---|---|---|---|"]
+             "QUADGRAPH's RMSE includes its single-scattering term; 'diffusion alone' is the same image "
+             "without it; 'vs multiple' compares that with Cycles' multiple scattering (the reference less "
+             "Cycles' single scattering), the part Wang's method models; 'single' compares our single-"
+             "scattering term with Cycles' (RMSE, and the ratio of means). Our images: 3 x 3 samples per "
+             "pixel, box-filtered.\n",
+             "| scene | method | RMSE | noise | median | RMSE vs full | mean ratio (r, g, b) | diffusion alone | "
+             "vs multiple (mean ratio) | single (mean ratio) | surface / inner nodes |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in exact_rows:
-        nodes = f"{r['surface_nodes']:,} / {r['inner_nodes']:,}" if "K" in r else ""
+        q = "K" in r
+        nodes = f"{r['surface_nodes']:,} / {r['inner_nodes']:,}" if q else ""
+        split = (f"{r['rel_rmse_diffusion_only']:.3f} | {r['rel_rmse_multiple']:.3f} "
+                 f"({', '.join(f'{v:.2f}' for v in r['mean_ratio_multiple'])}) | "
+                 f"{r['rel_rmse_single']:.3f} ({r['mean_ratio_single']:.2f})") if q else " | | "
         lines.append(f"| {r['scene']} | {r['label']} | {r['rel_rmse']:.3f} | {r['reference_noise']:.3f} | "
                      f"{r['median']:.3f} | {r['rel_rmse_full']:.3f} | "
-                     f"{', '.join(f'{v:.3f}' for v in r['mean_ratio'])} | {nodes} |")
+                     f"{', '.join(f'{v:.3f}' for v in r['mean_ratio'])} | {split} | {nodes} |")
     lines += ["\n## The scene set (floor, eta 1.3)\n",
              "Relative RMSE over the object's pixels against Cycles random walk (1024 spp, the bench's reference) "
              "and brute force (256 spp), and the median relative error against brute force, 192x144, one run on "

@@ -187,6 +187,13 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
                     "scattering along noise veins, as Lensch's marble); 0 is homogeneous",
         min=0.0, max=1.0, default=0.0,
     )
+    single_scattering: bpy.props.BoolProperty(
+        name="Single scattering",
+        description="QUADGRAPH: add light scattered once under the surface, marched along the view ray "
+                    "through each light's distance map, to the diffusion (which models multiple scattering "
+                    "only): the bright rims where a light grazes a back-lit object",
+        default=True,
+    )
     veins_scale: bpy.props.FloatProperty(
         name="Vein spacing (mm)", description="QUADGRAPH: distance between veins, in mm", min=0.1, default=20.0, unit="NONE",
     )

@@ -65,6 +65,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
             col = layout.column(align=True)
             col.prop(s, "quadgraph_K")
             col.prop(s, "quadgraph_levels")
+            col.prop(s, "single_scattering")
             col = layout.column(align=True)
             col.prop(s, "veins")
             col.prop(s, "veins_scale")

@@ -317,7 +317,8 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
                 layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
                              base_sigma_s_prime=tuple(s.base_sigma_s_prime))
             if method == "QUADGRAPH":
-                layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale))
+                layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
+                             single_scattering=bool(s.single_scattering))
             if method == "GEOCUBE":
                 layer = dict(max_steps=int(s.geocube_steps))
             medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),

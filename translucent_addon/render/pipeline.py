@@ -160,7 +160,8 @@ class Pipeline:
         if textured:
             texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0)
         if graphs:
-            quadgraph.illuminate(graphs, objects, frame_ubo, placeholder, atlas[1], mode=0)
+            quadgraph.illuminate(graphs, objects, frame_ubo, placeholder, atlas[1], mode=0, pipeline=self,
+                                 size=(cam.width, cam.height))
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
         t_shadow = t_light = t_caustics = 0.0
@@ -186,7 +187,8 @@ class Pipeline:
             if textured:
                 texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1)
             if graphs:
-                quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1)
+                quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1, pipeline=self,
+                                     size=(cam.width, cam.height))
             t3 = time.perf_counter()
             if with_caustics:
                 caustics.draw_emitter(caustic_plan, frame, e, light_ubo, batches, objects, frame_ubo, fb, self,

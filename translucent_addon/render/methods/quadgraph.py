@@ -9,8 +9,11 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    assumed: lights do move), then Jacobi steps (``qg_relax``, Eq. 8-9) into two textures in turn;
    every ``CHECK_EVERY`` steps the last step's relative change is read back and the level stops
    below the scene's tolerance or at its iteration cap (Sec. 5.2);
-3. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
-   nodes per vertex and draws L = F_t / pi B + F_r L_world over the base pass (``qg_display``).
+3. single scattering, the term diffusion leaves out (Wang Sec. 7; ``physics/single_scattering.py``): the
+   nearest QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the
+   refracted view ray marched through the emitter's distance map, added into it (``qg_single``);
+4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
+   nodes per vertex and draws L = F_t / pi B + L^(1) + F_r L_world over the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
 (``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
@@ -28,6 +31,7 @@ from ...geometry.mesh_measures import vertex_normals
 from ...geometry.volume_deformation import DeformationError
 from ...physics.dipole import A as internal_reflection
 from ...physics import diffusion as df
+from ...physics import single_scattering as ss
 from ...physics.fresnel import F_dr as diffuse_fresnel
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
@@ -100,6 +104,7 @@ class Resources:
         self.material_key = None
         self.materials = None
         self.display = {}
+        self.single = {}
         self.iterations: list[int] = []
 
     @property
@@ -175,6 +180,19 @@ class Resources:
         return batch
 
 
+    def single_batch(self, mesh):
+        """The original mesh for the single-scattering pass (positions and normals)."""
+        batch = self.single.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.single.clear()
+            batch = self.single[mesh.key] = batch_for_shader(shaders.get("qg_single"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32)})
+        return batch
+
+
 def prepare(frame) -> list[Active]:
     """The QUADGRAPH meshes of a frame whose bake is loaded (on first use) and current, with the
     current material's kappa and mu."""
@@ -194,12 +212,62 @@ def prepare(frame) -> list[Active]:
     return followed
 
 
-def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
-    """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3)."""
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline,
+               size) -> None:
+    """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3),
+    and the emitter's single scattering into the screen target (mode 0: its depth, zero colour)."""
     for a in actives:
         for lg in a.resources.levels:
             draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, a.mesh.medium.eta)
+    draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size)
+
+
+def single_target(pipeline, size, name: str = "qg_single"):
+    """A screen target of the single-scattering pass (RGBA32F and its own depth), reused across frames:
+    "qg_single" sums L^(1) (alpha: the eye's distance to the surface), "qg_exit" holds where the view
+    ray leaves the medium."""
+    key = (name, tuple(size))
+    found = pipeline.targets.get(key)
+    if found is None:
+        found = pipeline.targets[key] = new_target(tuple(size), depth=True)
+    return found
+
+
+def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline, size) -> None:
+    """mode 0: clear the targets, lay down the nearest QUADGRAPH surface (depth, eye distance), then the
+    next surface behind it (the view ray's exit, mode 2); mode 1: add one emitter's single scattering
+    L^(1) on the nearest surface (objects with it switched off add none)."""
+    import gpu
+
+    from ..pipeline import clear_target
+
+    single, exit_ = single_target(pipeline, size), single_target(pipeline, size, "qg_exit")
+    passes = ((single, 0, exit_), (exit_, 2, single)) if mode == 0 else ((single, 1, exit_),)
+    for (fb, _, _), pass_mode, (_, (depths,), _) in passes:
+        with fb.bind():
+            if pass_mode != 1:
+                clear_target(fb, (3.0e38,) * 4 if pass_mode == 2 else (0.0,) * 4)
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(pass_mode != 1)
+            gpu.state.blend_set("ADDITIVE_PREMULT" if pass_mode == 1 else "NONE")
+            shader = shaders.bind_lit("qg_single", frame_ubo, light_ubo, shadow_atlas, pass_mode)
+            shader.uniform_sampler("depths", depths)
+            shader.uniform_int("segments", ss.SEGMENTS)
+            shader.uniform_float("tau_max", ss.TAU_MAX)
+            for a in actives:
+                m = a.mesh.medium
+                if pass_mode == 1 and not m.single_scattering:
+                    continue
+                sigma_s, sigma_t = ss.coefficients(m.sigma_a, m.sigma_s_prime, m.g)
+                shader.uniform_block("object", objects[a.index])
+                shader.uniform_float("eta", float(m.eta))
+                shader.uniform_float("g", float(m.g))
+                shader.uniform_float("sigma_a", (*map(float, (sigma_t - sigma_s) * m.mm_per_unit), 0.0))
+                shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
+                a.resources.single_batch(a.mesh).draw(shader)
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
 
 
 def _relative_change(fb_new, fb_old, size) -> float:
@@ -311,6 +379,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("phi", finest.phi[cur][1][0])
             shader.uniform_sampler("incident", finest.incident[1][0])
             shader.uniform_sampler("q_factor", finest.q_factor)
+            shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))

@@ -1,0 +1,115 @@
+/* QUADGRAPH single scattering (physics/single_scattering.py; Jensen et al. 2001's L^(1), the low-order
+ * term Wang Sec. 7 leaves out), added per emitter into a screen target that qg_display adds to the
+ * diffusion's radiance. mode 0 lays down the depth of the nearest QUADGRAPH surface, zero colour and
+ * its distance from the eye in alpha; mode 2 keeps, per pixel, the distance of the nearest surface
+ * behind that one (``depths`` is mode 0's target): where the view ray leaves the medium again.
+ * mode 1 marches the refracted view ray t_k = t_end (k / N)^2, t_end the lesser of TAU_MAX optical
+ * depths and the exit (``depths`` is mode 2's target), and, at each node, takes the path d the
+ * light has crossed in the medium from the emitter's distance map (the first surface the light meets
+ * to the node, in a straight line), then integrates sigma_s p E exp(-sigma_t (t + d)) per segment with
+ * the exponent linear. T_o = 1 - F_r(mu_o) out of the medium; into it, the normal-incidence 1 - F_0
+ * (the entry point's normal is not in the map). sigma_a, sigma_s: rgb per world unit (vec4: Blender packs
+ * vec3 push constants wrongly). */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  vec4 world = object.model * vec4(pos, 1.0);
+  v_world = world.xyz;
+  v_normal = mat3(object.normal_matrix) * nor;
+  gl_Position = frame.view_proj * world;
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+/* Path length in the medium from the first surface the emitter's light meets to p: the distance
+ * atlas (shadow_distance.glsl) holds that surface's distance; 0 where p lies in front of it or
+ * outside the map. */
+float light_path(vec3 p)
+{
+  float texels = light.shadow.x;
+  bool is_point = light.position_kind.w > 0.5;
+  bool fitted = light.cone.w > 0.0;
+  vec3 rel = p - light.position_kind.xyz;
+  int face = (is_point && !fitted) ? cube_face(rel) : 0;
+  vec4 clip = light.face_view_proj[face] * vec4(p, 1.0);
+  vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
+  if (clip.w <= 0.0 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) {
+    return 0.0;
+  }
+  ivec2 tile = ivec2(face % 3, face / 3);
+  ivec2 texel = tile * int(texels) + clamp(ivec2(uv * texels), ivec2(0), ivec2(int(texels) - 1));
+  float stored = texelFetch(shadow_atlas, texel, 0).r;
+  float here = is_point ? length(rel) : dot(rel, light.direction.xyz);
+  return max(here - stored, 0.0);
+}
+
+float hg_phase(float cos_theta)
+{
+  float g2 = g * g;
+  return (1.0 - g2) / (4.0 * PI * pow(max(1.0 + g2 - 2.0 * g * cos_theta, 1e-6), 1.5));
+}
+
+float eye_distance(vec3 p)
+{
+  return (frame.camera_position.w > 0.5) ? dot(p - frame.camera_position.xyz, frame.camera_forward.xyz) :
+                                           length(p - frame.camera_position.xyz);
+}
+
+void main()
+{
+  float here = eye_distance(v_world);
+  if (mode == 0) {
+    out_color = vec4(0.0, 0.0, 0.0, here);
+    return;
+  }
+  if (mode == 2) {
+    float front = texelFetch(depths, ivec2(gl_FragCoord.xy), 0).a;
+    if (here <= front * (1.0 + 1e-5) + 1e-6) {
+      discard;
+    }
+    out_color = vec4(here);
+    return;
+  }
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) {
+    n = -n;
+  }
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
+  float mu_o = dot(n, to_eye);
+  vec3 w_t = refract(-to_eye, n, 1.0 / eta);
+  if (mu_o <= 0.0 || dot(w_t, w_t) == 0.0) {
+    discard;
+  }
+  float F_0 = fresnel_dielectric(1.0, eta);
+  float T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - F_0);
+  vec3 sigma_t = sigma_a.rgb + sigma_s.rgb;
+  float t_exit = texelFetch(depths, ivec2(gl_FragCoord.xy), 0).r - here;
+  float t_max = min(tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)), max(t_exit, 0.0));
+  vec3 L = vec3(0.0);
+  vec3 a_prev = vec3(0.0), f_prev = vec3(0.0);
+  float t_prev = 0.0;
+  for (int k = 0; k <= segments; k++) {
+    float s = float(k) / float(segments);
+    float t = t_max * s * s;
+    vec3 x = v_world + t * w_t;
+    vec3 to_light;
+    vec3 E = emitter_irradiance(x, to_light);
+    vec3 a = -sigma_t * (t + light_path(x));
+    vec3 f = sigma_s.rgb * hg_phase(dot(to_light, w_t)) * E;
+    if (k > 0) {
+      /* integral over [t_prev, t] of the source (mean of the ends) times exp of the linear exponent */
+      vec3 da = a - a_prev;
+      vec3 seg;
+      for (int c = 0; c < 3; c++) {
+        seg[c] = abs(da[c]) < 1e-6 ? (t - t_prev) * exp(0.5 * (a[c] + a_prev[c])) :
+                                     (t - t_prev) * (exp(a[c]) - exp(a_prev[c])) / da[c];
+      }
+      L += 0.5 * (f + f_prev) * seg;
+    }
+    a_prev = a;
+    f_prev = f;
+    t_prev = t;
+  }
+  out_color = vec4(T * L, 0.0);
+}
+#endif
