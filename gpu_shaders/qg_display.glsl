@@ -3,7 +3,8 @@
  * bake; physics/diffusion.py says why the (1 - F_dr)), and the fragment leaves
  * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
  * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. The
- * single scattering of qg_single, summed over the emitters in a screen target, is added to L. */
+ * single scattering of qg_single, summed over the emitters in a screen target, is added to L, with
+ * the painted factor on the light entering (mask x glow x tint) interpolated like B. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -11,12 +12,16 @@ void main()
   v_world = world.xyz;
   v_normal = mat3(object.normal_matrix) * nor;
   vec3 B = vec3(0.0);
+  vec3 factor = vec3(0.0);
   for (int j = 0; j < 4; j++) {
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
-    vec3 q = texelFetch(incident, t, 0).rgb * texelFetch(q_factor, t, 0).rgb;
+    vec3 f = texelFetch(q_factor, t, 0).rgb;
+    vec3 q = texelFetch(incident, t, 0).rgb * f;
     B += link_weights[j] * (phi_s - 2.0 * q);
+    factor += link_weights[j] * f;
   }
+  v_factor = factor;
   v_radiosity = max((1.0 - F_dr) * B / (2.0 * (1.0 + F_dr)), vec3(0.0));
   v_mask = mask;
   gl_Position = frame.view_proj * world;
@@ -32,7 +37,16 @@ void main()
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
-  vec3 L_single = texelFetch(single, ivec2(gl_FragCoord.xy), 0).rgb;
-  out_color = vec4((1.0 - F_r) / PI * v_radiosity + L_single + F_r * frame.world_color.rgb, clamp(v_mask, 0.0, 1.0));
+  vec3 L_single = texelFetch(single, ivec2(gl_FragCoord.xy), 0).rgb * v_factor;
+  vec3 L_diffusion = (1.0 - F_r) / PI * v_radiosity;
+  /* display_output (tests): 0 all, 1 the diffusion alone, 2 single scattering alone */
+  vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;
+  if (display_output == 1) {
+    L = L_diffusion;
+  }
+  else if (display_output == 2) {
+    L = L_single;
+  }
+  out_color = vec4(L, clamp(v_mask, 0.0, 1.0));
 }
 #endif

@@ -383,6 +383,11 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
                                            "2 exit point, 3 refracted direction (bake frame)",
         min=0, max=3, default=0, options={"HIDDEN"},
     )
+    quadgraph_output: bpy.props.IntProperty(
+        name="QUADGRAPH output", description="QUADGRAPH display output (tests, debugging): 0 colour, 1 the "
+                                             "diffusion alone (multiple scattering), 2 single scattering alone",
+        min=0, max=2, default=0, options={"HIDDEN"},
+    )
     relief_output: bpy.props.IntProperty(
         name="Height-field output", description="Height-field pass output (tests, debugging): 0 colour, 1 hit "
                                                 "uv, depth and refinement count",

@@ -66,3 +66,76 @@ def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_t
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
     kept = -np.expm1(-sigma_t * thickness * (1.0 / mu_o + 1.0 / mu_i)) if np.isfinite(thickness) else 1.0
     return sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_o) * kept
+
+
+def single_albedo(sigma_a, sigma_s_prime, g: float, eta: float, mu_i, n: int = 48) -> np.ndarray:
+    """R_1(mu_i): the flux the single-scattering term sends out of a flat face, over the incident flux
+    E mu_i, without the entry transmittance T_i; the model ``qg_single`` draws (view ray refracted,
+    light path straight, T_o = 1 - F_r(mu_o)). Gauss-Legendre in mu_o, uniform in azimuth.
+    At eta = 1 and g = 0: (alpha / 2) (1 - mu_i ln(1 + 1 / mu_i)). Returns (len(mu_i), 3)."""
+    from .fresnel import fresnel_dielectric
+
+    sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
+    alpha = sigma_s / sigma_t
+    x, w = np.polynomial.legendre.leggauss(n)
+    mu_o, w_mu = 0.5 * (x + 1.0), 0.5 * w
+    phi = (np.arange(2 * n) + 0.5) * np.pi / n
+    mu_i = np.atleast_1d(np.asarray(mu_i, np.float64))
+    sin_o = np.sqrt(1.0 - mu_o**2)
+    mu_t = np.sqrt(1.0 - (sin_o / eta) ** 2)  # cosine of the refracted view ray inside
+    sin_i = np.sqrt(1.0 - mu_i**2)
+    # to_light . w_t, w_t the refracted view ray going in: (i, mu_o, phi)
+    cos_theta = (-sin_i[:, None, None] * (sin_o / eta)[None, :, None] * np.cos(phi)[None, None, :]
+                 - mu_i[:, None, None] * mu_t[None, :, None])
+    p = hg_phase(cos_theta, g)
+    T_o = 1.0 - fresnel_dielectric(mu_o, eta)
+    integrand = (T_o * mu_o)[None, :, None] * p / (mu_i[:, None, None] + mu_t[None, :, None])
+    flux = (integrand * w_mu[None, :, None]).sum(axis=1).mean(axis=1) * 2.0 * np.pi
+    return flux[:, None] * alpha[None, :]
+
+
+def chandrasekhar_H(alpha: float, mu, n: int = 64) -> np.ndarray:
+    """Chandrasekhar's H function of isotropic scattering with albedo alpha < 1:
+    H(mu) = 1 + (alpha / 2) mu H(mu) int_0^1 H(mu') / (mu + mu') dmu', iterated on Gauss-Legendre nodes,
+    then evaluated at mu by the same equation (Nystrom)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    m, w = 0.5 * (x + 1.0), 0.5 * w
+    h = np.ones(n)
+    for _ in range(5000):
+        h_next = 1.0 / (1.0 - 0.5 * alpha * m * ((w * h)[None, :] / (m[:, None] + m[None, :])).sum(axis=1))
+        done = np.abs(h_next - h).max() < 1e-13
+        h = h_next
+        if done:
+            break
+    mu = np.atleast_1d(np.asarray(mu, np.float64))
+    return 1.0 / (1.0 - 0.5 * alpha * mu * ((w * h)[None, :] / (mu[:, None] + m[None, :])).sum(axis=1))
+
+
+def plane_albedo(alpha: float, mu) -> np.ndarray:
+    """All the light a semi-infinite isotropic medium (index-matched) sends back of a beam at cosine mu,
+    every order of scattering: 1 - H(mu) sqrt(1 - alpha) (Chandrasekhar; exact)."""
+    return 1.0 - chandrasekhar_H(alpha, mu) * np.sqrt(1.0 - alpha)
+
+
+def multiple_fraction(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32) -> np.ndarray:
+    """The share of the light entering at mu_i = (k + 0.5) / n that the diffusion should still carry once
+    the single-scattering term draws its own, (n, 3): R_ms(mu) / R_d with R_ms = plane_albedo - R_1.
+
+    The diffusion's source is all the light that enters, and its exitance matches the sum of single and
+    multiple scattering, not multiple scattering alone: at eta = 1 the dipole's R_d is 0.914 for marble,
+    where a Monte Carlo walk at normal incidence gives 0.153 single + 0.761 multiple. Adding L^(1) to it
+    unchanged counts the single-scattered flux twice (1.2 times too bright for marble, 1.8 for skin1's
+    blue), so q keeps the multiple-scattered share of what enters, which grows at grazing incidence
+    (0.59 to 0.83 for marble, 0.56 to 0.72 for skin1's blue). Exact for isotropic, index-matched media
+    (alpha' with similarity for g != 0); at other eta the index-matched split at the refracted cosine."""
+    from .dipole import total_diffuse_reflectance
+
+    sigma_a = np.asarray(sigma_a, np.float64)
+    sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
+    mu_i = (np.arange(n) + 0.5) / n
+    mu_t = np.sqrt(1.0 - (1.0 - mu_i**2) / eta**2)  # the beam's cosine inside
+    alpha_prime = sigma_s_prime / (sigma_a + sigma_s_prime)
+    total = np.stack([plane_albedo(a, mu_t) for a in alpha_prime], axis=1)
+    R_1 = single_albedo(sigma_a, sigma_s_prime, g, 1.0, mu_t)
+    R_d = total_diffuse_reflectance(sigma_a, sigma_s_prime, 1.0)
+    return np.clip((total - R_1) / R_d[None, :], 0.0, 1.0)

@@ -89,6 +89,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline.capture = {} if scene.translucent.capture_passes else None
         pipeline.geocube_mode = scene.translucent.geocube_output
         pipeline.relief_mode = scene.translucent.relief_output
+        pipeline.quadgraph_mode = scene.translucent.quadgraph_output
         # Coherent with the previous F12 only when it drew the previous frame of the same scene.
         pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
         pipeline.coherence_frame = scene.frame_current

@@ -60,6 +60,7 @@ class Pipeline:
         self.coherence_frame = 0
         self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
         self.quadgraph_solver = (2e-5, 1000)
+        self.quadgraph_mode = 0  # QUADGRAPH output: 0 colour; 1 diffusion alone; 2 single scattering alone
         self.relief_mode = 0  # height-field output: 0 colour; 1 hit uv, depth, refinements (tests)
         self.geocube_mode = 0  # GEOCUBE output: 0 colour; 1-3 intermediate values for tests (gc_refract.glsl)  # QUADGRAPH: (relative change per step, iteration cap per level)
 
@@ -158,7 +159,7 @@ class Pipeline:
         if fields:
             grass.draw(fields, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
         if textured:
-            texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0)
+            texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0, pipeline=self)
         if graphs:
             quadgraph.illuminate(graphs, objects, frame_ubo, placeholder, atlas[1], mode=0, pipeline=self,
                                  size=(cam.width, cam.height))
@@ -185,7 +186,7 @@ class Pipeline:
                 gpu.state.blend_set("NONE")
                 gpu.state.depth_mask_set(True)
             if textured:
-                texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1)
+                texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1, pipeline=self)
             if graphs:
                 quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1, pipeline=self,
                                      size=(cam.width, cam.height))

@@ -11,7 +11,10 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    below the scene's tolerance or at its iteration cap (Sec. 5.2);
 3. single scattering, the term diffusion leaves out (Wang Sec. 7; ``physics/single_scattering.py``): the
    nearest QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the
-   refracted view ray marched through the emitter's distance map, added into it (``qg_single``);
+   refracted view ray marched through the emitter's distance map, added into it (``qg_single``). The
+   emitter's q in step 1 then keeps only the multiple-scattered share of the light entering at each
+   node's cosine (``single_scattering.multiple_fraction``), so that the single-scattered flux is not
+   drawn twice;
 4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
    nodes per vertex and draws L = F_t / pi B + L^(1) + F_r L_world over the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
@@ -38,7 +41,7 @@ from ..targets import new_target, screen_quad, texture_from_array
 from . import bake_cache
 from .bake_cache import Active
 from . import quadgraph_data as qgd
-from .texture_space import draw_illumination
+from .texture_space import draw_illumination, unit_texture
 
 CHECK_EVERY = 16
 
@@ -105,6 +108,7 @@ class Resources:
         self.materials = None
         self.display = {}
         self.single = {}
+        self.fraction = (None, None)  # (medium key, texture): the multiple-scattering share of q per cos_i
         self.iterations: list[int] = []
 
     @property
@@ -180,6 +184,16 @@ class Resources:
         return batch
 
 
+    def multiple_fraction(self, medium):
+        """The table scaling an emitter's q by the share the diffusion carries when the single-scattering
+        term draws its own (``single_scattering.multiple_fraction``), rebuilt when the medium changes."""
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.g, medium.eta)
+        if self.fraction[0] != key:
+            table = ss.multiple_fraction(medium.sigma_a, medium.sigma_s_prime, medium.g, medium.eta)
+            image = np.concatenate([table, np.ones((len(table), 1))], axis=1)[None].astype(np.float32)
+            self.fraction = (key, texture_from_array(image))
+        return self.fraction[1]
+
     def single_batch(self, mesh):
         """The original mesh for the single-scattering pass (positions and normals)."""
         batch = self.single.get(mesh.key)
@@ -217,9 +231,11 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3),
     and the emitter's single scattering into the screen target (mode 0: its depth, zero colour)."""
     for a in actives:
+        m = a.mesh.medium
+        fraction = a.resources.multiple_fraction(m) if m.single_scattering else unit_texture(pipeline)
         for lg in a.resources.levels:
             draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
-                              light_ubo, shadow_atlas, mode, a.mesh.medium.eta)
+                              light_ubo, shadow_atlas, mode, m.eta, fraction)
     draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size)
 
 
@@ -383,6 +399,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
+            shader.uniform_int("display_output", int(pipeline.quadgraph_mode))
             a.resources.display_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")

@@ -85,9 +85,11 @@ def prepare(frame) -> list[Active]:
         lambda res, mesh: res.tables.fits(len(mesh.positions)))
 
 
-def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float) -> None:
+def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float,
+                      multiple_fraction) -> None:
     """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
-    point; mode 0 (the world) clears first, mode 1 (one emitter) adds. QUADGRAPH uses it for q(n_s)."""
+    point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by the ``multiple_fraction``
+    table (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s)."""
     import gpu
 
     from ..pipeline import clear_target
@@ -104,15 +106,25 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         shader.uniform_float("eta", float(eta))
         shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
         shader.uniform_float("atlas_size", tuple(float(x) for x in size))
+        shader.uniform_sampler("multiple_fraction", multiple_fraction)
         points.draw(shader)
         gpu.state.blend_set("NONE")
 
 
-def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int) -> None:
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline) -> None:
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
     for a in actives:
         draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
-                          objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta)
+                          objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta,
+                          unit_texture(pipeline))
+
+
+def unit_texture(pipeline):
+    """One texel of 1 (RGBA32F), built once per pipeline: the illumination pass's neutral table."""
+    tex = pipeline.targets.get("unit_texture")
+    if tex is None:
+        tex = pipeline.targets["unit_texture"] = texture_from_array(np.ones((1, 1, 4), np.float32))
+    return tex
 
 
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
