@@ -4,7 +4,8 @@
  * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
  * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. The
  * single scattering of qg_single, summed over the emitters in a screen target, is added to L, with
- * the painted factor on the light entering (mask x glow x tint) interpolated like B. */
+ * the painted factor on the light entering (mask x glow x tint) interpolated like B; B gives up the
+ * exitance the term takes over where light enters (``loss``: single_scattering.exitance_loss). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -13,16 +14,18 @@ void main()
   v_normal = mat3(object.normal_matrix) * nor;
   vec3 B = vec3(0.0);
   vec3 factor = vec3(0.0);
+  vec3 taken = vec3(0.0);
   for (int j = 0; j < 4; j++) {
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
     vec3 f = texelFetch(q_factor, t, 0).rgb;
     vec3 q = texelFetch(incident, t, 0).rgb * f;
     B += link_weights[j] * (phi_s - 2.0 * q);
+    taken += link_weights[j] * texelFetch(loss, t, 0).rgb * f;
     factor += link_weights[j] * f;
   }
   v_factor = factor;
-  v_radiosity = max((1.0 - F_dr) * B / (2.0 * (1.0 + F_dr)), vec3(0.0));
+  v_radiosity = max((1.0 - F_dr) * B / (2.0 * (1.0 + F_dr)) - taken, vec3(0.0));
   v_mask = mask;
   gl_Position = frame.view_proj * world;
 }

@@ -3,8 +3,8 @@
  * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
  * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's E is
- * scaled by the share the diffusion carries, multiple_fraction(cos_i) (an n x 1 table; QUADGRAPH with
- * single scattering on: physics/single_scattering.multiple_fraction; otherwise one texel of 1). */
+ * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation (one texel of 1 leaves E;
+ * QUADGRAPH's exitance loss pass: physics/single_scattering.exitance_loss). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -29,11 +29,11 @@ void main()
     discard;
   }
   vec3 E = radiance * cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);
-  int n = textureSize(multiple_fraction, 0).x;
+  int n = textureSize(cosine_table, 0).x;
   float u = clamp(cos_i * float(n) - 0.5, 0.0, float(n - 1));
   int k = int(floor(u));
-  E *= mix(texelFetch(multiple_fraction, ivec2(k, 0), 0).rgb,
-           texelFetch(multiple_fraction, ivec2(min(k + 1, n - 1), 0), 0).rgb, u - float(k));
+  E *= mix(texelFetch(cosine_table, ivec2(k, 0), 0).rgb,
+           texelFetch(cosine_table, ivec2(min(k + 1, n - 1), 0), 0).rgb, u - float(k));
   out_irradiance = vec4(E, 0.0);
 }
 #endif

@@ -118,16 +118,11 @@ def plane_albedo(alpha: float, mu) -> np.ndarray:
 
 
 def multiple_fraction(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32) -> np.ndarray:
-    """The share of the light entering at mu_i = (k + 0.5) / n that the diffusion should still carry once
-    the single-scattering term draws its own, (n, 3): R_ms(mu) / R_d with R_ms = plane_albedo - R_1.
-
-    The diffusion's source is all the light that enters, and its exitance matches the sum of single and
-    multiple scattering, not multiple scattering alone: at eta = 1 the dipole's R_d is 0.914 for marble,
-    where a Monte Carlo walk at normal incidence gives 0.153 single + 0.761 multiple. Adding L^(1) to it
-    unchanged counts the single-scattered flux twice (1.2 times too bright for marble, 1.8 for skin1's
-    blue), so q keeps the multiple-scattered share of what enters, which grows at grazing incidence
-    (0.59 to 0.83 for marble, 0.56 to 0.72 for skin1's blue). Exact for isotropic, index-matched media
-    (alpha' with similarity for g != 0); at other eta the index-matched split at the refracted cosine."""
+    """R_ms(mu_i) / R_d at mu_i = (k + 0.5) / n, (n, 3): the multiple-scattered share of what a lit face
+    reflects, over what the diffusion reflects there. R_ms = plane_albedo - R_1, index-matched: exact
+    for isotropic scattering (alpha' with similarity for g != 0); at other eta the index-matched split
+    at the refracted cosine. 0.59 to 0.83 for marble from grazing to normal incidence, 0.56 to 0.72 for
+    skin1's blue, as a random walk finds."""
     from .dipole import total_diffuse_reflectance
 
     sigma_a = np.asarray(sigma_a, np.float64)
@@ -138,4 +133,21 @@ def multiple_fraction(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32)
     total = np.stack([plane_albedo(a, mu_t) for a in alpha_prime], axis=1)
     R_1 = single_albedo(sigma_a, sigma_s_prime, g, 1.0, mu_t)
     R_d = total_diffuse_reflectance(sigma_a, sigma_s_prime, 1.0)
-    return np.clip((total - R_1) / R_d[None, :], 0.0, 1.0)
+    return np.maximum(total - R_1, 0.0) / R_d[None, :]
+
+
+def exitance_loss(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32) -> np.ndarray:
+    """What a lit face's diffusion exitance gives up per unit q entering at mu_i = (k + 0.5) / n once the
+    single-scattering term is drawn beside it, (n, 3): R_d (1 - R_ms / R_d) = R_d - R_ms.
+
+    The diffusion's exitance near where light enters matches the sum of single and multiple scattering,
+    not multiple scattering alone: index-matched, the dipole's R_d is 0.914 for marble where a random
+    walk at normal incidence gives 0.153 single + 0.761 multiple. Drawing L^(1) beside it unchanged
+    counts the single-scattered light twice (1.2 times too bright for marble, 1.8 for skin1's blue).
+    B ~ R_d q there, so B - (R_d - R_ms) q leaves R_ms q, the multiple-scattered exitance; light that
+    crosses the object and leaves elsewhere (q = 0 there) keeps all of the diffusion. Negative where a
+    grazing beam's multiple scattering exceeds R_d."""
+    from .dipole import total_diffuse_reflectance
+
+    R_d = total_diffuse_reflectance(np.asarray(sigma_a, np.float64), np.asarray(sigma_s_prime, np.float64), eta)
+    return R_d[None, :] * (1.0 - multiple_fraction(sigma_a, sigma_s_prime, g, eta, n))

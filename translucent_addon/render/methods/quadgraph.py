@@ -11,12 +11,13 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    below the scene's tolerance or at its iteration cap (Sec. 5.2);
 3. single scattering, the term diffusion leaves out (Wang Sec. 7; ``physics/single_scattering.py``): the
    nearest QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the
-   refracted view ray marched through the emitter's distance map, added into it (``qg_single``). The
-   emitter's q in step 1 then keeps only the multiple-scattered share of the light entering at each
-   node's cosine (``single_scattering.multiple_fraction``), so that the single-scattered flux is not
-   drawn twice;
+   refracted view ray marched through the emitter's distance map, added into it (``qg_single``). Where
+   light enters, the diffusion's exitance already holds the single-scattered light: the finest level's
+   surface nodes sum what the term takes over, (R_d - R_ms(cos_i)) q per emitter
+   (``single_scattering.exitance_loss``), and the display takes it from B;
 4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
-   nodes per vertex and draws L = F_t / pi B + L^(1) + F_r L_world over the base pass (``qg_display``).
+   nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + F_r L_world over the base
+   pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
 (``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
@@ -108,7 +109,8 @@ class Resources:
         self.materials = None
         self.display = {}
         self.single = {}
-        self.fraction = (None, None)  # (medium key, texture): the multiple-scattering share of q per cos_i
+        self.loss_table = (None, None)  # (medium key, texture): single_scattering.exitance_loss per cos_i
+        self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.iterations: list[int] = []
 
     @property
@@ -184,15 +186,15 @@ class Resources:
         return batch
 
 
-    def multiple_fraction(self, medium):
-        """The table scaling an emitter's q by the share the diffusion carries when the single-scattering
-        term draws its own (``single_scattering.multiple_fraction``), rebuilt when the medium changes."""
+    def exitance_loss(self, medium):
+        """The table of what a lit node's exitance gives up per unit q to the single-scattering term
+        (``single_scattering.exitance_loss``), rebuilt when the medium changes."""
         key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.g, medium.eta)
-        if self.fraction[0] != key:
-            table = ss.multiple_fraction(medium.sigma_a, medium.sigma_s_prime, medium.g, medium.eta)
-            image = np.concatenate([table, np.ones((len(table), 1))], axis=1)[None].astype(np.float32)
-            self.fraction = (key, texture_from_array(image))
-        return self.fraction[1]
+        if self.loss_table[0] != key:
+            table = ss.exitance_loss(medium.sigma_a, medium.sigma_s_prime, medium.g, medium.eta)
+            image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
+            self.loss_table = (key, texture_from_array(image))
+        return self.loss_table[1]
 
     def single_batch(self, mesh):
         """The original mesh for the single-scattering pass (positions and normals)."""
@@ -230,12 +232,21 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
                size) -> None:
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3),
     and the emitter's single scattering into the screen target (mode 0: its depth, zero colour)."""
+    from ..pipeline import clear_target
+
     for a in actives:
-        m = a.mesh.medium
-        fraction = a.resources.multiple_fraction(m) if m.single_scattering else unit_texture(pipeline)
-        for lg in a.resources.levels:
+        m, res = a.mesh.medium, a.resources
+        for lg in res.levels:
             draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
-                              light_ubo, shadow_atlas, mode, m.eta, fraction)
+                              light_ubo, shadow_atlas, mode, m.eta, unit_texture(pipeline))
+        # The exitance the single-scattering term takes over at the finest level's surface nodes.
+        finest = res.levels[-1]
+        if mode == 0:
+            with res.loss[0].bind():
+                clear_target(res.loss[0], depth=None)
+        elif m.single_scattering:
+            draw_illumination(res.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
+                              light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
     draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size)
 
 
@@ -395,6 +406,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("phi", finest.phi[cur][1][0])
             shader.uniform_sampler("incident", finest.incident[1][0])
             shader.uniform_sampler("q_factor", finest.q_factor)
+            shader.uniform_sampler("loss", a.resources.loss[1][0])
             shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)

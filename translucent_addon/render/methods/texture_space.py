@@ -86,10 +86,11 @@ def prepare(frame) -> list[Active]:
 
 
 def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float,
-                      multiple_fraction) -> None:
+                      cosine_table) -> None:
     """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
-    point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by the ``multiple_fraction``
-    table (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s)."""
+    point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by ``cosine_table`` at the
+    point's cosine (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s) and for the
+    exitance its single-scattering term takes over."""
     import gpu
 
     from ..pipeline import clear_target
@@ -106,7 +107,7 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         shader.uniform_float("eta", float(eta))
         shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
         shader.uniform_float("atlas_size", tuple(float(x) for x in size))
-        shader.uniform_sampler("multiple_fraction", multiple_fraction)
+        shader.uniform_sampler("cosine_table", cosine_table)
         points.draw(shader)
         gpu.state.blend_set("NONE")
 
