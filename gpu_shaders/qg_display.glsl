@@ -32,6 +32,32 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
+/* The single-scattering target around this pixel, 3 x 3 binomial weights over the pixels whose surface
+ * lies within four pixel widths of this one in depth (alpha holds the eye's distance, 0 where no
+ * QUADGRAPH surface is): a rim lit at grazing angles is a band thinner than a pixel, and where the view
+ * ray's chord through it changes from pixel to pixel one sample each drew it as dotted lines. */
+vec3 single_scattering(vec3 p)
+{
+  bool ortho = frame.camera_position.w > 0.5;
+  float here = ortho ? dot(p - frame.camera_position.xyz, frame.camera_forward.xyz) : length(p - frame.camera_position.xyz);
+  ivec2 size = textureSize(single, 0);
+  float depth = ortho ? 1.0 : -(frame.view * vec4(p, 1.0)).z;
+  float tolerance = 8.0 * depth / (frame.proj[1][1] * float(size.y));
+  ivec2 c = ivec2(gl_FragCoord.xy);
+  vec3 sum = vec3(0.0);
+  float weight = 0.0;
+  for (int k = 0; k < 9; k++) {
+    ivec2 o = ivec2(k % 3 - 1, k / 3 - 1);
+    vec4 s = texelFetch(single, clamp(c + o, ivec2(0), size - 1), 0);
+    float w = float((2 - abs(o.x)) * (2 - abs(o.y)));
+    if (abs(s.a - here) <= tolerance) {
+      sum += w * s.rgb;
+      weight += w;
+    }
+  }
+  return weight > 0.0 ? sum / weight : vec3(0.0);
+}
+
 void main()
 {
   vec3 n = normalize(v_normal);
@@ -40,7 +66,7 @@ void main()
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
-  vec3 L_single = texelFetch(single, ivec2(gl_FragCoord.xy), 0).rgb * v_factor;
+  vec3 L_single = single_scattering(v_world) * v_factor;
   vec3 L_diffusion = (1.0 - F_r) / PI * v_radiosity;
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 single scattering alone */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;

@@ -22,11 +22,13 @@ void main()
 
 #ifdef GPU_FRAGMENT_SHADER
 /* Path length in the medium from the first surface the emitter's light meets to p: the distance
- * atlas (shadow_distance.glsl) holds that surface's distance; 0 where p lies in front of it or
- * outside the map. */
+ * atlas (shadow_distance.glsl) holds that surface's distance, interpolated bilinearly over the four
+ * nearest texels that saw a surface (a nearest texel steps the path at grazing light, and one that
+ * missed the object beside its outline would light p in full: both speckled rims); 0 where p lies in
+ * front of it, outside the map or where no texel around saw a surface. */
 float light_path(vec3 p)
 {
-  float texels = light.shadow.x;
+  int texels = int(light.shadow.x);
   bool is_point = light.position_kind.w > 0.5;
   bool fitted = light.cone.w > 0.0;
   vec3 rel = p - light.position_kind.xyz;
@@ -36,11 +38,25 @@ float light_path(vec3 p)
   if (clip.w <= 0.0 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) {
     return 0.0;
   }
-  ivec2 tile = ivec2(face % 3, face / 3);
-  ivec2 texel = tile * int(texels) + clamp(ivec2(uv * texels), ivec2(0), ivec2(int(texels) - 1));
-  float stored = texelFetch(shadow_atlas, texel, 0).r;
+  ivec2 tile = ivec2(face % 3, face / 3) * texels;
+  vec2 x = uv * float(texels) - 0.5;
+  ivec2 base = ivec2(floor(x));
+  vec2 f = x - vec2(base);
+  float stored = 0.0, weight = 0.0;
+  for (int k = 0; k < 4; k++) {
+    ivec2 o = ivec2(k & 1, k >> 1);
+    float d = texelFetch(shadow_atlas, tile + clamp(base + o, ivec2(0), ivec2(texels - 1)), 0).r;
+    float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y);
+    if (d < 1e30) {
+      stored += w * d;
+      weight += w;
+    }
+  }
+  if (weight <= 0.0) {
+    return 0.0;
+  }
   float here = is_point ? length(rel) : dot(rel, light.direction.xyz);
-  return max(here - stored, 0.0);
+  return max(here - stored / weight, 0.0);
 }
 
 float hg_phase(float cos_theta)
@@ -48,6 +64,38 @@ float hg_phase(float cos_theta)
   float g2 = g * g;
   return (1.0 - g2) / (4.0 * PI * pow(max(1.0 + g2 - 2.0 * g * cos_theta, 1e-6), 1.5));
 }
+
+/* integral over [0, t_max] of sigma_s p E exp(-sigma_t (t + d)) along x_o + t w_t: per segment, the
+ * source's mean at the ends times the exponential of the linear exponent, integrated exactly. */
+vec3 march(vec3 x_o, vec3 w_t, float t_max, vec3 sigma_t)
+{
+  vec3 L = vec3(0.0);
+  vec3 a_prev = vec3(0.0), f_prev = vec3(0.0);
+  float t_prev = 0.0;
+  for (int k = 0; k <= segments; k++) {
+    float s = float(k) / float(segments);
+    float t = t_max * s * s;
+    vec3 x = x_o + t * w_t;
+    vec3 to_light;
+    vec3 E = emitter_irradiance(x, to_light);
+    vec3 a = -sigma_t * (t + light_path(x));
+    vec3 f = sigma_s.rgb * hg_phase(dot(to_light, w_t)) * E;
+    if (k > 0) {
+      vec3 da = a - a_prev;
+      vec3 seg;
+      for (int c = 0; c < 3; c++) {
+        seg[c] = abs(da[c]) < 1e-6 ? (t - t_prev) * exp(0.5 * (a[c] + a_prev[c])) :
+                                     (t - t_prev) * (exp(a[c]) - exp(a_prev[c])) / da[c];
+      }
+      L += 0.5 * (f + f_prev) * seg;
+    }
+    a_prev = a;
+    f_prev = f;
+    t_prev = t;
+  }
+  return L;
+}
+
 
 float eye_distance(vec3 p)
 {
@@ -75,41 +123,23 @@ void main()
     n = -n;
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
+  /* Along outlines the smooth normal of a face that is seen can turn from the eye: bend it back to
+   * graze at 0.05 rather than dropping the pixel, which left every other rim pixel dark. */
   float mu_o = dot(n, to_eye);
+  if (mu_o < 0.05) {
+    n = normalize(n + (0.05 - mu_o) * to_eye);
+    mu_o = dot(n, to_eye);
+  }
   vec3 w_t = refract(-to_eye, n, 1.0 / eta);
-  if (mu_o <= 0.0 || dot(w_t, w_t) == 0.0) {
-    discard;
+  if (dot(w_t, w_t) == 0.0) {
+    discard; /* total internal reflection (eta < 1): no light gets in this way */
   }
   float F_0 = fresnel_dielectric(1.0, eta);
   float T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - F_0);
   vec3 sigma_t = sigma_a.rgb + sigma_s.rgb;
   float t_exit = texelFetch(depths, ivec2(gl_FragCoord.xy), 0).r - here;
   float t_max = min(tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)), max(t_exit, 0.0));
-  vec3 L = vec3(0.0);
-  vec3 a_prev = vec3(0.0), f_prev = vec3(0.0);
-  float t_prev = 0.0;
-  for (int k = 0; k <= segments; k++) {
-    float s = float(k) / float(segments);
-    float t = t_max * s * s;
-    vec3 x = v_world + t * w_t;
-    vec3 to_light;
-    vec3 E = emitter_irradiance(x, to_light);
-    vec3 a = -sigma_t * (t + light_path(x));
-    vec3 f = sigma_s.rgb * hg_phase(dot(to_light, w_t)) * E;
-    if (k > 0) {
-      /* integral over [t_prev, t] of the source (mean of the ends) times exp of the linear exponent */
-      vec3 da = a - a_prev;
-      vec3 seg;
-      for (int c = 0; c < 3; c++) {
-        seg[c] = abs(da[c]) < 1e-6 ? (t - t_prev) * exp(0.5 * (a[c] + a_prev[c])) :
-                                     (t - t_prev) * (exp(a[c]) - exp(a_prev[c])) / da[c];
-      }
-      L += 0.5 * (f + f_prev) * seg;
-    }
-    a_prev = a;
-    f_prev = f;
-    t_prev = t;
-  }
+  vec3 L = march(v_world, w_t, t_max, sigma_t);
   out_color = vec4(T * L, 0.0);
 }
 #endif

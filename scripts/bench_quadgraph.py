@@ -346,11 +346,12 @@ def summary(rows, fig14, exact_rows, exact_samples) -> str:
              "self-interreflection. 192x144, relative RMSE and median relative error over the object's "
              "pixels.\n",
              "QUADGRAPH's RMSE includes its single-scattering term; 'without the term' is QUADGRAPH with it "
-             "switched off (the diffusion then carries all the light that enters: RMSE, median); 'diffusion vs "
-             "multiple' compares the diffusion part (the term on, so q keeps the multiple-scattered share) "
+             "switched off, as it was before it had one (RMSE, median); 'diffusion vs multiple' compares the "
+             "diffusion part (the term on, so the exitance it takes over where light enters is taken from B) "
              "with Cycles' multiple scattering (the reference less Cycles' single scattering), the part "
              "Wang's method models; 'single' compares the term alone with Cycles' single scattering (RMSE, "
-             "and the ratio of means). Our images: 3 x 3 samples per pixel, box-filtered.\n",
+             "and the ratio of means). Our images: 3 x 3 samples per pixel, box-filtered; frame times at one "
+             "sample per pixel.\n",
              "| scene | method | RMSE | noise | median | RMSE vs full | mean ratio (r, g, b) | without the term | "
              "diffusion vs multiple (mean ratio) | single (mean ratio) | surface / inner nodes |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
