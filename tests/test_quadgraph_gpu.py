@@ -294,6 +294,37 @@ def test_painted_blur_and_tint_reach_the_gpu_solve(tr, scene):
     assert err.max() < 1e-3, err
 
 
+SLAB_SUN = 3.0  # W/m^2: the sun of _sun_lit_slab
+
+
+def _sun_lit_slab(tr, scene, thickness_mm: float = 40.0, subdivide: int = 0, **settings):
+    """compare/slab_scene's slab (top face at z = 0, seen from straight above) under a black world and a
+    sun at 45 degrees in the xz plane, baked for QUADGRAPH with one level; ``settings`` are set on
+    ``ob.translucent`` in order before the bake; ``subdivide`` cuts every edge (smooth normals then
+    equal the face's inside each face)."""
+    import bmesh
+
+    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
+    ob = slab.build(scene, bpy.data.materials.new("Slab"))
+    ob.scale.z = thickness_mm / (1000.0 * slab.SLAB_DEPTH)  # the top face stays at z = 0
+    if subdivide:
+        bm = bmesh.new()
+        bm.from_mesh(ob.data)
+        bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=subdivide, use_grid_fill=True)
+        bm.to_mesh(ob.data)
+        bm.free()
+    set_world(scene, (0.0, 0.0, 0.0))
+    for name, value in settings.items():
+        setattr(ob.translucent, name, value)
+    ob.translucent.method = "QUADGRAPH"
+    ob.translucent.quadgraph_levels = 1
+    bpy.context.view_layer.objects.active = ob
+    ob.select_set(True)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    add_light(scene, "SUN", (0.3, 0.0, 0.3), (0.0, 0.0, 0.0), energy=SLAB_SUN)
+    return ob
+
+
 @pytest.mark.parametrize("thickness_mm", [40.0, 10.0])
 def test_single_scattering_under_a_slab_lit_by_the_sun_equals_the_closed_form(tr, scene, thickness_mm):
     """qg_single on the GPU against physics/single_scattering.py: a slab (eta = 1, g = 0.4, sigma_t about
@@ -303,18 +334,9 @@ def test_single_scattering_under_a_slab_lit_by_the_sun_equals_the_closed_form(tr
     at 10 mm the view ray leaves through the bottom (the kept fraction is 0.77 there, 0.997 at 40 mm)."""
     slab = ext_module(tr, "translucent_addon.compare.slab_scene")
     ss = ext_module(tr, "translucent_addon.physics.single_scattering")
-    ob = slab.build(scene, bpy.data.materials.new("Slab"))
-    ob.scale.z = thickness_mm / (1000.0 * slab.SLAB_DEPTH)  # the top face stays at z = 0
-    set_world(scene, (0.0, 0.0, 0.0))
-    m = ob.translucent
-    m.sigma_a, m.sigma_s_prime, m.g, m.eta = (0.01, 0.02, 0.04), (0.03, 0.03, 0.03), 0.4, 1.0
-    m.method = "QUADGRAPH"
-    m.quadgraph_levels = 1
-    bpy.context.view_layer.objects.active = ob
-    ob.select_set(True)
-    assert bpy.ops.translucent.bake() == {"FINISHED"}
-    E = 3.0
-    add_light(scene, "SUN", (0.3, 0.0, 0.3), (0.0, 0.0, 0.0), energy=E)
+    m = _sun_lit_slab(tr, scene, thickness_mm=thickness_mm, sigma_a=(0.01, 0.02, 0.04),
+                      sigma_s_prime=(0.03, 0.03, 0.03), g=0.4, eta=1.0).translucent
+    E = SLAB_SUN
     parts = []
     for output in (0, 1, 2):  # all, the diffusion alone, single scattering alone
         scene.translucent.quadgraph_output = output
@@ -335,27 +357,10 @@ def test_where_light_enters_the_diffusion_gives_up_what_single_scattering_draws(
     a sun at 45 degrees the top face's nodes all enter at cos 0.707 with q = E cos_i (eta = 1; the box is
     subdivided so that its smooth normals are the face's inside it): the diffusion alone (output 1) drops
     by loss(0.707) E cos_i / pi, within 1 % (measured: 3e-6), and the solve is the same."""
-    import bmesh
-
     slab = ext_module(tr, "translucent_addon.compare.slab_scene")
     ss = ext_module(tr, "translucent_addon.physics.single_scattering")
-    ob = slab.build(scene, bpy.data.materials.new("Slab"))
-    bm = bmesh.new()
-    bm.from_mesh(ob.data)
-    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=6, use_grid_fill=True)
-    bm.to_mesh(ob.data)
-    bm.free()
-    set_world(scene, (0.0, 0.0, 0.0))
-    m = ob.translucent
-    m.preset = "skin1"
-    m.eta = 1.0
-    m.method = "QUADGRAPH"
-    m.quadgraph_levels = 1
-    bpy.context.view_layer.objects.active = ob
-    ob.select_set(True)
-    assert bpy.ops.translucent.bake() == {"FINISHED"}
-    E = 3.0
-    add_light(scene, "SUN", (0.3, 0.0, 0.3), (0.0, 0.0, 0.0), energy=E)
+    m = _sun_lit_slab(tr, scene, subdivide=6, preset="skin1", eta=1.0).translucent
+    E = SLAB_SUN
     scene.translucent.quadgraph_output = 1
     with_term = slab.mean_radiance(render(scene, 16, 16))
     m.single_scattering = False
