@@ -352,7 +352,7 @@ def test_single_scattering_under_a_slab_lit_by_the_sun_equals_the_closed_form(tr
 
 
 def test_where_light_enters_the_diffusion_gives_up_what_single_scattering_draws(tr, scene):
-    """With the term on, a lit node's exitance loses (R_d - R_ms(cos_i)) q, single_scattering.exitance_loss
+    """With the term on, a lit node's exitance loses (R - R_ms(cos_i)) q, single_scattering.exitance_loss
     (the diffusion's exitance there holds single and multiple scattering; the term draws the first). Under
     a sun at 45 degrees the top face's nodes all enter at cos 0.707 with q = E cos_i (eta = 1; the box is
     subdivided so that its smooth normals are the face's inside it): the diffusion alone (output 1) drops
@@ -371,4 +371,4 @@ def test_where_light_enters_the_diffusion_gives_up_what_single_scattering_draws(
     k = int(u)
     loss = table[k] + (u - k) * (table[k + 1] - table[k])
     np.testing.assert_allclose(without - with_term, loss * E * mu_i / math.pi, rtol=0.01)
-    assert (with_term < 0.85 * without).all()  # skin1: 0.81, 0.79, 0.71 of it stay
+    assert (with_term < 0.75 * without).all()  # skin1: 0.70, 0.58, 0.49 of it stay

@@ -13,7 +13,8 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    nearest QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the
    refracted view ray marched through the emitter's distance map, added into it (``qg_single``). Where
    light enters, the diffusion's exitance already holds the single-scattered light: the finest level's
-   surface nodes sum what the term takes over, (R_d - R_ms(cos_i)) q per emitter
+   surface nodes sum what the term takes over, (R - R_ms(cos_i)) q per emitter (R the diffusion's own
+   flat-face reflectance)
    (``single_scattering.exitance_loss``), and the display takes it from B;
 4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
    nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + F_r L_world over the base
