@@ -162,7 +162,8 @@ def main() -> int:
             display output (0 all, 1 the diffusion alone, 2 the single-scattering term alone)."""
             subject.translucent.single_scattering = single
             S = SUPERSAMPLE
-            with isolated(scene, subject), runner.engine_setup(scene, "TRANSLUCENT_RT", translucent_quadgraph_output=output):
+            with isolated(scene, subject), \
+                    runner.engine_setup(scene, "TRANSLUCENT_RT", translucent_quadgraph_output=output):
                 runner.render_pixels(scene, w, h)  # uploads
                 _, sec = runner.render_pixels(scene, w, h)
                 image, _ = runner.render_pixels(scene, w * S, h * S)
@@ -358,7 +359,8 @@ def summary(rows, fig14, exact_rows, exact_samples) -> str:
     for r in exact_rows:
         q = "K" in r
         nodes = f"{r['surface_nodes']:,} / {r['inner_nodes']:,}" if q else ""
-        split = (f"{r['rel_rmse_diffusion_only']:.3f} ({r['median_diffusion_only']:.3f}) | {r['rel_rmse_multiple']:.3f} "
+        split = (f"{r['rel_rmse_diffusion_only']:.3f} ({r['median_diffusion_only']:.3f}) | "
+                 f"{r['rel_rmse_multiple']:.3f} "
                  f"({', '.join(f'{v:.2f}' for v in r['mean_ratio_multiple'])}) | "
                  f"{r['rel_rmse_single']:.3f} ({r['mean_ratio_single']:.2f})") if q else " | | "
         lines.append(f"| {r['scene']} | {r['label']} | {r['rel_rmse']:.3f} | {r['reference_noise']:.3f} | "

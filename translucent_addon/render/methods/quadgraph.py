@@ -13,9 +13,8 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    nearest QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the
    refracted view ray marched through the emitter's distance map, added into it (``qg_single``). Where
    light enters, the diffusion's exitance already holds the single-scattered light: the finest level's
-   surface nodes sum what the term takes over, (R - R_ms(cos_i)) q per emitter (R the diffusion's own
-   flat-face reflectance)
-   (``single_scattering.exitance_loss``), and the display takes it from B;
+   surface nodes sum what the term takes over, (R - R_ms(cos_i)) q per emitter, R the diffusion's own
+   flat-face reflectance (``single_scattering.exitance_loss``), and the display takes it from B;
 4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
    nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + F_r L_world over the base
    pass (``qg_display``).
@@ -186,7 +185,6 @@ class Resources:
                 "mask": np.ascontiguousarray(np.clip(mesh.paint[:, 0], 0.0, 1.0), np.float32)})
         return batch
 
-
     def exitance_loss(self, medium):
         """The table of what a lit node's exitance gives up per unit q to the single-scattering term
         (``single_scattering.exitance_loss``), rebuilt when the medium changes."""
@@ -271,8 +269,10 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
     from ..pipeline import clear_target
 
     single, exit_ = single_target(pipeline, size), single_target(pipeline, size, "qg_exit")
+    # (target drawn into, pass mode, target read as ``depths``)
     passes = ((single, 0, exit_), (exit_, 2, single)) if mode == 0 else ((single, 1, exit_),)
-    for (fb, _, _), pass_mode, (_, (depths,), _) in passes:
+    for target, pass_mode, source in passes:
+        fb, depths = target[0], source[1][0]
         with fb.bind():
             if pass_mode != 1:
                 clear_target(fb, (3.0e38,) * 4 if pass_mode == 2 else (0.0,) * 4)
