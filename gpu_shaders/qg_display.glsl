@@ -39,8 +39,7 @@ void main()
 vec3 single_scattering(vec3 p)
 {
   bool ortho = frame.camera_position.w > 0.5;
-  float here = ortho ? dot(p - frame.camera_position.xyz, frame.camera_forward.xyz) :
-                       length(p - frame.camera_position.xyz);
+  float here = eye_distance(frame.camera_position, frame.camera_forward, p);
   ivec2 size = textureSize(single, 0);
   float depth = ortho ? 1.0 : -(frame.view * vec4(p, 1.0)).z;
   float tolerance = 8.0 * depth / (frame.proj[1][1] * float(size.y));

@@ -8,8 +8,7 @@
  * light has crossed in the medium from the emitter's distance map (the first surface the light meets
  * to the node, in a straight line), then integrates sigma_s p E exp(-sigma_t (t + d)) per segment with
  * the exponent linear. T_o = 1 - F_r(mu_o) out of the medium; into it, the normal-incidence 1 - F_0
- * (the entry point's normal is not in the map). sigma_a, sigma_s: rgb per world unit (vec4: Blender packs
- * vec3 push constants wrongly). */
+ * (the entry point's normal is not in the map). sigma_a, sigma_s: rgb per world unit, in vec4s. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -88,8 +87,10 @@ vec3 march(vec3 x_o, vec3 w_t, float t_max, vec3 sigma_t)
       vec3 da = a - a_prev;
       vec3 seg;
       for (int c = 0; c < 3; c++) {
-        seg[c] = abs(da[c]) < 1e-6 ? (t - t_prev) * exp(0.5 * (a[c] + a_prev[c])) :
-                                     (t - t_prev) * (exp(a[c]) - exp(a_prev[c])) / da[c];
+        /* below 1e-3 the difference of exponentials cancels in float32: sinh(x) / x = 1 + x^2 / 6 */
+        float dt = t - t_prev;
+        seg[c] = abs(da[c]) < 1e-3 ? dt * exp(0.5 * (a[c] + a_prev[c])) * (1.0 + da[c] * da[c] / 24.0) :
+                                     dt * (exp(a[c]) - exp(a_prev[c])) / da[c];
       }
       L += 0.5 * (f + f_prev) * seg;
     }
@@ -101,15 +102,9 @@ vec3 march(vec3 x_o, vec3 w_t, float t_max, vec3 sigma_t)
 }
 
 
-float eye_distance(vec3 p)
-{
-  return (frame.camera_position.w > 0.5) ? dot(p - frame.camera_position.xyz, frame.camera_forward.xyz) :
-                                           length(p - frame.camera_position.xyz);
-}
-
 void main()
 {
-  float here = eye_distance(v_world);
+  float here = eye_distance(frame.camera_position, frame.camera_forward, v_world);
   if (mode == 0) {
     out_color = vec4(0.0, 0.0, 0.0, here);
     return;
@@ -134,14 +129,14 @@ void main()
     n = normalize(n + (0.05 - mu_o) * to_eye);
     mu_o = dot(n, to_eye);
   }
-  vec3 w_t = refract(-to_eye, n, 1.0 / eta);
-  if (dot(w_t, w_t) == 0.0) {
-    discard; /* total internal reflection (eta < 1): no light gets in this way */
-  }
+  vec3 w_t = refract(-to_eye, n, 1.0 / eta); /* eta >= 1 (the property's minimum): always refracts */
   float F_0 = fresnel_dielectric(1.0, eta);
   float T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - F_0);
   vec3 sigma_t = sigma_a.rgb + sigma_s.rgb;
-  float t_exit = texelFetch(depths, ivec2(gl_FragCoord.xy), 0).r - here;
+  /* The exit target gives the chord along the eye's ray; along the refracted ray the medium ends at
+   * chord mu_o / mu_t (exact between parallel faces; the same at eta = 1). */
+  float mu_t = max(-dot(n, w_t), 1e-3);
+  float t_exit = (texelFetch(depths, ivec2(gl_FragCoord.xy), 0).r - here) * mu_o / mu_t;
   float t_max = min(tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)), max(t_exit, 0.0));
   vec3 L = march(v_world, w_t, t_max, sigma_t);
   out_color = vec4(T * L, 0.0);

@@ -22,6 +22,14 @@ vec3 direction_to_eye(vec4 camera_position, vec4 camera_forward, vec3 p)
   return (camera_position.w > 0.5) ? -camera_forward.xyz : normalize(camera_position.xyz - p);
 }
 
+/* Distance from the eye to p: along the view axis for an orthographic camera (camera_position.w = 1),
+ * from the camera's position otherwise; FrameData's camera fields. */
+float eye_distance(vec4 camera_position, vec4 camera_forward, vec3 p)
+{
+  return (camera_position.w > 0.5) ? dot(p - camera_position.xyz, camera_forward.xyz) :
+                                     length(p - camera_position.xyz);
+}
+
 int cube_face(vec3 d)
 {
   vec3 a = abs(d);

@@ -160,14 +160,17 @@ def main() -> int:
             image box-filtered from SUPERSAMPLE^2 samples per pixel, as Cycles' BOX filter averages each
             pixel's area (rims lit at grazing angles change within a pixel). ``output``: QUADGRAPH's
             display output (0 all, 1 the diffusion alone, 2 the single-scattering term alone)."""
+            saved = subject.translucent.single_scattering
             subject.translucent.single_scattering = single
             S = SUPERSAMPLE
-            with isolated(scene, subject), \
-                    runner.engine_setup(scene, "TRANSLUCENT_RT", translucent_quadgraph_output=output):
-                runner.render_pixels(scene, w, h)  # uploads
-                _, sec = runner.render_pixels(scene, w, h)
-                image, _ = runner.render_pixels(scene, w * S, h * S)
-            subject.translucent.single_scattering = True
+            try:
+                with isolated(scene, subject), \
+                        runner.engine_setup(scene, "TRANSLUCENT_RT", translucent_quadgraph_output=output):
+                    runner.render_pixels(scene, w, h)  # uploads
+                    _, sec = runner.render_pixels(scene, w, h)
+                    image, _ = runner.render_pixels(scene, w * S, h * S)
+            finally:
+                subject.translucent.single_scattering = saved
             return image.reshape(h, S, w, S, 4).mean(axis=(1, 3)), sec
 
         def measure_exact(label, quadgraph: bool = False, **extra):

@@ -263,7 +263,7 @@ def test_the_march_under_a_flat_face_equals_the_closed_form(mu_i, mu_o):
 
 def test_the_march_under_a_curved_face_follows_the_integral():
     """A light path that grows like a circle's chord (d = sqrt(t^2 + 2 R t), curved rim) is not linear:
-    the SEGMENTS nodes still give the integral within 1 %; 4 nodes miss it by more."""
+    the SEGMENTS segments still give the integral within 1 %; 4 segments miss it by more than 2 %."""
     sigma_t, sigma_s, R = np.array([2.2]), np.array([2.19]), 0.3
     d = lambda t: np.sqrt(t * t + 2.0 * R * t)  # noqa: E731
     exact, _ = integrate.quad(lambda t: float(sigma_s[0] * np.exp(-sigma_t[0] * (t + d(t)))), 0.0, 50.0, limit=200)
@@ -286,11 +286,11 @@ def test_a_thin_slab_keeps_less_single_scattering():
 
 @pytest.mark.parametrize("alpha", [0.3, 0.9, 0.999])
 def test_chandrasekhar_H_has_its_exact_zeroth_moment(alpha):
-    """int_0^1 H(mu) dmu = (2 / alpha) (1 - sqrt(1 - alpha)), an identity of the H equation; H(0) = 1."""
-    x, w = np.polynomial.legendre.leggauss(64)
+    """int_0^1 H(mu) dmu = (2 / alpha) (1 - sqrt(1 - alpha)), an identity of the H equation, with H taken
+    between the solver's 64 nodes (a 101-point rule: Nystrom interpolation, not only the fixed point)."""
+    x, w = np.polynomial.legendre.leggauss(101)
     moment = float((0.5 * w * ss.chandrasekhar_H(alpha, 0.5 * (x + 1.0))).sum())
-    assert moment == pytest.approx(2.0 / alpha * (1.0 - math.sqrt(1.0 - alpha)), rel=1e-9)
-    assert float(ss.chandrasekhar_H(alpha, 0.0)[0]) == pytest.approx(1.0)
+    assert moment == pytest.approx(2.0 / alpha * (1.0 - math.sqrt(1.0 - alpha)), rel=1e-8)
 
 
 def test_plane_albedo_tends_to_single_scattering_at_low_albedo():

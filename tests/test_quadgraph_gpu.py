@@ -356,7 +356,8 @@ def test_where_light_enters_the_diffusion_gives_up_what_single_scattering_draws(
     (the diffusion's exitance there holds single and multiple scattering; the term draws the first). Under
     a sun at 45 degrees the top face's nodes all enter at cos 0.707 with q = E cos_i (eta = 1; the box is
     subdivided so that its smooth normals are the face's inside it): the diffusion alone (output 1) drops
-    by loss(0.707) E cos_i / pi, within 1 % (measured: 3e-6), and the solve is the same."""
+    by loss(0.707) E cos_i / pi, within 1 % (measured: 3e-6); without the term it reflects R q, R the
+    diffusion's continuous model (diffusion.slab_reflectance), within 3 % (measured: 1 %)."""
     slab = ext_module(tr, "translucent_addon.compare.slab_scene")
     ss = ext_module(tr, "translucent_addon.physics.single_scattering")
     m = _sun_lit_slab(tr, scene, subdivide=6, preset="skin1", eta=1.0).translucent
@@ -371,4 +372,8 @@ def test_where_light_enters_the_diffusion_gives_up_what_single_scattering_draws(
     k = int(u)
     loss = table[k] + (u - k) * (table[k + 1] - table[k])
     np.testing.assert_allclose(without - with_term, loss * E * mu_i / math.pi, rtol=0.01)
+    # The premise of the loss: the diffusion alone reflects R q, R its continuous model's reflectance.
+    df = ext_module(tr, "translucent_addon.physics.diffusion")
+    R = df.slab_reflectance(np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta)
+    np.testing.assert_allclose(without, R * E * mu_i / math.pi, rtol=0.03)
     assert (with_term < 0.75 * without).all()  # skin1: 0.70, 0.58, 0.49 of it stay

@@ -52,8 +52,8 @@ def march(t, d, sigma_t, source) -> np.ndarray:
     dt = np.diff(t)[:, None]
     a0, a1 = a[:-1], a[1:]
     da = a1 - a0
-    small = np.abs(da) < 1e-6
-    seg = np.where(small, dt * np.exp(0.5 * (a0 + a1)),
+    small = np.abs(da) < 1e-3  # as the shader: float32 cancels there; sinh(x) / x = 1 + x^2 / 6, x = da / 2
+    seg = np.where(small, dt * np.exp(0.5 * (a0 + a1)) * (1.0 + da * da / 24.0),
                    dt * (np.exp(a1) - np.exp(a0)) / np.where(small, 1.0, da))
     return (0.5 * (s[:-1] + s[1:]) * seg).sum(axis=0)
 
@@ -143,7 +143,10 @@ def exitance_loss(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32) -> 
     skin1's blue). There B ~ R q with R the reflectance of the diffusion's own continuous model
     (``diffusion.slab_reflectance``; the graph's slab follows it within 1 %), so B - (R - R_ms) q leaves
     R_ms q, the multiple-scattered exitance; light that crosses the object and leaves elsewhere (q = 0
-    there) keeps all of the diffusion. Negative where a grazing beam's multiple scattering exceeds R."""
+    there) keeps all of the diffusion. Negative where a grazing beam's multiple scattering exceeds R.
+    Approximations: the table is the object's uniform material (veins and painted blur, which change
+    kappa and mu per node, are not in it); at eta != 1, R has the boundary's Fresnel and R_ms is the
+    index-matched split, and q enters with 1 - F_r(cos_i) where the term takes the normal-incidence 1 - F_0."""
     from .diffusion import slab_reflectance
 
     R = slab_reflectance(np.asarray(sigma_a, np.float64), np.asarray(sigma_s_prime, np.float64), eta)

@@ -250,14 +250,14 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
 
 
 def single_target(pipeline, size, name: str = "qg_single"):
-    """A screen target of the single-scattering pass (RGBA32F and its own depth), reused across frames:
-    "qg_single" sums L^(1) (alpha: the eye's distance to the surface), "qg_exit" holds where the view
-    ray leaves the medium."""
-    key = (name, tuple(size))
-    found = pipeline.targets.get(key)
-    if found is None:
-        found = pipeline.targets[key] = new_target(tuple(size), depth=True)
-    return found
+    """A screen target of the single-scattering pass (RGBA32F and its own depth), reused across frames
+    and rebuilt when the image size changes: "qg_single" sums L^(1) (alpha: the eye's distance to the
+    surface), "qg_exit" holds where the view ray leaves the medium."""
+    size = tuple(size)
+    found = pipeline.targets.get(name)
+    if found is None or found[0] != size:
+        found = pipeline.targets[name] = (size, new_target(size, depth=True))
+    return found[1]
 
 
 def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline, size) -> None:
