@@ -59,13 +59,19 @@ def march(t, d, sigma_t, source) -> np.ndarray:
 
 
 def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_theta: float,
-               thickness: float = np.inf) -> np.ndarray:
-    """Closed form of L^(1) / E under a flat face at eta = 1, light at cosine mu_i and eye at mu_o
-    (d(t) = t mu_o / mu_i): alpha p(cos theta) mu_i / (mu_i + mu_o), times
-    1 - exp(-sigma_t H (1 / mu_o + 1 / mu_i)) for a slab of thickness H (the view ray leaves at H / mu_o)."""
+               thickness: float = np.inf, eta: float = 1.0) -> np.ndarray:
+    """Closed form of L^(1) / E under a flat face, light at cosine mu_i and eye at mu_o, as ``qg_single``
+    models it: the view ray refracted to cosine mu_t inside (d(t) = t mu_t / mu_i, the light's path
+    straight), T_o = 1 - F_r(mu_o) and T_i = 1 - F_0 (1 at eta = 1):
+    T_o T_i alpha p(cos theta) mu_i / (mu_i + mu_t), times 1 - exp(-sigma_t H (1 / mu_t + 1 / mu_i)) for a
+    slab of thickness H (the view ray leaves at H / mu_t)."""
+    from .fresnel import fresnel_dielectric
+
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
-    kept = -np.expm1(-sigma_t * thickness * (1.0 / mu_o + 1.0 / mu_i)) if np.isfinite(thickness) else 1.0
-    return sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_o) * kept
+    mu_t = np.sqrt(1.0 - (1.0 - mu_o**2) / eta**2)
+    T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - fresnel_dielectric(1.0, eta))
+    kept = -np.expm1(-sigma_t * thickness * (1.0 / mu_t + 1.0 / mu_i)) if np.isfinite(thickness) else 1.0
+    return T * sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_t) * kept
 
 
 def single_albedo(sigma_a, sigma_s_prime, g: float, eta: float, mu_i, n: int = 48) -> np.ndarray:
