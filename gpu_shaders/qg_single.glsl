@@ -32,22 +32,16 @@ void main()
 float light_path(vec3 p)
 {
   int texels = int(light.shadow.x);
-  bool is_point = light.position_kind.w > 0.5;
-  bool fitted = light.cone.w > 0.0;
-  vec3 rel = p - light.position_kind.xyz;
-  int face = (is_point && !fitted) ? cube_face(rel) : 0;
-  vec4 clip = light.face_view_proj[face] * vec4(p, 1.0);
-  vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-  if (clip.w <= 0.0 || any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) {
+  vec2 x;
+  ivec2 tile;
+  float here;
+  if (!shadow_atlas_point(p, x, tile, here)) {
     return 0.0;
   }
-  ivec2 tile = ivec2(face % 3, face / 3) * texels;
-  vec2 x = uv * float(texels) - 0.5;
+  x -= 0.5;
   ivec2 base = ivec2(floor(x));
   vec2 f = x - vec2(base);
-  float here = is_point ? length(rel) : dot(rel, light.direction.xyz);
-  float texel_world = (is_point ? 2.0 * (fitted ? light.cone.w : 1.0) * length(rel) : 2.0 * light.shadow.y) /
-                      float(texels);
+  float texel_world = shadow_texel_world(p - light.position_kind.xyz);
   float behind = here + 16.0 * texel_world;
   float stored = 0.0, weight = 0.0;
   for (int k = 0; k < 4; k++) {

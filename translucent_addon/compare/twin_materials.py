@@ -58,7 +58,6 @@ def brute_force(name, sigma_a, sigma_s_prime, eta, g, mm_per_unit, surface_refle
     if index_matched:
         # Transparent: rays cross unbent, and shadow rays from inside reach the lights (next-event estimation).
         boundary = tree.nodes.new("ShaderNodeBsdfTransparent")
-        camera_view = boundary
     else:
         boundary = tree.nodes.new("ShaderNodeBsdfGlass")
         boundary.distribution = "SHARP" if "SHARP" in {
@@ -66,19 +65,19 @@ def brute_force(name, sigma_a, sigma_s_prime, eta, g, mm_per_unit, surface_refle
         boundary.inputs["Roughness"].default_value = 0.0
         boundary.inputs["IOR"].default_value = v.ior
         boundary.inputs["Color"].default_value = (1, 1, 1, 1)
-        camera_view = boundary
-        if not surface_reflection:
-            camera_view = tree.nodes.new("ShaderNodeBsdfRefraction")
-            camera_view.distribution = boundary.distribution
-            camera_view.inputs["Roughness"].default_value = 0.0
-            camera_view.inputs["IOR"].default_value = v.ior
-            fresnel = tree.nodes.new("ShaderNodeFresnel")
-            fresnel.inputs["IOR"].default_value = v.ior
-            transmitted = tree.nodes.new("ShaderNodeMath")
-            transmitted.operation = "SUBTRACT"
-            transmitted.inputs[0].default_value = 1.0
-            tree.links.new(fresnel.outputs[0], transmitted.inputs[1])
-            tree.links.new(transmitted.outputs[0], camera_view.inputs["Color"])
+    camera_view = boundary
+    if not index_matched and not surface_reflection:
+        camera_view = tree.nodes.new("ShaderNodeBsdfRefraction")
+        camera_view.distribution = boundary.distribution
+        camera_view.inputs["Roughness"].default_value = 0.0
+        camera_view.inputs["IOR"].default_value = v.ior
+        fresnel = tree.nodes.new("ShaderNodeFresnel")
+        fresnel.inputs["IOR"].default_value = v.ior
+        transmitted = tree.nodes.new("ShaderNodeMath")
+        transmitted.operation = "SUBTRACT"
+        transmitted.inputs[0].default_value = 1.0
+        tree.links.new(fresnel.outputs[0], transmitted.inputs[1])
+        tree.links.new(transmitted.outputs[0], camera_view.inputs["Color"])
     others = boundary
     if not self_interreflection:
         # Rays that are not camera rays and hit the outside (front face) end there: a black boundary.

@@ -29,6 +29,12 @@ def hg_phase(cos_theta, g: float):
     return (1.0 - g * g) / (4.0 * np.pi * np.power(1.0 + g * g - 2.0 * g * cos_theta, 1.5))
 
 
+def refracted_cosine(mu, eta: float):
+    """Cosine inside a medium of relative index eta >= 1 of a ray arriving at cosine mu (Snell)."""
+    mu = np.asarray(mu, np.float64)
+    return np.sqrt(1.0 - (1.0 - mu**2) / eta**2)
+
+
 def coefficients(sigma_a, sigma_s_prime, g: float):
     """(sigma_s, sigma_t) per channel from the reduced coefficients (sigma_s = sigma_s' / (1 - g))."""
     sigma_s = np.asarray(sigma_s_prime, np.float64) / (1.0 - g)
@@ -68,7 +74,7 @@ def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_t
     from .fresnel import fresnel_dielectric
 
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
-    mu_t = np.sqrt(1.0 - (1.0 - mu_o**2) / eta**2)
+    mu_t = refracted_cosine(mu_o, eta)
     T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - fresnel_dielectric(1.0, eta))
     kept = -np.expm1(-sigma_t * thickness * (1.0 / mu_t + 1.0 / mu_i)) if np.isfinite(thickness) else 1.0
     return T * sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_t) * kept
@@ -88,7 +94,7 @@ def single_albedo(sigma_a, sigma_s_prime, g: float, eta: float, mu_i, n: int = 4
     phi = (np.arange(2 * n) + 0.5) * np.pi / n
     mu_i = np.atleast_1d(np.asarray(mu_i, np.float64))
     sin_o = np.sqrt(1.0 - mu_o**2)
-    mu_t = np.sqrt(1.0 - (sin_o / eta) ** 2)  # cosine of the refracted view ray inside
+    mu_t = refracted_cosine(mu_o, eta)  # the refracted view ray inside
     sin_i = np.sqrt(1.0 - mu_i**2)
     # to_light . w_t, w_t the refracted view ray going in: (i, mu_o, phi)
     cos_theta = (-sin_i[:, None, None] * (sin_o / eta)[None, :, None] * np.cos(phi)[None, None, :]
@@ -132,7 +138,7 @@ def multiple_reflectance(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 
     sigma_a = np.asarray(sigma_a, np.float64)
     sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
     mu_i = (np.arange(n) + 0.5) / n
-    mu_t = np.sqrt(1.0 - (1.0 - mu_i**2) / eta**2)  # the beam's cosine inside
+    mu_t = refracted_cosine(mu_i, eta)  # the beam's cosine inside
     alpha_prime = sigma_s_prime / (sigma_a + sigma_s_prime)
     total = np.stack([plane_albedo(a, mu_t) for a in alpha_prime], axis=1)
     return np.maximum(total - single_albedo(sigma_a, sigma_s_prime, g, 1.0, mu_t), 0.0)

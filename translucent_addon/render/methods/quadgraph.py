@@ -108,7 +108,6 @@ class Resources:
         self.material_key = None
         self.materials = None
         self.display = {}
-        self.single = {}
         self.loss_table = (None, None)  # (medium key, texture): single_scattering.exitance_loss per cos_i
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.iterations: list[int] = []
@@ -194,18 +193,6 @@ class Resources:
             image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
             self.loss_table = (key, texture_from_array(image))
         return self.loss_table[1]
-
-    def single_batch(self, mesh):
-        """The original mesh for the single-scattering pass (positions and normals)."""
-        batch = self.single.get(mesh.key)
-        if batch is None:
-            from gpu_extras.batch import batch_for_shader
-
-            self.single.clear()
-            batch = self.single[mesh.key] = batch_for_shader(shaders.get("qg_single"), "TRIS", {
-                "pos": np.ascontiguousarray(mesh.positions, np.float32),
-                "nor": np.ascontiguousarray(mesh.normals, np.float32)})
-        return batch
 
 
 def prepare(frame) -> list[Active]:
@@ -293,7 +280,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 shader.uniform_float("g", float(m.g))
                 shader.uniform_float("sigma_a", (*map(float, (sigma_t - sigma_s) * m.mm_per_unit), 0.0))
                 shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
-                a.resources.single_batch(a.mesh).draw(shader)
+                a.resources.display_batch(a.mesh).draw(shader)  # qg_single reads its pos and nor
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
 
