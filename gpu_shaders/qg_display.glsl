@@ -3,9 +3,10 @@
  * bake; physics/diffusion.py says why the (1 - F_dr)), and the fragment leaves
  * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
  * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. The
- * single scattering of qg_single, summed over the emitters in a screen target, is added to L, with
- * the painted factor on the light entering (mask x glow x tint) interpolated like B; B gives up the
- * exitance the term takes over where light enters (``loss``: single_scattering.exitance_loss). */
+ * surface term of qg_single (single and local multiple scattering), summed over the emitters in a
+ * screen target, is added to L, with the painted factor on the light entering (mask x glow x tint)
+ * interpolated like B; B gives up the exitance the term takes over where light enters (``loss``:
+ * single_scattering.exitance_loss). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -68,12 +69,13 @@ void main()
   float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
   vec3 L_single = single_scattering(v_world) * v_factor;
   vec3 L_diffusion = (1.0 - F_r) / PI * v_radiosity;
-  /* display_output (tests): 0 all, 1 the diffusion alone, 2 single scattering alone */
+  /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
+   * drew single scattering alone, or the local multiple scattering alone) */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;
   if (display_output == 1) {
     L = L_diffusion;
   }
-  else if (display_output == 2) {
+  else if (display_output >= 2) {
     L = L_single;
   }
   out_color = vec4(L, clamp(v_mask, 0.0, 1.0));

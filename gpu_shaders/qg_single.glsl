@@ -1,14 +1,19 @@
-/* QUADGRAPH single scattering (physics/single_scattering.py; Jensen et al. 2001's L^(1), the low-order
- * term Wang Sec. 7 leaves out), added per emitter into a screen target that qg_display adds to the
+/* QUADGRAPH surface term (physics/single_scattering.py): the response of the surface to the light
+ * entering it, which the diffusion draws Lambertian and without its first order (Wang Sec. 7 leaves
+ * low-order scattering out), added per emitter into a screen target that qg_display adds to the
  * diffusion's radiance. mode 0 lays down the depth of the nearest QUADGRAPH surface, zero colour and
  * its distance from the eye in alpha; mode 2 keeps, per pixel, the distance of the nearest surface
  * behind that one (``depths`` is mode 0's target): where the view ray leaves the medium again.
- * mode 1 marches the refracted view ray t_k = t_end (k / N)^2, t_end the lesser of TAU_MAX optical
- * depths and the exit (``depths`` is mode 2's target), and, at each node, takes the path d the
- * light has crossed in the medium from the emitter's distance map (the first surface the light meets
- * to the node, in a straight line), then integrates sigma_s p E exp(-sigma_t (t + d)) per segment with
- * the exponent linear. T_o = 1 - F_r(mu_o) out of the medium; into it, the normal-incidence 1 - F_0
- * (the entry point's normal is not in the map). sigma_a, sigma_s: rgb per world unit, in vec4s. */
+ * mode 1 draws ``terms`` (bit 1: single scattering, bit 2: local multiple scattering):
+ * - single scattering L^(1) (Jensen et al. 2001): the refracted view ray marched at t_k = t_end (k / N)^2,
+ *   t_end the lesser of TAU_MAX optical depths and the exit (``depths`` is mode 2's target), taking at
+ *   each node the path d the light has crossed in the medium from the emitter's distance map (the
+ *   first surface the light meets to the node, in a straight line), and integrating
+ *   sigma_s p E exp(-sigma_t (t + d)) per segment with the exponent linear; into the medium, the
+ *   normal-incidence 1 - F_0 (the entry point's normal is not in the map);
+ * - local multiple scattering L^(ms): Chandrasekhar's lit half-space less its first order at the
+ *   pixel's own surface point, with q's visibility and 1 - F_r(mu_i) into the medium.
+ * Both leave through T_o = 1 - F_r(mu_o). sigma_a, sigma_s: rgb per world unit, in vec4s. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -54,6 +59,34 @@ float light_path(vec3 p)
     }
   }
   return weight > 0.0 ? max(here - stored / weight, 0.0) : 0.0;
+}
+
+/* Chandrasekhar's H(mu) of the medium's albedo alpha' per channel, linear in h_table (mu = k / (n - 1)). */
+vec3 chandrasekhar_H(float mu)
+{
+  int n = textureSize(h_table, 0).x;
+  float u = clamp(mu, 0.0, 1.0) * float(n - 1);
+  int k = min(int(floor(u)), n - 2);
+  return mix(texelFetch(h_table, ivec2(k, 0), 0).rgb, texelFetch(h_table, ivec2(k + 1, 0), 0).rgb, u - float(k));
+}
+
+/* The local multiple scattering L^(ms) of light entering at this pixel's surface point, per unit E:
+ * Chandrasekhar's half-space (single_scattering.multiple_half_space), at the refracted cosines between
+ * the Fresnel transmittances; the light's visibility as q's (ts_illumination). */
+vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 sigma_t)
+{
+  vec3 to_light;
+  vec3 E = emitter_irradiance(p, to_light);
+  float mu_i = dot(n, to_light);
+  if (mu_i <= 0.0) {
+    return vec3(0.0);
+  }
+  float mu_it = sqrt(1.0 - (1.0 - mu_i * mu_i) / (eta * eta));
+  vec3 sigma_s_prime = sigma_s.rgb * (1.0 - g);
+  vec3 alpha_prime = sigma_s_prime / (sigma_a.rgb + sigma_s_prime);
+  vec3 HH = chandrasekhar_H(mu_it) * chandrasekhar_H(mu_t);
+  float T_i = 1.0 - fresnel_dielectric(mu_i, eta);
+  return T_i * visibility(p, n) * E * alpha_prime * mu_it * (HH - 1.0) / (4.0 * PI * (mu_it + mu_t));
 }
 
 float hg_phase(float cos_theta)
@@ -125,14 +158,19 @@ void main()
   }
   vec3 w_t = refract(-to_eye, n, 1.0 / eta); /* eta >= 1 (the property's minimum): always refracts */
   float F_0 = fresnel_dielectric(1.0, eta);
-  float T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - F_0);
   vec3 sigma_t = sigma_a.rgb + sigma_s.rgb;
   /* The exit target gives the chord along the eye's ray; along the refracted ray the medium ends at
    * chord mu_o / mu_t (exact between parallel faces; the same at eta = 1). */
   float mu_t = max(-dot(n, w_t), 1e-3);
   float t_exit = (texelFetch(depths, ivec2(gl_FragCoord.xy), 0).r - here) * mu_o / mu_t;
   float t_max = min(tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)), max(t_exit, 0.0));
-  vec3 L = march(v_world, w_t, t_max, sigma_t);
-  out_color = vec4(T * L, 0.0);
+  vec3 L = vec3(0.0);
+  if ((terms & 1) != 0) {
+    L += (1.0 - F_0) * march(v_world, w_t, t_max, sigma_t);
+  }
+  if ((terms & 2) != 0) {
+    L += local_multiple(v_world, n, mu_t, sigma_t);
+  }
+  out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) * L, 0.0);
 }
 #endif

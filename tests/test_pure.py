@@ -244,6 +244,21 @@ def test_close_holes_caps_a_cube_wound_like_the_mesh():
     assert np.array_equal(close_holes(v, t)[1], t)  # closed: unchanged
 
 
+def test_midpoint_subdivision_keeps_the_surface_closed_and_outward():
+    """Each triangle into four: four times the triangles, one new vertex per edge (a cube's 18), the same
+    area and volume (the surface unchanged), still closed and wound outward."""
+    from translucent_addon.geometry.mesh_subdivide import midpoint_subdivision
+
+    v, t = _cube()
+    v2, t2 = midpoint_subdivision(v, t)
+    assert len(t2) == 4 * len(t) and len(v2) == len(v) + 18
+    assert check_mesh(v2, t2).closed_manifold
+    assert _signed_volume(v2, t2) == pytest.approx(_signed_volume(v, t), rel=1e-12)
+    area = lambda v, t: 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)  # noqa: E731
+    assert area(v2, t2).sum() == pytest.approx(area(v, t).sum(), rel=1e-12)
+    assert np.allclose(area(v2, t2).reshape(4, -1), area(v, t)[None] / 4)  # each child a quarter
+
+
 def test_close_holes_follows_a_curved_hole_without_cutting_the_surface():
     """A tube open at both ends, bent: ear clipping closes each rim with no triangle crossing the wall."""
     from translucent_addon.geometry.mesh_checks import self_intersections

@@ -298,6 +298,10 @@ def test_density_maps_K_onto_proxy_sizes():
     assert proxy_triangles(1.0, 3) == [312, 1250, 5000]
     fine = [proxy_triangles(K, 1)[0] for K in (1.0, 0.5, 0.3, 0.1)]
     assert fine == sorted(fine) and fine[-1] / fine[0] == pytest.approx(0.1 ** -0.56, rel=0.01)
+    # A mesh of fewer triangles is its own proxy at K = 1, and K refines it as it refines 5k.
+    assert proxy_triangles(1.0, 3, mesh_triangles=12) == [12, 12, 12]
+    assert proxy_triangles(0.5, 1, mesh_triangles=3000) == [round(3000 * 0.5 ** -0.56)]
+    assert proxy_triangles(1.0, 3, mesh_triangles=20000) == [312, 1250, 5000]
 
 
 def test_a_surface_with_no_inside_is_refused_with_a_message():

@@ -189,9 +189,10 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
     )
     single_scattering: bpy.props.BoolProperty(
         name="Single scattering",
-        description="QUADGRAPH: add light scattered once under the surface, marched along the view ray "
-                    "through each light's distance map, to the diffusion (which models multiple scattering "
-                    "only): the bright rims where a light grazes a back-lit object",
+        description="QUADGRAPH: draw the surface's own response to each light exactly: light scattered once "
+                    "(marched along the view ray through the light's distance map) and the multiple "
+                    "scattering of a lit half-space, where the diffusion alone is Lambertian and leaves out "
+                    "the first order: the bright rims where a light grazes a back-lit object",
         default=True,
     )
     veins_scale: bpy.props.FloatProperty(
@@ -385,8 +386,9 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     )
     quadgraph_output: bpy.props.IntProperty(
         name="QUADGRAPH output", description="QUADGRAPH display output (tests, debugging): 0 colour, 1 the "
-                                             "diffusion alone (multiple scattering), 2 single scattering alone",
-        min=0, max=2, default=0, options={"HIDDEN"},
+                                             "diffusion alone, 2 single scattering alone, 3 the local multiple "
+                                             "scattering alone",
+        min=0, max=3, default=0, options={"HIDDEN"},
     )
     relief_output: bpy.props.IntProperty(
         name="Height-field output", description="Height-field pass output (tests, debugging): 0 colour, 1 hit "

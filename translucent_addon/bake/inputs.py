@@ -62,10 +62,8 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     if for_bake and inputs.method == "QUADGRAPH" and len(inputs.triangles):
         from .quadgraph_bake import proxy_triangles
 
-        inputs.proxy_levels = [
-            decimated(inputs.vertices, inputs.triangles, n) if n < 0.8 * len(inputs.triangles)
-            else (inputs.vertices, inputs.triangles)
-            for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels)]
+        inputs.proxy_levels = [proxy_surface(inputs.vertices, inputs.triangles, n)
+                               for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels, len(inputs.triangles))]
     return inputs
 
 
@@ -91,6 +89,23 @@ def stretch_of(linear: np.ndarray) -> np.ndarray:
     """The symmetric factor S of the polar decomposition L = R S: the object's scale, rotation removed."""
     _, sing, vt = np.linalg.svd(np.asarray(linear, np.float64))
     return vt.T @ np.diag(sing) @ vt
+
+
+def proxy_surface(vertices: np.ndarray, triangles: np.ndarray, target: int):
+    """A surface of about ``target`` triangles (QUADGRAPH's density K): the mesh itself within 20 %,
+    else Blender's collapse decimation of the mesh, midpoint-subdivided first until it has more than
+    target / 0.8 triangles where it has fewer (collapsing the subdivided mesh shortens its longest
+    edges: the cow's largest from 0.98 to 0.56 at 7,370 triangles, its 90th percentile from 0.39 to
+    0.33). Without the subdivision a mesh with fewer triangles than the target kept them, and K changed
+    nothing on its surface."""
+    from ..geometry.mesh_subdivide import midpoint_subdivision
+
+    n = len(triangles)
+    if 0.8 * n <= target <= 1.25 * n:
+        return vertices, triangles
+    while target >= 0.8 * len(triangles):
+        vertices, triangles = midpoint_subdivision(vertices, triangles)
+    return decimated(vertices, triangles, target)
 
 
 def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):

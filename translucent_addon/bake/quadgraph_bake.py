@@ -11,7 +11,8 @@ at the surface. fTetWild (with its optimisation stopped early, ``tetra.OPTIMISE`
 about as fine as the surface's triangles near the surface and no larger than a fraction of the
 diagonal inside, which is the same kind of grading, so K is mapped onto the surface: over the paper's range (Fig. 11: K = 1,
 0.5, 0.3, 0.1 gave 141k, 246k, 468k, 973k nodes) N goes as K^-0.84, surface nodes as N^(2/3), so
-the finest proxy has 5000 K^-0.56 triangles (5k at K = 1, DESIGN.md's "what the scattering needs").
+the finest proxy has 5000 K^-0.56 triangles (5k at K = 1, DESIGN.md's "what the scattering needs"),
+or n K^-0.56 for a mesh of n < 5000 triangles, subdivided where it has fewer than asked.
 Levels (Sec. 4.3): each coarser level tetrahedralises a proxy with a quarter of the triangles and
 twice the interior edge.
 """
@@ -34,10 +35,14 @@ DISPLAY_CANDIDATES = 16
 DISPLAY_MIN_COS = 0.3  # a surface node whose normal turns further away is across a thin part
 
 
-def proxy_triangles(K: float, levels: int) -> list[int]:
-    """Triangle targets of the level proxies, coarsest first (each a quarter of the next)."""
-    fine = int(np.clip(round(PROXY_AT_K1 * float(K) ** K_EXPONENT), *PROXY_RANGE))
-    return [max(fine // 4 ** (levels - 1 - h), 32) for h in range(levels)]
+def proxy_triangles(K: float, levels: int, mesh_triangles: int | None = None) -> list[int]:
+    """Triangle targets of the level proxies, coarsest first (each a quarter of the next, none above
+    the finest). K scales the density of the surface at K = 1, which is PROXY_AT_K1 triangles or the
+    mesh's own where it has fewer (a 12-triangle box is its own proxy at K = 1, and K = 0.5 asks for
+    1.47 times its triangles, as it asks a 5k bunny proxy for 7.4k)."""
+    base = PROXY_AT_K1 if mesh_triangles is None else min(PROXY_AT_K1, int(mesh_triangles))
+    fine = int(np.clip(round(base * float(K) ** K_EXPONENT), min(PROXY_RANGE[0], base), PROXY_RANGE[1]))
+    return [min(max(fine // 4 ** (levels - 1 - h), 32), fine) for h in range(levels)]
 
 
 def display_links(display_v, display_t, graph: quadgraph.QuadGraph):
@@ -59,6 +64,22 @@ def display_links(display_v, display_t, graph: quadgraph.QuadGraph):
     w = np.where(ok, 1.0 / np.maximum(d, 1e-6) ** 2, 0.0)
     w /= w.sum(axis=1, keepdims=True)
     return i.astype(np.int32), w.astype(np.float32)
+
+
+def display_normals_at(points, display_v, display_t, proxy_normals):
+    """The display mesh's smooth normals (angle-weighted, as Blender shades it) at the points' closest
+    places on it: a surface node is lit with the normal the user sees, whatever proxy it was placed on
+    (a subdivided low-poly proxy is flat inside each of the mesh's triangles; a decimated one has its
+    own normals). Where the display's normal turns more than 90 degrees from the proxy's (a thin part
+    whose other side is nearer), the proxy's is kept."""
+    from ..geometry.volume_deformation import embed
+
+    e = embed(points, display_v, display_t)
+    corner = vertex_normals(display_v, display_t, by_angle=True)[np.asarray(display_t)[e.triangle]]
+    n = np.einsum("nc,ncd->nd", e.bary, corner)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    agree = np.einsum("nd,nd->n", n, proxy_normals) > 0.0
+    return np.where(agree[:, None], n, proxy_normals)
 
 
 def bake(inputs):
@@ -86,6 +107,8 @@ def bake(inputs):
         t_tet += time.perf_counter() - t1
         yield 0.05 + 0.8 * (h + 0.6) / levels, f"QUADGRAPH: graph of level {h + 1}/{levels} ({len(tets):,} tetrahedra)"
         graph, _ = quadgraph.pack(quadgraph.build(points, tets, surface_v, surface_t))
+        S_h = graph.n_surface
+        graph.normals[:S_h] = display_normals_at(graph.positions[:S_h], display_v, display_t, graph.normals[:S_h])
         graph.check()
         graphs.append(graph)
         p = f"qg{h}_"

@@ -1,4 +1,5 @@
-"""Single scattering under the boundary: the term a diffusion solution leaves out. Pure NumPy.
+"""The surface's own response to the light entering it: the terms a diffusion solution draws wrongly.
+Pure NumPy.
 
 Wang et al. 2010 (Sec. 7) model multiple scattering only and name low-order scattering as what is
 missing; Jensen et al. 2001 add it as the single-scattering term L^(1) beside the dipole. Along the
@@ -14,6 +15,11 @@ with the exponent linear inside each segment (``march``): exact wherever d is li
 flat face lit by a distant light, for which (eta = 1)
 
     L^(1) / E = alpha p(cos theta) mu_i / (mu_i + mu_o)        (``half_space``).
+
+Near where light enters, the diffusion's exitance also has the wrong angular law: Lambertian, where the
+multiply-scattered light of a lit half-space grows towards grazing light and view (Chandrasekhar's
+H functions, ``multiple_half_space``). The pass draws that too, at the pixel, and the diffusion gives
+up its own flat-face response there (``exitance_loss``).
 """
 from __future__ import annotations
 
@@ -131,10 +137,10 @@ def plane_albedo(alpha: float, mu) -> np.ndarray:
 
 def multiple_reflectance(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32) -> np.ndarray:
     """R_ms(mu_i) at mu_i = (k + 0.5) / n, (n, 3): what a lit face reflects after two or more
-    scatterings, per unit of light entering: plane_albedo - R_1, index-matched. Exact for isotropic
-    scattering (alpha' with similarity for g != 0); at other eta the index-matched split at the
-    refracted cosine. Marble 0.54 at cos 0.05 to 0.76 at normal incidence, skin1's blue 0.108 to 0.091,
-    as a random walk finds."""
+    scatterings, per unit of light entering: plane_albedo - R_1, index-matched; the flux of
+    ``multiple_half_space``. Exact for isotropic scattering (alpha' with similarity for g != 0); at
+    other eta the index-matched split at the refracted cosine. Marble 0.54 at cos 0.05 to 0.76 at normal
+    incidence, skin1's blue 0.108 to 0.091, as a random walk finds."""
     sigma_a = np.asarray(sigma_a, np.float64)
     sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
     mu_i = (np.arange(n) + 0.5) / n
@@ -144,22 +150,48 @@ def multiple_reflectance(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 
     return np.maximum(total - single_albedo(sigma_a, sigma_s_prime, g, 1.0, mu_t), 0.0)
 
 
-def exitance_loss(sigma_a, sigma_s_prime, g: float, eta: float, n: int = 32) -> np.ndarray:
-    """What a lit face's diffusion exitance gives up per unit q entering at mu_i = (k + 0.5) / n once the
-    single-scattering term is drawn beside it, (n, 3): R_diffusion - R_ms(mu_i).
+def h_table(sigma_a, sigma_s_prime, n: int = 33) -> np.ndarray:
+    """H(mu_k) per channel at mu_k = k / (n - 1), (n, 3), for the albedo alpha' = sigma_s' / sigma_t'
+    (similarity for g != 0): the table ``qg_single`` reads linearly for the local multiple scattering."""
+    sigma_a = np.asarray(sigma_a, np.float64)
+    sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
+    alpha_prime = sigma_s_prime / (sigma_a + sigma_s_prime)
+    mu = np.arange(n) / (n - 1)
+    return np.stack([chandrasekhar_H(a, mu) for a in alpha_prime], axis=1)
 
-    The diffusion's exitance near where light enters stands for single and multiple scattering together,
-    not multiple scattering alone: index-matched, a random walk on marble at normal incidence gives 0.153
-    single + 0.761 multiple, and the diffusion reflects 0.931 (the dipole 0.914). Drawing L^(1) beside
-    it unchanged counts the single-scattered light twice (1.2 times too bright for marble, 2.3 for
-    skin1's blue). There B ~ R q with R the reflectance of the diffusion's own continuous model
-    (``diffusion.slab_reflectance``; the graph's slab follows it within 1 %), so B - (R - R_ms) q leaves
-    R_ms q, the multiple-scattered exitance; light that crosses the object and leaves elsewhere (q = 0
-    there) keeps all of the diffusion. Negative where a grazing beam's multiple scattering exceeds R.
-    Approximations: the table is the object's uniform material (veins and painted blur, which change
-    kappa and mu per node, are not in it); at eta != 1, R has the boundary's Fresnel and R_ms is the
-    index-matched split, and q enters with 1 - F_r(cos_i) where the term takes the normal-incidence 1 - F_0."""
+
+def multiple_half_space(alpha: float, mu_i, mu_o):
+    """L_ms / E: the radiance a semi-infinite isotropic medium (index-matched) sends towards mu_o after
+    two or more scatterings, per unit normal irradiance of a beam at cosine mu_i; Chandrasekhar's
+    diffuse reflection less its first order:
+
+        L / E = alpha mu_i (H(mu_i) H(mu_o) - 1) / (4 pi (mu_i + mu_o)).
+
+    Not Lambertian: at grazing light and grazing view it is 1.35 (alpha 0.96) to 1.7 (0.68) times the
+    Lambertian radiance R_ms mu_i / pi of the same exitance, and it is flux-exact: over the hemisphere
+    it sends out plane_albedo - R_1 of the light that enters."""
+    mu_i = np.asarray(mu_i, np.float64)
+    mu_o = np.asarray(mu_o, np.float64)
+    H_i, H_o = chandrasekhar_H(alpha, mu_i.ravel()).reshape(mu_i.shape), chandrasekhar_H(alpha, mu_o.ravel()).reshape(mu_o.shape)
+    return alpha * mu_i * (H_i * H_o - 1.0) / (4.0 * np.pi * (mu_i + mu_o))
+
+
+def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
+    """What a lit node's diffusion exitance gives up per unit q entering once ``qg_single`` draws the
+    surface's own response to the light entering it (single scattering and the local multiple
+    scattering of ``multiple_half_space``), (1, 3): all of it, R, the flat-face reflectance of the
+    diffusion's continuous model (``diffusion.slab_reflectance``; the graph's slab follows it within 1 %).
+
+    Near where light enters, the diffusion's exitance R q stands for every order of scattering
+    together (index-matched, a random walk on marble at normal incidence reflects 0.153 after one
+    scattering and 0.761 after more; the diffusion 0.931, the dipole 0.914), with the wrong angular
+    law: Lambertian, where Chandrasekhar's grows towards grazing light and view. The surface term
+    draws that response exactly for a flat face, so B - R q leaves the light that entered elsewhere
+    and crossed the medium (q = 0 where it leaves: all of the diffusion kept). Approximations: the
+    table is the object's uniform material (veins and painted blur, which change kappa and mu per
+    node, are not in it); at eta != 1 the surface term is the index-matched one at the refracted
+    cosines, between Fresnel transmittances."""
     from .diffusion import slab_reflectance
 
     R = slab_reflectance(np.asarray(sigma_a, np.float64), np.asarray(sigma_s_prime, np.float64), eta)
-    return R[None, :] - multiple_reflectance(sigma_a, sigma_s_prime, g, eta, n)
+    return R[None, :]

@@ -9,15 +9,17 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    assumed: lights do move), then Jacobi steps (``qg_relax``, Eq. 8-9) into two textures in turn;
    every ``CHECK_EVERY`` steps the last step's relative change is read back and the level stops
    below the scene's tolerance or at its iteration cap (Sec. 5.2);
-3. single scattering, the term diffusion leaves out (Wang Sec. 7; ``physics/single_scattering.py``): the
-   nearest QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the
-   refracted view ray marched through the emitter's distance map, added into it (``qg_single``). Where
-   light enters, the diffusion's exitance already holds the single-scattered light: the finest level's
-   surface nodes sum what the term takes over, (R - R_ms(cos_i)) q per emitter, R the diffusion's own
-   flat-face reflectance (``single_scattering.exitance_loss``), and the display takes it from B;
+3. the surface's own response to the light entering it, which diffusion draws with the wrong angular
+   law and without single scattering (Wang Sec. 7; ``physics/single_scattering.py``): the nearest
+   QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the refracted
+   view ray marched through the emitter's distance map (single scattering L^(1)) plus Chandrasekhar's
+   multiple scattering of a lit half-space at the pixel (L^(ms)), added into it (``qg_single``). The
+   diffusion's exitance where light enters stood for that response: the finest level's surface nodes
+   sum R q per emitter, R the diffusion's own flat-face reflectance
+   (``single_scattering.exitance_loss``), and the display takes it from B;
 4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
-   nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + F_r L_world over the base
-   pass (``qg_display``).
+   nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + L^(ms) + F_r L_world over
+   the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
 (``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
@@ -108,7 +110,8 @@ class Resources:
         self.material_key = None
         self.materials = None
         self.display = {}
-        self.loss_table = (None, None)  # (medium key, texture): single_scattering.exitance_loss per cos_i
+        self.loss_table = (None, None)  # (medium key, texture): single_scattering.exitance_loss
+        self.h_table = (None, None)  # (medium key, texture): single_scattering.h_table
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.iterations: list[int] = []
 
@@ -185,14 +188,25 @@ class Resources:
         return batch
 
     def exitance_loss(self, medium):
-        """The table of what a lit node's exitance gives up per unit q to the single-scattering term
+        """What a lit node's exitance gives up per unit q to the surface term, as a table over cos_i
         (``single_scattering.exitance_loss``), rebuilt when the medium changes."""
-        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.g, medium.eta)
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
         if self.loss_table[0] != key:
-            table = ss.exitance_loss(medium.sigma_a, medium.sigma_s_prime, medium.g, medium.eta)
-            image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
-            self.loss_table = (key, texture_from_array(image))
+            self.loss_table = (key, _rgb_table(ss.exitance_loss(medium.sigma_a, medium.sigma_s_prime, medium.eta)))
         return self.loss_table[1]
+
+    def chandrasekhar_h(self, medium):
+        """H(mu) of the medium's albedo per channel (``single_scattering.h_table``), rebuilt when it changes."""
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime))
+        if self.h_table[0] != key:
+            self.h_table = (key, _rgb_table(ss.h_table(medium.sigma_a, medium.sigma_s_prime)))
+        return self.h_table[1]
+
+
+def _rgb_table(table):
+    """An (n, 3) table as an n x 1 RGBA32F texture."""
+    image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
+    return texture_from_array(image)
 
 
 def prepare(frame) -> list[Active]:
@@ -249,8 +263,9 @@ def single_target(pipeline, size, name: str = "qg_single"):
 
 def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline, size) -> None:
     """mode 0: clear the targets, lay down the nearest QUADGRAPH surface (depth, eye distance), then the
-    next surface behind it (the view ray's exit, mode 2); mode 1: add one emitter's single scattering
-    L^(1) on the nearest surface (objects with it switched off add none)."""
+    next surface behind it (the view ray's exit, mode 2); mode 1: add one emitter's surface term on the
+    nearest surface, single scattering L^(1) and local multiple scattering L^(ms) (objects with the term
+    switched off add none; the pipeline's QUADGRAPH output 2 or 3 keeps one of the two)."""
     import gpu
 
     from ..pipeline import clear_target
@@ -270,6 +285,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
             shader.uniform_sampler("depths", depths)
             shader.uniform_int("segments", ss.SEGMENTS)
             shader.uniform_float("tau_max", ss.TAU_MAX)
+            shader.uniform_int("terms", {2: 1, 3: 2}.get(int(pipeline.quadgraph_mode), 3))
             for a in actives:
                 m = a.mesh.medium
                 if pass_mode == 1 and not m.single_scattering:
@@ -280,6 +296,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 shader.uniform_float("g", float(m.g))
                 shader.uniform_float("sigma_a", (*map(float, (sigma_t - sigma_s) * m.mm_per_unit), 0.0))
                 shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
+                shader.uniform_sampler("h_table", a.resources.chandrasekhar_h(m))
                 a.resources.display_batch(a.mesh).draw(shader)  # qg_single reads its pos and nor
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
