@@ -1,5 +1,5 @@
 /* QUADGRAPH display (Wang Eq. 4, 7): each displayed vertex interpolates the exitance
- * B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the
+ * B = (1 - F_dr) phi_s / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the
  * bake; physics/diffusion.py says why the (1 - F_dr)), and the fragment leaves
  * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
  * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. The
@@ -20,8 +20,7 @@ void main()
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
     vec3 f = texelFetch(q_factor, t, 0).rgb;
-    vec3 q = texelFetch(incident, t, 0).rgb * f;
-    B += link_weights[j] * (phi_s - 2.0 * q);
+    B += link_weights[j] * phi_s;
     taken += link_weights[j] * texelFetch(loss, t, 0).rgb * f;
     factor += link_weights[j] * f;
   }

@@ -1,9 +1,12 @@
 /* QUADGRAPH relaxation, one Jacobi step for every node of a level (Wang Eq. 8-9, Fig. 8), the GPU
  * twin of physics/diffusion.py relax(). Inner node i: phi_i = sum_j c_ij phi_j / (sum_j c_ij + mu_i)
  * with c_ij = a_ij kappa_ij (harmonic mean); surface node s with inner node k at distance d:
- * phi_s = (2 A kappa_s e1 phi_k + d 4 q / (1 - F_dr)) / (2 A kappa_s e2 + d), where e1 = x / sinh x,
+ * phi_s = (2 A kappa_s e1 phi_k + 2 A d w_s q) / (2 A kappa_s e2 + d), where e1 = x / sinh x,
  * e2 = x / tanh x, x = sigma_tr d (the fitted surface link; a link to a surface node carries e1 on
- * phi_s and e2 on phi_i). q is the light entering at the node times its painted factor (mask x glow x tint). */
+ * phi_s and e2 on phi_i). q is the light entering at the node times its painted factor (mask x glow x
+ * tint), a source one transport mean free path deep in the link (z_0 = 3 kappa_s): w_s and w_k of
+ * physics/diffusion.py source_split go to the surface node's row and, as a_ks d w_k q, to the inner
+ * node's (Eq. 8 with a source). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -29,12 +32,34 @@ void link_factors(vec3 x, out vec3 e1, out vec3 e2)
   }
 }
 
-void surface_factors(int slot, float d, out vec3 e1, out vec3 e2)
+/* sinh(a) / sinh(b), b >= 0; a / b as b -> 0 (diffusion._sinh_ratio). Here |a| <= sigma_tr z_0 =
+ * sqrt(3 (1 - alpha')) <= 1.8 or a <= b, so nothing overflows. */
+float sinh_ratio(float a, float b)
+{
+  if (b < 1e-4) {
+    return a / max(b, 1e-30);
+  }
+  return exp(a - b) * (1.0 - exp(-2.0 * a)) / (1.0 - exp(-2.0 * b));
+}
+
+/* The fitted link factors of a surface node's link and the shares (w_s, w_k) of its source. */
+void surface_factors(int slot, float d, out vec3 e1, out vec3 e2, out vec3 w_s, out vec3 w_k)
 {
   ivec2 p = qg_texel(slot, blocks_per_row);
   vec3 kappa = texelFetch(node_kappa, p, 0).rgb;
   vec3 mu = texelFetch(node_mu, p, 0).rgb;
-  link_factors(sqrt(mu / kappa) * d, e1, e2);
+  vec3 sigma_tr = sqrt(mu / kappa);
+  link_factors(sigma_tr * d, e1, e2);
+  vec3 z0 = 3.0 * kappa;
+  for (int c = 0; c < 3; c++) {
+    w_s[c] = sinh_ratio(sigma_tr[c] * (d - z0[c]), sigma_tr[c] * d);
+    w_k[c] = sinh_ratio(sigma_tr[c] * z0[c], sigma_tr[c] * d);
+  }
+}
+
+vec3 entering(ivec2 p)
+{
+  return texelFetch(incident, p, 0).rgb * texelFetch(q_factor, p, 0).rgb; /* painted mask, glow, tint */
 }
 
 void main()
@@ -52,12 +77,11 @@ void main()
   if (surface) {
     int k = int(links.x + 0.5);
     float d = w.x;
-    vec3 e1, e2;
-    surface_factors(slot, d, e1, e2);
+    vec3 e1, e2, w_s, w_k;
+    surface_factors(slot, d, e1, e2, w_s, w_k);
     vec3 phi_k = texelFetch(phi, qg_texel(k, blocks_per_row), 0).rgb;
-    vec3 q = texelFetch(incident, p, 0).rgb * texelFetch(q_factor, p, 0).rgb; /* painted mask, glow, tint */
     vec3 ks = 2.0 * A * kappa;
-    out_phi = vec4((ks * e1 * phi_k + d * 4.0 * q / (1.0 - F_dr)) / (ks * e2 + d), 1.0);
+    out_phi = vec4((ks * e1 * phi_k + 2.0 * A * d * w_s * entering(p)) / (ks * e2 + d), 1.0);
     return;
   }
   vec3 num = vec3(0.0);
@@ -69,9 +93,10 @@ void main()
     vec3 c = w[j] * 2.0 * kappa * kj / (kappa + kj);
     vec3 phi_j = texelFetch(phi, q, 0).rgb;
     if (n < n_surface) {
-      vec3 e1, e2;
-      surface_factors(n, texelFetch(weights_map, q, 0).x, e1, e2);
-      num += c * e1 * phi_j;
+      vec3 e1, e2, w_s, w_k;
+      float d = texelFetch(weights_map, q, 0).x;
+      surface_factors(n, d, e1, e2, w_s, w_k);
+      num += c * e1 * phi_j + w[j] * d * w_k * entering(q);
       den += c * e2;
     }
     else {

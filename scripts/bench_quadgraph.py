@@ -11,9 +11,10 @@ leaves it to hit a 5 mm light by chance, and 1024 spp still left 65 % noise). Th
 brute force with the boundary black to light coming back from outside (``self_interreflection=False``:
 light leaving one ear into the other is the one transport no method here models; the full brute force
 is reported beside it), two seeds averaged, their difference giving the noise floor. QUADGRAPH is also
-drawn without its single-scattering term (as before it had one), and its two parts are compared apart:
-the diffusion with Cycles' multiple scattering (the reference less Cycles' single scattering, rendered
-with no volume bounce; the part Wang's diffusion models, Sec. 7), the term with Cycles' single scattering.
+drawn without its surface term (as before it had one: the diffusion alone, all of it), and its parts
+are compared apart: the diffusion plus the term's local multiple scattering with Cycles' multiple
+scattering (the reference less Cycles' single scattering, rendered with no volume bounce), the term's
+single scattering with Cycles' single scattering.
 Our images are box-filtered from 3 x 3 samples per pixel, as Cycles' BOX filter averages each pixel's area;
 the frame times are those of one sample per pixel. Iterations to
 tolerance with and without the multi-resolution start (the paper's Fig. 14, on the CPU twin with the
@@ -175,7 +176,7 @@ def main() -> int:
 
         def measure_exact(label, quadgraph: bool = False, **extra):
             """Draw the isolated, index-matched scene with our engine and compare with exact transport;
-            QUADGRAPH also without its single scattering, against Cycles' multiple scattering."""
+            QUADGRAPH also without its surface term, and its multiple and single scattering apart."""
             image, sec = draw_exact()
             row = {"scene": name, "label": label, "seconds": round(sec, 3), "reference_noise": noise,
                    "rel_rmse": metrics.relative_rmse(image, exact_ref, mask_x),
@@ -187,6 +188,8 @@ def main() -> int:
                 without, _ = draw_exact(single=False)
                 diffusion, _ = draw_exact(output=1)
                 single, _ = draw_exact(output=2)
+                local, _ = draw_exact(output=3)
+                diffusion[..., :3] += local[..., :3]  # multiple scattering: the diffusion and the local term
                 row.update(rel_rmse_diffusion_only=metrics.relative_rmse(without, exact_ref, mask_x),
                            median_diffusion_only=metrics.median_relative_error(without, exact_ref, mask_x),
                            rel_rmse_multiple=metrics.relative_rmse(diffusion, exact_multiple, mask_x),
@@ -201,8 +204,8 @@ def main() -> int:
             exact_rows.append(row)
             print(f"[{name}] exact transport, {label}: RMSE {row['rel_rmse']:.3f} (noise {noise:.3f}), median "
                   f"{row['median']:.3f}, RMSE with self-interreflection {row['rel_rmse_full']:.3f}"
-                  + (f"; without single scattering {row['rel_rmse_diffusion_only']:.3f} (median "
-                     f"{row['median_diffusion_only']:.3f}); diffusion against multiple scattering "
+                  + (f"; without the surface term {row['rel_rmse_diffusion_only']:.3f} (median "
+                     f"{row['median_diffusion_only']:.3f}); multiple scattering "
                      f"{row['rel_rmse_multiple']:.3f}, single scattering {row['rel_rmse_single']:.3f}"
                      if quadgraph else ""), flush=True)
 
@@ -304,7 +307,7 @@ def chart(rows, fig14, exact_rows, out: Path) -> None:
         c.plot([r["K"] for r in qg], [r["rel_rmse_full"] for r in qg], "o:", color=colour, alpha=0.5,
                label=f"{scene.split('_')[0]} QUADGRAPH vs full brute force")
         c.plot([r["K"] for r in qg], [r["rel_rmse_diffusion_only"] for r in qg], "s--", color=colour, alpha=0.7,
-               label=f"{scene.split('_')[0]} QUADGRAPH without single scattering")
+               label=f"{scene.split('_')[0]} QUADGRAPH without the surface term")
         for r in rs:
             if "K" not in r:
                 c.axhline(r["rel_rmse"], color=colour, ls="--", lw=0.8, label=f"{scene.split('_')[0]} {r['label']}")
@@ -349,15 +352,15 @@ def summary(rows, fig14, exact_rows, exact_samples) -> str:
              "RMSE (half the difference of the seeds); 'full' compares with the brute force that keeps "
              "self-interreflection. 192x144, relative RMSE and median relative error over the object's "
              "pixels.\n",
-             "QUADGRAPH's RMSE includes its single-scattering term; 'without the term' is QUADGRAPH with it "
-             "switched off, as it was before it had one (RMSE, median); 'diffusion vs multiple' compares the "
-             "diffusion part (the term on, so the exitance it takes over where light enters is taken from B) "
-             "with Cycles' multiple scattering (the reference less Cycles' single scattering), the part "
-             "Wang's method models; 'single' compares the term alone with Cycles' single scattering (RMSE, "
-             "and the ratio of means). Our images: 3 x 3 samples per pixel, box-filtered; frame times at one "
-             "sample per pixel.\n",
+             "QUADGRAPH's RMSE includes its surface term (single scattering and the local multiple "
+             "scattering of a lit half-space); 'without the term' is QUADGRAPH with it switched off, the "
+             "diffusion alone as Wang draws it (RMSE, median); 'multiple' compares the diffusion (less "
+             "what it gives up where light enters) plus the term's local multiple scattering with Cycles' "
+             "multiple scattering (the reference less Cycles' single scattering); 'single' compares the "
+             "term's single scattering with Cycles' (RMSE, and the ratio of means). Our images: 3 x 3 "
+             "samples per pixel, box-filtered; frame times at one sample per pixel.\n",
              "| scene | method | RMSE | noise | median | RMSE vs full | mean ratio (r, g, b) | without the term | "
-             "diffusion vs multiple (mean ratio) | single (mean ratio) | surface / inner nodes |",
+             "multiple (mean ratio) | single (mean ratio) | surface / inner nodes |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in exact_rows:
         q = "K" in r

@@ -136,17 +136,17 @@ def test_continuous_slab_conserves_energy_and_follows_the_dipole_only_with_the_r
     ours = df.slab_reflectance(1 - alpha, alpha, ETA)
     printed = df.slab_reflectance(1 - alpha, alpha, ETA, df.kappa_as_printed)
     dipole = total_diffuse_reflectance(1 - alpha, alpha, ETA)
-    assert np.abs(ours / dipole - 1).max() < 0.10
+    assert np.abs(ours / dipole - 1).max() < 0.015  # measured 0.9 %: both put the source a mean free path deep
     assert np.abs(printed / dipole - 1)[1:].min() > 0.15  # at 0.999 absorption hardly matters to either
 
 
 def test_thick_slab_on_the_graph_matches_the_dipole_total_reflectance_and_settles_kappa(slab_graph):
     """A 40 x 40 x 12 mm box lit uniformly from the top: at the centre of the top face the graph's
     exitance over the entering light is, with kappa = 1 / (3 (mu + sigma_s')), the continuous model's
-    slab value within 6 % (measured on the stored graph -0.5 to +2.6 %) and the dipole's total diffuse
-    reflectance within 13 % (measured +5.0 to +11.7 %: the two continuous models themselves differ by 5 to 9 % here, the
-    dipole's source one mean free path deep, the Robin source at the surface), and at least 20 % off
-    the dipole with the paper's printed 1 / (3 mu + sigma_s')."""
+    slab value within 6 % (measured on the stored graph -0.6 to +3.6 %) and the dipole's total diffuse
+    reflectance within 6 % (measured -0.2 to +2.7 %; with Wang's source at the surface, before
+    diffusion.source_split, +5.0 to +11.7 %), and at least 20 % off the dipole with the paper's printed
+    1 / (3 mu + sigma_s') (measured 29-39 %)."""
     g = slab_graph
     S = g.n_surface
     top = g.normals[:, 2] > 0.9
@@ -159,9 +159,9 @@ def test_thick_slab_on_the_graph_matches_the_dipole_total_reflectance_and_settle
         for name, kappa_of in (("right", df.kappa), ("printed", df.kappa_as_printed)):
             k, mu = _homogeneous(g, 1 - alpha, alpha, kappa_of)
             phi = df.solve_direct(g.neighbours, g.weights, g.d_surface, k, mu, q, ETA)
-            got[name] = float(df.radiosity(phi[:S], q, ETA)[centre].mean())  # the exitance
+            got[name] = float(df.radiosity(phi[:S], ETA)[centre].mean())  # the exitance
         assert got["right"] == pytest.approx(df.slab_reflectance(1 - alpha, alpha, ETA), rel=0.06), alpha
-        assert got["right"] == pytest.approx(dipole, rel=0.13), alpha
+        assert got["right"] == pytest.approx(dipole, rel=0.06), alpha
         assert abs(got["printed"] / dipole - 1) > 0.2, alpha
 
 

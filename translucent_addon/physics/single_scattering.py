@@ -184,7 +184,7 @@ def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
 
     Near where light enters, the diffusion's exitance R q stands for every order of scattering
     together (index-matched, a random walk on marble at normal incidence reflects 0.153 after one
-    scattering and 0.761 after more; the diffusion 0.931, the dipole 0.914), with the wrong angular
+    scattering and 0.761 after more; the diffusion 0.915, the dipole 0.914), with the wrong angular
     law: Lambertian, where Chandrasekhar's grows towards grazing light and view. The surface term
     draws that response exactly for a flat face, so B - R q leaves the light that entered elsewhere
     and crossed the medium (q = 0 where it leaves: all of the diffusion kept). Approximations: the

@@ -17,7 +17,7 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    diffusion's exitance where light enters stood for that response: the finest level's surface nodes
    sum R q per emitter, R the diffusion's own flat-face reflectance
    (``single_scattering.exitance_loss``), and the display takes it from B;
-4. display: the original mesh interpolates B = (1 - F_dr) (phi_s - 2 q_s) / (2 (1 + F_dr)) from four surface
+4. display: the original mesh interpolates B = (1 - F_dr) phi_s / (2 (1 + F_dr)) from four surface
    nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + L^(ms) + F_r L_world over
    the base pass (``qg_display``).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
@@ -322,7 +322,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
     res = a.resources
     tolerance = df.reachable_tolerance(tolerance)
     eta = float(a.mesh.medium.eta)
-    A, F = float(internal_reflection(eta)), float(diffuse_fresnel(eta))
+    A = float(internal_reflection(eta))
     res.iterations = []
     previous = None  # (LevelGpu, index of its current phi target)
     levels = res.levels if multiresolution else res.levels[-1:]
@@ -365,7 +365,6 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
                     shader.uniform_int("inner_start", t.layout.inner_start)
                     shader.uniform_int("inner_end", t.layout.inner_start + t.count - t.n_surface)
                     shader.uniform_float("A", A)
-                    shader.uniform_float("F_dr", F)
                     screen_quad(pipeline, "qg_relax").draw(shader)
                 cur = 1 - cur
             n += step
@@ -409,7 +408,6 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_block("frame", frame_ubo)
             shader.uniform_block("object", objects[a.index])
             shader.uniform_sampler("phi", finest.phi[cur][1][0])
-            shader.uniform_sampler("incident", finest.incident[1][0])
             shader.uniform_sampler("q_factor", finest.q_factor)
             shader.uniform_sampler("loss", a.resources.loss[1][0])
             shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])

@@ -246,4 +246,4 @@ def solve_frame(levels: list[LevelTables], q_levels: list, materials: list, eta:
         its.append(n)
         phi_prev = phi
     t = levels[-1]
-    return Solution(phis, its, df.radiosity(phis[-1][:t.n_surface], q_levels[-1], eta))
+    return Solution(phis, its, df.radiosity(phis[-1][:t.n_surface], eta))
