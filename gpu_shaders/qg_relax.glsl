@@ -1,5 +1,6 @@
 /* QUADGRAPH relaxation, one Jacobi step for every node of a level (Wang Eq. 8-9, Fig. 8), the GPU
- * twin of physics/diffusion.py relax(). Inner node i: phi_i = sum_j c_ij phi_j / (sum_j c_ij + mu_i)
+ * twin of physics/diffusion.py relax(). Inner node i:
+ * phi_i = (sum_j c_ij phi_j + sum_{j surface} a_ij d_j w_k,j q_j) / (sum_j c_ij + mu_i)
  * with c_ij = a_ij kappa_ij (harmonic mean); surface node s with inner node k at distance d:
  * phi_s = (2 A kappa_s e1 phi_k + 2 A d w_s q) / (2 A kappa_s e2 + d), where e1 = x / sinh x,
  * e2 = x / tanh x, x = sigma_tr d (the fitted surface link; a link to a surface node carries e1 on
@@ -32,12 +33,12 @@ void link_factors(vec3 x, out vec3 e1, out vec3 e2)
   }
 }
 
-/* sinh(a) / sinh(b), b >= 0; a / b as b -> 0 (diffusion._sinh_ratio). Here |a| <= sigma_tr z_0 =
- * sqrt(3 (1 - alpha')) <= 1.8 or a <= b, so nothing overflows. */
+/* sinh(a) / sinh(b), 0 <= a <= b (diffusion._sinh_ratio); below b = 1e-2 its series
+ * (a / b)(1 + (a^2 - b^2) / 6), where 1 - exp(-2b) cancels in float32. */
 float sinh_ratio(float a, float b)
 {
-  if (b < 1e-4) {
-    return a / max(b, 1e-30);
+  if (b < 1e-2) {
+    return a / max(b, 1e-30) * (1.0 + (a * a - b * b) / 6.0);
   }
   return exp(a - b) * (1.0 - exp(-2.0 * a)) / (1.0 - exp(-2.0 * b));
 }
@@ -50,7 +51,7 @@ void surface_factors(int slot, float d, out vec3 e1, out vec3 e2, out vec3 w_s, 
   vec3 mu = texelFetch(node_mu, p, 0).rgb;
   vec3 sigma_tr = sqrt(mu / kappa);
   link_factors(sigma_tr * d, e1, e2);
-  vec3 z0 = 3.0 * kappa;
+  vec3 z0 = min(3.0 * kappa, vec3(d)); /* at the inner node where the link is shorter */
   for (int c = 0; c < 3; c++) {
     w_s[c] = sinh_ratio(sigma_tr[c] * (d - z0[c]), sigma_tr[c] * d);
     w_k[c] = sinh_ratio(sigma_tr[c] * z0[c], sigma_tr[c] * d);

@@ -70,10 +70,11 @@ vec3 chandrasekhar_H(float mu)
   return mix(texelFetch(h_table, ivec2(k, 0), 0).rgb, texelFetch(h_table, ivec2(k + 1, 0), 0).rgb, u - float(k));
 }
 
-/* The local multiple scattering L^(ms) of light entering at this pixel's surface point, per unit E:
+/* The local multiple scattering L^(ms) of light entering at this pixel's surface point:
  * Chandrasekhar's half-space (single_scattering.multiple_half_space), at the refracted cosines between
- * the Fresnel transmittances; the light's visibility as q's (ts_illumination). */
-vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 sigma_t)
+ * the Fresnel transmittances, for the light entering per unit area T_i E mu_i (mu_i outside, as q); the
+ * light's visibility as q's (ts_illumination). */
+vec3 local_multiple(vec3 p, vec3 n, float mu_t)
 {
   vec3 to_light;
   vec3 E = emitter_irradiance(p, to_light);
@@ -86,7 +87,7 @@ vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 sigma_t)
   vec3 alpha_prime = sigma_s_prime / (sigma_a.rgb + sigma_s_prime);
   vec3 HH = chandrasekhar_H(mu_it) * chandrasekhar_H(mu_t);
   float T_i = 1.0 - fresnel_dielectric(mu_i, eta);
-  return T_i * visibility(p, n) * E * alpha_prime * mu_it * (HH - 1.0) / (4.0 * PI * (mu_it + mu_t));
+  return T_i * visibility(p, n) * E * alpha_prime * mu_i * (HH - 1.0) / (4.0 * PI * (mu_it + mu_t));
 }
 
 float hg_phase(float cos_theta)
@@ -169,7 +170,7 @@ void main()
     L += (1.0 - F_0) * march(v_world, w_t, t_max, sigma_t);
   }
   if ((terms & 2) != 0) {
-    L += local_multiple(v_world, n, mu_t, sigma_t);
+    L += local_multiple(v_world, n, mu_t);
   }
   out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) * L, 0.0);
 }

@@ -160,7 +160,8 @@ def main() -> int:
             """Our engine on the isolated, index-matched scene: the frame time at the bench's size, and the
             image box-filtered from SUPERSAMPLE^2 samples per pixel, as Cycles' BOX filter averages each
             pixel's area (rims lit at grazing angles change within a pixel). ``output``: QUADGRAPH's
-            display output (0 all, 1 the diffusion alone, 2 the single-scattering term alone)."""
+            display output (0 all, 1 the diffusion alone, 2 single scattering alone, 3 the local multiple
+            scattering alone)."""
             saved = subject.translucent.single_scattering
             subject.translucent.single_scattering = single
             S = SUPERSAMPLE

@@ -188,11 +188,11 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         min=0.0, max=1.0, default=0.0,
     )
     single_scattering: bpy.props.BoolProperty(
-        name="Single scattering",
-        description="QUADGRAPH: draw the surface's own response to each light exactly: light scattered once "
+        name="Surface term",
+        description="QUADGRAPH: draw the surface's own response to each light: light scattered once "
                     "(marched along the view ray through the light's distance map) and the multiple "
-                    "scattering of a lit half-space, where the diffusion alone is Lambertian and leaves out "
-                    "the first order: the bright rims where a light grazes a back-lit object",
+                    "scattering of a lit half-space (Chandrasekhar), where the diffusion alone is Lambertian "
+                    "and leaves out the first order: the bright rims where a light grazes a back-lit object",
         default=True,
     )
     veins_scale: bpy.props.FloatProperty(

@@ -160,20 +160,29 @@ def h_table(sigma_a, sigma_s_prime, n: int = 33) -> np.ndarray:
     return np.stack([chandrasekhar_H(a, mu) for a in alpha_prime], axis=1)
 
 
-def multiple_half_space(alpha: float, mu_i, mu_o):
-    """L_ms / E: the radiance a semi-infinite isotropic medium (index-matched) sends towards mu_o after
-    two or more scatterings, per unit normal irradiance of a beam at cosine mu_i; Chandrasekhar's
-    diffuse reflection less its first order:
+def multiple_half_space(alpha: float, mu_i, mu_o, eta: float = 1.0):
+    """L_ms / E: the radiance a semi-infinite isotropic medium sends towards mu_o after two or more
+    scatterings, per unit normal irradiance of a beam at cosine mu_i; Chandrasekhar's diffuse reflection
+    less its first order. Index-matched:
 
         L / E = alpha mu_i (H(mu_i) H(mu_o) - 1) / (4 pi (mu_i + mu_o)).
 
     Not Lambertian: at grazing light and grazing view it is 1.35 (alpha 0.96) to 1.7 (0.68) times the
     Lambertian radiance R_ms mu_i / pi of the same exitance, and it is flux-exact: over the hemisphere
-    it sends out plane_albedo - R_1 of the light that enters."""
+    it sends out plane_albedo - R_1 of the light that enters. At eta != 1 (``qg_single``'s model) the
+    same at the refracted cosines mu_i,t and mu_o,t, between the Fresnel transmittances: the light
+    entering per unit area is still T_i E mu_i, so the numerator keeps mu_i,
+    T_o T_i alpha mu_i (H(mu_i,t) H(mu_o,t) - 1) / (4 pi (mu_i,t + mu_o,t)), with no 1 / eta^2 (as
+    Jensen's single scattering; the index-matched H has no internal reflection either)."""
+    from .fresnel import fresnel_dielectric
+
     mu_i = np.asarray(mu_i, np.float64)
     mu_o = np.asarray(mu_o, np.float64)
-    H_i, H_o = chandrasekhar_H(alpha, mu_i.ravel()).reshape(mu_i.shape), chandrasekhar_H(alpha, mu_o.ravel()).reshape(mu_o.shape)
-    return alpha * mu_i * (H_i * H_o - 1.0) / (4.0 * np.pi * (mu_i + mu_o))
+    mu_it, mu_ot = refracted_cosine(mu_i, eta), refracted_cosine(mu_o, eta)
+    H_i = chandrasekhar_H(alpha, mu_it.ravel()).reshape(mu_it.shape)
+    H_o = chandrasekhar_H(alpha, mu_ot.ravel()).reshape(mu_ot.shape)
+    T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - fresnel_dielectric(mu_i, eta)) if eta != 1.0 else 1.0
+    return T * alpha * mu_i * (H_i * H_o - 1.0) / (4.0 * np.pi * (mu_it + mu_ot))
 
 
 def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:

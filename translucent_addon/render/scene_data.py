@@ -30,7 +30,7 @@ class Medium:
     # QUADGRAPH: procedural marble veins in the volume (strength 0..1, spacing in mm).
     veins: float = 0.0
     veins_spacing_mm: float = 20.0
-    single_scattering: bool = True  # QUADGRAPH: add the single-scattering term L^(1) to the diffusion
+    single_scattering: bool = True  # QUADGRAPH: draw the surface term (single and local multiple scattering)
     max_steps: int = 32  # GEOCUBE: cap on the exit search's steps
 
 

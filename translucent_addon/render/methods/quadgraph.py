@@ -188,8 +188,9 @@ class Resources:
         return batch
 
     def exitance_loss(self, medium):
-        """What a lit node's exitance gives up per unit q to the surface term, as a table over cos_i
-        (``single_scattering.exitance_loss``), rebuilt when the medium changes."""
+        """What a lit node's exitance gives up per unit q to the surface term, R, as a one-texel table
+        for ``ts_illumination``'s cosine table (``single_scattering.exitance_loss``), rebuilt when the
+        medium changes."""
         key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
         if self.loss_table[0] != key:
             self.loss_table = (key, _rgb_table(ss.exitance_loss(medium.sigma_a, medium.sigma_s_prime, medium.eta)))
@@ -239,7 +240,7 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
         for lg in res.levels:
             draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, unit_texture(pipeline))
-        # The exitance the single-scattering term takes over at the finest level's surface nodes.
+        # The exitance the surface term takes over at the finest level's surface nodes.
         finest = res.levels[-1]
         if mode == 0:
             with res.loss[0].bind():

@@ -90,7 +90,7 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
     """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
     point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by ``cosine_table`` at the
     point's cosine (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s) and for the
-    exitance its single-scattering term takes over."""
+    exitance its surface term takes over."""
     import gpu
 
     from ..pipeline import clear_target
