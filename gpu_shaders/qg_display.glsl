@@ -6,7 +6,10 @@
  * surface term of qg_single (single and local multiple scattering), summed over the emitters in a
  * screen target, is added to L, with the painted factor on the light entering (mask x glow x tint)
  * interpolated like B; B gives up the exitance the term takes over where light enters (``loss``:
- * single_scattering.exitance_loss). */
+ * single_scattering.exitance_loss), and the world's light gives up its flat-face response too
+ * (``loss_world``), drawn Lambertian as before. What B keeps then is light that entered elsewhere and
+ * crossed the medium: it leaves with the Milne law of physics/milne.py, ``exit_law`` (mu_o), in place
+ * of Lambert's (a one-texel table of 1 where the surface term is off: Wang's display). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -16,16 +19,20 @@ void main()
   vec3 B = vec3(0.0);
   vec3 factor = vec3(0.0);
   vec3 taken = vec3(0.0);
+  vec3 taken_world = vec3(0.0);
   for (int j = 0; j < 4; j++) {
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
     vec3 f = texelFetch(q_factor, t, 0).rgb;
     B += link_weights[j] * phi_s;
     taken += link_weights[j] * texelFetch(loss, t, 0).rgb * f;
+    taken_world += link_weights[j] * texelFetch(loss_world, t, 0).rgb * f;
     factor += link_weights[j] * f;
   }
   v_factor = factor;
-  v_radiosity = max((1.0 - F_dr) * B / (2.0 * (1.0 + F_dr)) - taken, vec3(0.0));
+  B = (1.0 - F_dr) * B / (2.0 * (1.0 + F_dr));
+  v_world_local = min(taken_world, max(B - taken, vec3(0.0)));
+  v_radiosity = max(B - taken - taken_world, vec3(0.0));
   v_mask = mask;
   gl_Position = frame.view_proj * world;
 }
@@ -58,6 +65,16 @@ vec3 single_scattering(vec3 p)
   return weight > 0.0 ? sum / weight : vec3(0.0);
 }
 
+/* The far light's angular law over Lambert's at the outside cosine mu_o, per channel, read linearly. */
+vec3 exit_factor(float mu_o)
+{
+  int n = textureSize(exit_law, 0).x;
+  float u = clamp(mu_o, 0.0, 1.0) * float(n - 1);
+  int k = min(int(floor(u)), max(n - 2, 0));
+  return mix(texelFetch(exit_law, ivec2(k, 0), 0).rgb, texelFetch(exit_law, ivec2(min(k + 1, n - 1), 0), 0).rgb,
+             u - float(k));
+}
+
 void main()
 {
   vec3 n = normalize(v_normal);
@@ -65,9 +82,10 @@ void main()
     n = -n;
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
-  float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
+  float mu_o = max(dot(n, to_eye), 0.0);
+  float F_r = fresnel_dielectric(mu_o, eta);
   vec3 L_single = single_scattering(v_world) * v_factor;
-  vec3 L_diffusion = (1.0 - F_r) / PI * v_radiosity;
+  vec3 L_diffusion = (1.0 - F_r) / PI * (exit_factor(mu_o) * v_radiosity + v_world_local);
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
    * drew single scattering alone, or the local multiple scattering alone) */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;

@@ -16,10 +16,11 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    multiple scattering of a lit half-space at the pixel (L^(ms)), added into it (``qg_single``). The
    diffusion's exitance where light enters stood for that response: the finest level's surface nodes
    sum R q per emitter, R the diffusion's own flat-face reflectance
-   (``single_scattering.exitance_loss``), and the display takes it from B;
+   (``single_scattering.exitance_loss``), and the display takes it from B; the world's R q apart;
 4. display: the original mesh interpolates B = (1 - F_dr) phi_s / (2 (1 + F_dr)) from four surface
-   nodes per vertex, less the loss above, and draws L = F_t / pi B + L^(1) + L^(ms) + F_r L_world over
-   the base pass (``qg_display``).
+   nodes per vertex, less the losses above, and draws L = F_t / pi (f(mu_o) B + R q_world) + L^(1) +
+   L^(ms) + F_r L_world over the base pass (``qg_display``): f is the Milne law of the light that has
+   crossed the medium (``physics/milne.py``), 1 where the surface term is off (Wang's Lambertian display).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
 (``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
@@ -37,6 +38,7 @@ from ...geometry.mesh_measures import vertex_normals
 from ...geometry.volume_deformation import DeformationError
 from ...physics.dipole import A as internal_reflection
 from ...physics import diffusion as df
+from ...physics import milne
 from ...physics import single_scattering as ss
 from ...physics.fresnel import F_dr as diffuse_fresnel
 from .. import shaders
@@ -113,6 +115,8 @@ class Resources:
         self.loss_table = (None, None)  # (medium key, texture): single_scattering.exitance_loss
         self.h_table = (None, None)  # (medium key, texture): single_scattering.h_table
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
+        self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
+        self.exit_table = (None, None)  # (medium key, texture): milne.exit_law_table
         self.iterations: list[int] = []
 
     @property
@@ -204,6 +208,16 @@ class Resources:
         return self.h_table[1]
 
 
+    def exit_law(self, medium):
+        """The far light's angular law over Lambert's per channel (``milne.exit_law_table``), rebuilt when
+        the medium changes."""
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
+        if self.exit_table[0] != key:
+            self.exit_table = (key, _rgb_table(milne.exit_law_table(medium.sigma_a, medium.sigma_s_prime,
+                                                                    medium.eta)))
+        return self.exit_table[1]
+
+
 def _rgb_table(table):
     """An (n, 3) table as an n x 1 RGBA32F texture."""
     image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
@@ -245,6 +259,12 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
         if mode == 0:
             with res.loss[0].bind():
                 clear_target(res.loss[0], depth=None)
+            if m.single_scattering:  # the world's flat-face response, drawn Lambertian apart from the far light
+                draw_illumination(res.loss_world[0], finest.points, finest.tables.layout.size, objects[a.index],
+                                  frame_ubo, light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
+            else:
+                with res.loss_world[0].bind():
+                    clear_target(res.loss_world[0], depth=None)
         elif m.single_scattering:
             draw_illumination(res.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
@@ -411,6 +431,9 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("phi", finest.phi[cur][1][0])
             shader.uniform_sampler("q_factor", finest.q_factor)
             shader.uniform_sampler("loss", a.resources.loss[1][0])
+            shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
+            shader.uniform_sampler("exit_law", a.resources.exit_law(a.mesh.medium) if a.mesh.medium.single_scattering
+                                   else unit_texture(pipeline))
             shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
