@@ -7,9 +7,10 @@
  * screen target, is added to L, with the painted factor on the light entering (mask x glow x tint)
  * interpolated like B; B gives up the exitance the term takes over where light enters (``loss``:
  * single_scattering.exitance_loss), and the world's light gives up its flat-face response too
- * (``loss_world``), drawn Lambertian as before. What B keeps then is light that entered elsewhere and
- * crossed the medium: it leaves with the Milne law of physics/milne.py, ``exit_law`` (mu_o), in place
- * of Lambert's (a one-texel table of 1 where the surface term is off: Wang's display). */
+ * (``loss_world``), drawn with a half-space's law under uniform light (``world_law``:
+ * single_scattering.uniform_light_table). What B keeps then is light that entered elsewhere and
+ * crossed the medium: it leaves with the Milne law of physics/milne.py (``exit_law``) in place of
+ * Lambert's. Where the surface term is off both tables are one texel of 1: Wang's display. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -65,13 +66,14 @@ vec3 single_scattering(vec3 p)
   return weight > 0.0 ? sum / weight : vec3(0.0);
 }
 
-/* The far light's angular law over Lambert's at the outside cosine mu_o, per channel, read linearly. */
-vec3 exit_factor(float mu_o)
+/* An angular law over Lambert's at the outside cosine mu_o, per channel, read linearly from an n x 1
+ * table (one texel: that value at every angle). */
+vec3 angular_factor(sampler2D table, float mu_o)
 {
-  int n = textureSize(exit_law, 0).x;
+  int n = textureSize(table, 0).x;
   float u = clamp(mu_o, 0.0, 1.0) * float(n - 1);
   int k = min(int(floor(u)), max(n - 2, 0));
-  return mix(texelFetch(exit_law, ivec2(k, 0), 0).rgb, texelFetch(exit_law, ivec2(min(k + 1, n - 1), 0), 0).rgb,
+  return mix(texelFetch(table, ivec2(k, 0), 0).rgb, texelFetch(table, ivec2(min(k + 1, n - 1), 0), 0).rgb,
              u - float(k));
 }
 
@@ -85,7 +87,8 @@ void main()
   float mu_o = max(dot(n, to_eye), 0.0);
   float F_r = fresnel_dielectric(mu_o, eta);
   vec3 L_single = single_scattering(v_world) * v_factor;
-  vec3 L_diffusion = (1.0 - F_r) / PI * (exit_factor(mu_o) * v_radiosity + v_world_local);
+  vec3 L_diffusion = (1.0 - F_r) / PI * (angular_factor(exit_law, mu_o) * v_radiosity +
+                                         angular_factor(world_law, mu_o) * v_world_local);
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
    * drew single scattering alone, or the local multiple scattering alone) */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;

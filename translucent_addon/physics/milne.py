@@ -19,15 +19,19 @@ Where light enters, the surface term (``single_scattering``) draws the response 
 diffusion gives up its own there, so what the display draws from the diffusion is this far light.
 
 For g != 0 the law takes the reduced albedo alpha' = sigma_s' / sigma_t' (similarity, as the H table).
-At eta != 1: the inside law at the refracted cosine, behind F_t(mu_o), scaled so that the light leaving
-over the hemisphere is what the Lambertian F_t / pi B sends (the law moves light between angles only;
-the index-matched H has no internal reflection, an approximation).
+At eta != 1 (``outside_table``) the law's anisotropy is divided by the diffusion's internal reflection
+A, taken at the refracted cosine behind F_t(mu_o), and scaled so that the light leaving over the
+hemisphere is what the Lambertian F_t / pi B sends: light reflected back at the boundary and scattered
+again leaves more evenly (the P1 radiance at the boundary, phi (1 + 3 mu / (2 A)), has 1 / A of the
+index-matched anisotropy). This is a model, not judged against exact transport here (the exact-transport
+bench is index-matched).
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import brentq
 
+from .dipole import A as internal_reflection
 from .fresnel import fresnel_dielectric
 from .single_scattering import chandrasekhar_H, refracted_cosine
 
@@ -57,20 +61,29 @@ def exit_law(alpha: float, mu) -> np.ndarray:
     return (chandrasekhar_H(alpha, mu.ravel()) / (1.0 - k * mu.ravel())).reshape(mu.shape) / norm
 
 
+def outside_table(law, eta: float, n: int = 33) -> np.ndarray:
+    """An index-matched angular law f(mu) (a function of the inside cosine, ratio to Lambert's, shape
+    only) as the factor on the Lambertian F_t(mu_o) / pi B at mu_o = j / (n - 1), (n,): at eta != 1 the
+    anisotropic part is divided by the diffusion's internal reflection A = (1 + F_dr) / (1 - F_dr), as
+    its own boundary flattens the outgoing radiance (P1 at the boundary: phi (1 + 3 mu / (2 A))), taken
+    at the refracted cosine, and scaled so that int F_t f mu dmu = int F_t mu dmu: the law moves light
+    between angles, the exitance drawn stays B."""
+    A = float(internal_reflection(eta))
+    x, w = np.polynomial.legendre.leggauss(64)
+    m, w = 0.5 * (x + 1.0), 0.5 * w
+    F_t = 1.0 - fresnel_dielectric(m, eta) if eta != 1.0 else np.ones_like(m)
+
+    def inside(mu_o):
+        return 1.0 + (law(refracted_cosine(mu_o, eta)) - 1.0) / A
+
+    scale = np.sum(w * F_t * m) / np.sum(w * F_t * inside(m) * m)
+    return scale * inside(np.arange(n) / (n - 1))
+
+
 def exit_law_table(sigma_a, sigma_s_prime, eta: float, n: int = 33) -> np.ndarray:
-    """f(mu_o) per channel at mu_o = j / (n - 1) (outside cosines), (n, 3): the factor on the Lambertian
-    F_t(mu_o) / pi B that ``qg_display`` reads linearly; at eta != 1 the inside law at the refracted
-    cosine, scaled so that int F_t f mu dmu = int F_t mu dmu (the exitance drawn is unchanged)."""
+    """The Milne law's factor per channel on the Lambertian display of the far light, (n, 3), read
+    linearly by ``qg_display`` (``outside_table``)."""
     sigma_a = np.asarray(sigma_a, np.float64)
     sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
     alpha_prime = sigma_s_prime / (sigma_a + sigma_s_prime)
-    mu = np.arange(n) / (n - 1)
-    x, w = np.polynomial.legendre.leggauss(64)
-    m, w = 0.5 * (x + 1.0), 0.5 * w
-    F_t = 1.0 - fresnel_dielectric(m, eta)
-    columns = []
-    for a in alpha_prime:
-        inside = exit_law(a, refracted_cosine(m, eta))
-        scale = np.sum(w * F_t * m) / np.sum(w * F_t * inside * m)
-        columns.append(scale * exit_law(a, refracted_cosine(mu, eta)))
-    return np.stack(columns, axis=1)
+    return np.stack([outside_table(lambda mu, a=a: exit_law(a, mu), eta, n) for a in alpha_prime], axis=1)

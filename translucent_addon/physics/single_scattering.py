@@ -191,3 +191,27 @@ def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
 
     R = slab_reflectance(np.asarray(sigma_a, np.float64), np.asarray(sigma_s_prime, np.float64), eta)
     return R[None, :]
+
+
+def uniform_light_table(sigma_a, sigma_s_prime, eta: float, n: int = 33) -> np.ndarray:
+    """The factor w(mu_o) per channel, (n, 3), on the Lambertian F_t / pi R q_world that the display draws
+    for the world's light entering a flat face (read linearly by ``qg_display``): a half-space under
+    uniform light sends L_w (1 - sqrt(1 - alpha') H(mu_o)) towards mu_o, every order of scattering
+    together (Chandrasekhar; index-matched, isotropic), brighter towards grazing, where the diffusion
+    sends the same at every angle (skin1's blue: 1.9 times at grazing what it sends at normal view).
+    Shape only (the exitance stays the diffusion's R q_world, which a thick slab under a white world
+    follows in Cycles), at eta != 1 flattened by the boundary as ``milne.outside_table`` says."""
+    from .milne import outside_table
+
+    sigma_a = np.asarray(sigma_a, np.float64)
+    sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
+    alpha_prime = sigma_s_prime / (sigma_a + sigma_s_prime)
+    x, w = np.polynomial.legendre.leggauss(64)
+    m, w = 0.5 * (x + 1.0), 0.5 * w
+    columns = []
+    for a in alpha_prime:
+        def law(mu, a=a):
+            raw = 1.0 - np.sqrt(1.0 - a) * chandrasekhar_H(a, np.ravel(mu)).reshape(np.shape(mu))
+            return raw / (2.0 * np.sum(w * m * (1.0 - np.sqrt(1.0 - a) * chandrasekhar_H(a, m))))
+        columns.append(outside_table(law, eta, n))
+    return np.stack(columns, axis=1)
