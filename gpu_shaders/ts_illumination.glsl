@@ -3,8 +3,8 @@
  * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
  * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's E is
- * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation (one texel of 1 leaves E;
- * QUADGRAPH's exitance loss pass: physics/single_scattering.exitance_loss). */
+ * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation, the world's by its last
+ * texel (one texel of 1 leaves E; QUADGRAPH's exitance loss pass: physics/single_scattering.exitance_loss). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -18,8 +18,12 @@ void main()
 #ifdef GPU_FRAGMENT_SHADER
 void main()
 {
+  int n = textureSize(cosine_table, 0).x;
   if (mode == 0) {
-    out_irradiance = vec4(world_irradiance(v_normal, world_kernel), 1.0);
+    /* the world has no one cosine: the table's value at normal incidence (its only texel for
+     * QUADGRAPH's flat-face loss R) */
+    out_irradiance = vec4(world_irradiance(v_normal, world_kernel) * texelFetch(cosine_table, ivec2(n - 1, 0), 0).rgb,
+                          1.0);
     return;
   }
   vec3 to_light;
@@ -29,7 +33,6 @@ void main()
     discard;
   }
   vec3 E = radiance * cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);
-  int n = textureSize(cosine_table, 0).x;
   float u = clamp(cos_i * float(n) - 0.5, 0.0, float(n - 1));
   int k = int(floor(u));
   E *= mix(texelFetch(cosine_table, ivec2(k, 0), 0).rgb,

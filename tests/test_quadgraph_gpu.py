@@ -457,3 +457,33 @@ def test_light_that_crossed_the_slab_leaves_the_top_face_with_the_milne_law(tr, 
         assert (lambert > 0.0).all(), "light crosses 10 mm of marble"
         np.testing.assert_allclose(milne_law / lambert, table[row], rtol=0.005)
     assert table[-1].min() > 1.2 and table[16].max() < 0.9
+
+
+def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(tr, scene):
+    """The 10 mm marble slab (eta = 1) under a uniform grey world L_w and lit by the sun from below, seen
+    from above: with the surface term off the top face draws B / pi (Wang's display); with it on, the
+    world's own response there, R q_world / pi = R L_w (single_scattering.exitance_loss's R), leaves with
+    the uniform-light law w(mu_o) and the rest of B (the light that crossed) with the Milne law f(mu_o):
+    L_on = w R L_w + f (L_off - R L_w) within 1 % (measured 1e-7). Taking the world's whole irradiance instead
+    of R times it (the illumination pass once dropped the loss table for the world) drew all of B with w."""
+    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
+    milne = ext_module(tr, "translucent_addon.physics.milne")
+    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
+    demo = ext_module(tr, "translucent_addon.demo")
+    ob = _sun_lit_slab(tr, scene, thickness_mm=10.0, subdivide=6, sun_from=(0.3, 0.0, -0.3), preset="marble",
+                       eta=1.0)
+    L_w = 0.2
+    demo.uniform_world(scene, (L_w,) * 3, "Grey")
+    bpy.data.objects["SUN light"].data.energy = 20.0 * SLAB_SUN
+    m = ob.translucent
+    sigma_a, sigma_s_prime = np.array(m.sigma_a), np.array(m.sigma_s_prime)
+    f = milne.exit_law_table(sigma_a, sigma_s_prime, 1.0)[-1]
+    w = ss.uniform_light_table(sigma_a, sigma_s_prime, 1.0)[-1]
+    R = ss.exitance_loss(sigma_a, sigma_s_prime, 1.0)[0] * L_w
+    scene.translucent.quadgraph_output = 1  # the diffusion alone
+    m.single_scattering = False
+    off = slab.mean_radiance(render(scene, 16, 16))
+    m.single_scattering = True
+    on = slab.mean_radiance(render(scene, 16, 16))
+    assert (off > 1.3 * R).all(), "light crosses from below"
+    np.testing.assert_allclose(on, w * R + f * (off - R), rtol=0.01)
