@@ -1,6 +1,7 @@
 /* TEXTURE_SPACE illumination map (Lensch Sec. 6.1, Eq. 3): one point per texel of the atlas,
  * lit at the texel's surface point x_c with its normal. mode 0: the world, E_sh(n) in spherical
- * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
+ * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world) times the sky the point
+ * sees past its object (``sky``: geometry/world_visibility.py; 1 where not baked); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
  * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's E is
  * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation, the world's by its last
@@ -11,6 +12,7 @@ void main()
   v_world = (object.model * vec4(pos, 1.0)).xyz;
   v_normal = normalize(mat3(object.normal_matrix) * nor);
   v_facet = mat3(object.normal_matrix) * facet;
+  v_sky = sky;
   gl_Position = vec4((texel + 0.5) / atlas_size * 2.0 - 1.0, 0.0, 1.0);
 }
 #endif
@@ -22,8 +24,8 @@ void main()
   if (mode == 0) {
     /* the world has no one cosine: the table's value at normal incidence (its only texel for
      * QUADGRAPH's flat-face loss R) */
-    out_irradiance = vec4(world_irradiance(v_normal, world_kernel) * texelFetch(cosine_table, ivec2(n - 1, 0), 0).rgb,
-                          1.0);
+    out_irradiance = vec4(v_sky * world_irradiance(v_normal, world_kernel) *
+                          texelFetch(cosine_table, ivec2(n - 1, 0), 0).rgb, 1.0);
     return;
   }
   vec3 to_light;

@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 from ..geometry.mesh_measures import vertex_normals
+from ..geometry import world_visibility
 from . import quadgraph, tetra
 
 PROXY_AT_K1 = 5000  # finest proxy triangles at K = 1
@@ -82,6 +83,14 @@ def display_normals_at(points, display_v, display_t, proxy_normals):
     return np.where(agree[:, None], n, proxy_normals)
 
 
+def boundary_surface(points, tets):
+    """(points, boundary triangles) of a tetrahedral mesh: the faces only one tetrahedron has (closed,
+    whatever the mesh it was built from; orientation left as it comes)."""
+    faces = np.asarray(tets, np.int64)[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
+    _, index, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_counts=True)
+    return np.asarray(points, np.float64), faces[index[count == 1]]
+
+
 def bake(inputs):
     """Generator: (fraction, text); returns (arrays, meta)."""
     t0 = time.perf_counter()
@@ -129,6 +138,12 @@ def bake(inputs):
             arrays[p + "up_weight"] = w.astype(np.float32)
         meta_levels.append({"proxy_triangles": int(len(surface_t)), "tetrahedra": int(len(graph.tets)), "split": graph.split,
                             "surface_nodes": int(graph.n_surface), "inner_nodes": int(graph.n_inner)})
+    yield 0.88, "QUADGRAPH: the sky each surface node sees"
+    occ = world_visibility.occupancy(*boundary_surface(graphs[-1].points, graphs[-1].tets))
+    for h, graph in enumerate(graphs):
+        S_h = graph.n_surface
+        arrays[f"qg{h}_sky"] = world_visibility.cosine_visibility(graph.positions[:S_h], graph.normals[:S_h],
+                                                                  occ).astype(np.float32)
     yield 0.9, "QUADGRAPH: display mapping"
     index, weight = display_links(display_v, display_t, graphs[-1])
     corners = display_t.reshape(-1)

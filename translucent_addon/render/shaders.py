@@ -115,8 +115,9 @@ SPECS = {
     "ts_illumination": ShaderSpec(
         source="ts_illumination.glsl",
         libraries=_SHADOW_LIBS + ("translucent_world_sh.glsl",),
-        vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "facet")),
-        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_facet")),
+        vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "facet"), ("FLOAT", "sky")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_facet"),
+                  ("smooth", "FLOAT", "v_sky")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "cosine_table")),
         push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("VEC3", "world_kernel"), ("VEC2", "atlas_size")),

@@ -79,7 +79,7 @@ class LevelGpu:
         pos = (t.positions_mm[:S] @ self.stretch_inv.T / self.mm).astype(np.float32)
         nor, facet = (self._object_normals(n) for n in (t.normals, t.facets))
         self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": facet})
+            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": facet, "sky": t.sky})
 
     def _object_normals(self, normals_mm: np.ndarray) -> np.ndarray:
         """Unit normals in object space from mm space: normals transform with S (S symmetric)."""

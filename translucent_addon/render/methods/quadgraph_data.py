@@ -31,6 +31,7 @@ class LevelTables:
     up_index: np.ndarray | None = None  # (N, 8) node ids in the coarser level
     up_weight: np.ndarray | None = None  # (N, 8)
     up_images: tuple | None = None  # (index 0-3, index 4-7, weight 0-3, weight 4-7) images
+    sky: np.ndarray | None = None  # (S,) the sky each surface node sees past the object (bake, rest pose)
 
     @property
     def count(self) -> int:
@@ -77,6 +78,8 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
                     surface_texels=layout.texels(np.arange(S)).astype(np.float32))
     t.links_image = t.image(slots)
     t.weights_image = t.link_image()
+    # A bake from before the sky was stored sees all of it.
+    t.sky = arrays[p + "sky"].astype(np.float32) if p + "sky" in arrays else np.ones(S, np.float32)
     if coarser is not None:
         t.up_index = arrays[p + "up_index"].astype(np.int64)
         t.up_weight = arrays[p + "up_weight"].astype(np.float64)

@@ -43,7 +43,8 @@ class Resources:
             self.F_indices = texture_from_array(t.F_indices, "R32F")
             self.F_data = texture_from_array(t.F_data, "RGBA32F")
         self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.texel, "pos": t.position, "nor": t.normal, "facet": t.facet})
+            "texel": t.texel, "pos": t.position, "nor": t.normal, "facet": t.facet,
+            "sky": np.ones(len(t.texel), np.float32)})
         self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
             "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
         self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
