@@ -8,9 +8,9 @@
  * interpolated like B; B gives up the exitance the term takes over where light enters (``loss``:
  * single_scattering.exitance_loss), and the world's light gives up its flat-face response too
  * (``loss_world``), drawn with a half-space's law under uniform light (``world_law``:
- * single_scattering.uniform_light_table). What B keeps then is light that entered elsewhere and
- * crossed the medium: it leaves with the Milne law of physics/milne.py (``exit_law``) in place of
- * Lambert's. Where the surface term is off both tables are one texel of 1: Wang's display. */
+ * single_scattering.uniform_light_table; one texel of 1 where the surface term is off: Wang's
+ * display). What B keeps then, light that entered elsewhere and crossed the medium, is drawn
+ * Lambertian. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -87,8 +87,7 @@ void main()
   float mu_o = max(dot(n, to_eye), 0.0);
   float F_r = fresnel_dielectric(mu_o, eta);
   vec3 L_single = single_scattering(v_world) * v_factor;
-  vec3 L_diffusion = (1.0 - F_r) / PI * (angular_factor(exit_law, mu_o) * v_radiosity +
-                                         angular_factor(world_law, mu_o) * v_world_local);
+  vec3 L_diffusion = (1.0 - F_r) / PI * (v_radiosity + angular_factor(world_law, mu_o) * v_world_local);
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
    * drew single scattering alone, or the local multiple scattering alone) */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;

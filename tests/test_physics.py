@@ -422,83 +422,7 @@ def test_light_entering_a_mean_free_path_deep_crosses_a_slab_as_a_random_walk_do
         float(diffusion.slab_reflectance(sigma_a, sigma_s_prime, 1.3)), rel=1e-9)
 
 
-# -- the far light's exit law (physics/milne.py) --------------------------------------------------
-def _transmitted_cones(sigma_a, sigma_s, thickness, n, seed=13):
-    """Index-matched slab, isotropic scattering, light entering straight down at the top: the cosines and
-    weights of the paths that leave through the bottom after at least one scattering (the unscattered
-    beam leaves along the normal and is no diffusion's)."""
-    rng = np.random.default_rng(seed)
-    sigma_t = sigma_s + sigma_a
-    z, mu, w = np.zeros(n), np.ones(n), np.ones(n)
-    scattered, alive = np.zeros(n, bool), np.ones(n, bool)
-    exit_mu, exit_w = [], []
-    while alive.any():
-        i = np.nonzero(alive)[0]
-        z_new = z[i] + mu[i] * rng.exponential(1.0 / sigma_t, len(i))
-        top, bottom = z_new < 0.0, z_new > thickness
-        out = i[bottom & scattered[i]]
-        exit_mu.append(mu[out])
-        exit_w.append(w[out])
-        alive[i[top | bottom]] = False
-        stay = i[~(top | bottom)]
-        z[stay] = z_new[~(top | bottom)]
-        w[stay] *= sigma_s / sigma_t
-        scattered[stay] = True
-        mu[stay] = rng.uniform(-1.0, 1.0, len(stay))
-        alive[stay[w[stay] < 1e-4]] = False
-    return np.concatenate(exit_mu), np.concatenate(exit_w)
-
-
-@pytest.mark.parametrize("sigma_a, sigma_s_prime, thickness", [(0.0021, 2.19, 3.0), (0.1, 0.9, 10.0)])
-def test_light_that_crossed_a_slab_leaves_with_the_milne_law_not_lamberts(sigma_a, sigma_s_prime, thickness):
-    """3 mm of marble (red, alpha 0.999) and 10 mean free paths of alpha 0.9: the scattered light a
-    random walk sends out of the far face, in five cones of mu_o, over what a Lambertian exit of the same
-    flux sends there, is milne.exit_law's H(mu) / (1 - k mu) within 6 % (measured up to 1.9 % and 4.8 %;
-    150k paths); Lambert's law (the display without it) sends 1.8 to 2.2 times too much into the
-    grazing cone (asserted: 20 % off) and 0.77 to 0.85 of it into the steepest (asserted: 15 % short)."""
-    from translucent_addon.physics import milne
-
-    exit_mu, exit_w = _transmitted_cones(sigma_a, sigma_s_prime, thickness, 150000)
-    alpha = sigma_s_prime / (sigma_a + sigma_s_prime)
-    edges = np.linspace(0.0, 1.0, 6)
-    x, w = np.polynomial.legendre.leggauss(40)
-    flux = exit_w.sum()
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        mu_o, w_o = lo + (hi - lo) * 0.5 * (x + 1.0), (hi - lo) * 0.5 * w
-        lambert = flux * (hi**2 - lo**2)  # 2 int mu dmu over the cone
-        model = flux * 2.0 * float((w_o * milne.exit_law(alpha, mu_o) * mu_o).sum())
-        walk = float(exit_w[(exit_mu >= lo) & (exit_mu < hi)].sum())
-        assert walk == pytest.approx(model, rel=0.06), (lo, walk / lambert, model / lambert)
-        if lo == 0.0 or hi == 1.0:
-            assert abs(walk / lambert - 1.0) > 0.2 if lo == 0.0 else walk / lambert > 1.15
-
-
-def test_milne_law_keeps_the_exitance_and_reduces_to_chandrasekhars_without_absorption():
-    """The law only moves light between angles: 2 int f mu dmu = 1 index-matched, and at eta = 1.3 the
-    table keeps int F_t f mu dmu = int F_t mu dmu (what the Lambertian display sent). Without absorption
-    k = 0 and f = H(mu) / (2 int H mu dmu): H(1) / (4 / sqrt(3)) = 1.259 at normal (Chandrasekhar's
-    Milne problem, H(1) = 2.9078) and 1 / (4 / sqrt(3)) = 0.433 at grazing. k solves
-    alpha artanh(k) / k = 1 and tends to sqrt(3 (1 - alpha)) as alpha -> 1."""
-    from translucent_addon.physics import milne
-
-    x, w = np.polynomial.legendre.leggauss(80)
-    mu, w = 0.5 * (x + 1.0), 0.5 * w
-    for alpha in (1.0, 0.99, 0.838, 0.678):
-        assert 2.0 * float((w * milne.exit_law(alpha, mu) * mu).sum()) == pytest.approx(1.0, rel=1e-6)
-        k = milne.diffusion_eigenvalue(alpha)
-        if alpha < 1.0:
-            assert alpha * math.atanh(k) / k == pytest.approx(1.0, rel=1e-9)
-    assert milne.exit_law(1.0, [1.0, 0.0]) == pytest.approx([2.9078 * math.sqrt(3) / 4, math.sqrt(3) / 4], rel=1e-3)
-    assert milne.diffusion_eigenvalue(1.0 - 1e-6) == pytest.approx(math.sqrt(3e-6), rel=1e-5)
-    table = milne.exit_law_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.3, n=257)
-    mu_t = np.linspace(0.0, 1.0, 257)
-    F_t = 1.0 - fresnel_dielectric(mu_t, 1.3)
-    lambert = integrate.trapezoid(F_t * mu_t, mu_t)
-    for c in range(3):
-        assert integrate.trapezoid(F_t * table[:, c] * mu_t, mu_t) == pytest.approx(lambert, rel=2e-3)
-    assert (np.diff(table, axis=0) > 0).all()  # brighter towards the normal in every channel
-
-
+# -- the world's light on a flat face (single_scattering.uniform_light_table) ----------------------
 def test_a_half_space_under_uniform_light_sends_more_towards_grazing_as_its_table_says():
     """skin1's blue (alpha 0.68), index-matched, light entering from every direction of the hemisphere
     (cosine-weighted): what a random walk sends back into five cones of mu_o, over what a Lambertian
@@ -534,3 +458,9 @@ def test_a_half_space_under_uniform_light_sends_more_towards_grazing_as_its_tabl
         walk = float(exit_w[(exit_mu >= lo) & (exit_mu < hi)].sum())
         assert walk == pytest.approx(model, rel=0.04), (lo, walk / model)
     assert table[0] / table[-1] > 1.6
+    # At eta = 1.3 the table keeps the exitance the Lambertian display drew: int F_t w mu = int F_t mu.
+    table = ss.uniform_light_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.3, n=257)
+    F_t = 1.0 - fresnel_dielectric(grid, 1.3)
+    for c in range(3):
+        assert integrate.trapezoid(F_t * table[:, c] * grid, grid) == pytest.approx(
+            integrate.trapezoid(F_t * grid, grid), rel=2e-3)

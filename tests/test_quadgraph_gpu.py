@@ -70,10 +70,11 @@ def test_a_node_on_a_facet_turned_away_from_the_light_gets_only_the_world(tr, sc
     cos_n = np.einsum("ij,ij->i", t.normals, to_light)  # the ball is not rotated or scaled
     cos_g = np.einsum("ij,ij->i", t.facets, to_light)
     q = rec["q"][-1][:S]
-    world = np.median(q[cos_n < -0.3], axis=0)  # a uniform world: the same everywhere
+    sky = t.sky[:, None]  # the sky each node sees past the ball (world_visibility): the world's light scales
+    world = np.median(q[cos_n < -0.3] / sky[cos_n < -0.3], axis=0)  # a uniform world: the same everywhere
     turned = (cos_g < -0.01) & (cos_n > 0.02)
     assert turned.sum() > 20, turned.sum()  # 34 to 56 over five bakes
-    np.testing.assert_allclose(q[turned], np.broadcast_to(world, q[turned].shape), rtol=1e-3)
+    np.testing.assert_allclose(q[turned], world * sky[turned], rtol=1e-3)
     across = (cos_g > 0.01) & (cos_n > 0.02) & (cos_n < cos_n[turned].max())
     assert across.sum() > 20 and np.median(q[across][:, 0]) > 1.5 * world[0]
 
@@ -432,42 +433,15 @@ def test_where_light_enters_the_surface_term_replaces_the_diffusion(tr, scene):
     np.testing.assert_allclose(total, chandrasekhar, rtol=0.02)
 
 
-def test_light_that_crossed_the_slab_leaves_the_top_face_with_the_milne_law(tr, scene):
-    """A 10 mm marble slab (eta = 1) lit by the sun from below, seen from above at mu_o = 1 and 0.5: the
-    top face is not lit, so all of its diffusion is light that crossed the medium, and with the surface
-    term on the display draws it with milne.exit_law_table's factor f(mu_o) on Lambert's (the term off
-    draws Wang's Lambertian display). Per channel the ratio of the two is f(mu_o) within 0.5 % (measured
-    5e-7): 1.26 at normal view, 0.87 at 60 degrees."""
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    milne = ext_module(tr, "translucent_addon.physics.milne")
-    ob = _sun_lit_slab(tr, scene, thickness_mm=10.0, subdivide=6, sun_from=(0.3, 0.0, -0.3), preset="marble",
-                       eta=1.0)
-    m = ob.translucent
-    table = milne.exit_law_table(np.array(m.sigma_a), np.array(m.sigma_s_prime), 1.0)
-    cam = scene.camera
-    scene.translucent.quadgraph_output = 1  # the diffusion alone
-    for mu_o, row in ((1.0, -1), (0.5, 16)):
-        theta = math.acos(mu_o)
-        cam.location = (0.0, -0.5 * math.sin(theta), 0.5 * math.cos(theta))
-        cam.rotation_euler = (theta, 0.0, 0.0)
-        m.single_scattering = True
-        milne_law = slab.mean_radiance(render(scene, 16, 16))
-        m.single_scattering = False
-        lambert = slab.mean_radiance(render(scene, 16, 16))
-        assert (lambert > 0.0).all(), "light crosses 10 mm of marble"
-        np.testing.assert_allclose(milne_law / lambert, table[row], rtol=0.005)
-    assert table[-1].min() > 1.2 and table[16].max() < 0.9
-
-
 def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(tr, scene):
     """The 10 mm marble slab (eta = 1) under a uniform grey world L_w and lit by the sun from below, seen
-    from above: with the surface term off the top face draws B / pi (Wang's display); with it on, the
-    world's own response there, R q_world / pi = R L_w (single_scattering.exitance_loss's R), leaves with
-    the uniform-light law w(mu_o) and the rest of B (the light that crossed) with the Milne law f(mu_o):
-    L_on = w R L_w + f (L_off - R L_w) within 1 % (measured 1e-7). Taking the world's whole irradiance instead
-    of R times it (the illumination pass once dropped the loss table for the world) drew all of B with w."""
+    from above: with the surface term off the top face draws B / pi (Wang's display); with
+    it on, the world's own response there, R q_world / pi = R L_w (single_scattering.exitance_loss's R),
+    leaves with the uniform-light law w(mu_o) (0.97-0.98 at normal view) and the rest of B, the light that
+    crossed, as before: L_on = w R L_w + L_off - R L_w within 0.2 % (measured 6e-7). Taking the world's
+    whole irradiance instead of R times it (the illumination pass once dropped the loss table for the
+    world) drew all of B with w: 0.9-1.3 % off here."""
     slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    milne = ext_module(tr, "translucent_addon.physics.milne")
     ss = ext_module(tr, "translucent_addon.physics.single_scattering")
     demo = ext_module(tr, "translucent_addon.demo")
     ob = _sun_lit_slab(tr, scene, thickness_mm=10.0, subdivide=6, sun_from=(0.3, 0.0, -0.3), preset="marble",
@@ -477,8 +451,7 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
     bpy.data.objects["SUN light"].data.energy = 20.0 * SLAB_SUN
     m = ob.translucent
     sigma_a, sigma_s_prime = np.array(m.sigma_a), np.array(m.sigma_s_prime)
-    f = milne.exit_law_table(sigma_a, sigma_s_prime, 1.0)[-1]
-    w = ss.uniform_light_table(sigma_a, sigma_s_prime, 1.0)[-1]
+    w = ss.uniform_light_table(sigma_a, sigma_s_prime, 1.0)[-1]  # mu_o = 1
     R = ss.exitance_loss(sigma_a, sigma_s_prime, 1.0)[0] * L_w
     scene.translucent.quadgraph_output = 1  # the diffusion alone
     m.single_scattering = False
@@ -486,4 +459,5 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
     m.single_scattering = True
     on = slab.mean_radiance(render(scene, 16, 16))
     assert (off > 1.3 * R).all(), "light crosses from below"
-    np.testing.assert_allclose(on, w * R + f * (off - R), rtol=0.01)
+    assert (w < 0.985).all()
+    np.testing.assert_allclose(on, w * R + off - R, rtol=2e-3)

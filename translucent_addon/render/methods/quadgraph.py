@@ -18,10 +18,9 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    sum R q per emitter, R the diffusion's own flat-face reflectance
    (``single_scattering.exitance_loss``), and the display takes it from B; the world's R q apart;
 4. display: the original mesh interpolates B = (1 - F_dr) phi_s / (2 (1 + F_dr)) from four surface
-   nodes per vertex, less the losses above, and draws L = F_t / pi (f(mu_o) B + w(mu_o) R q_world) +
-   L^(1) + L^(ms) + F_r L_world over the base pass (``qg_display``): f is the Milne law of the light that
-   has crossed the medium (``physics/milne.py``), w a half-space's under uniform light
-   (``single_scattering.uniform_light_table``); both 1 where the surface term is off (Wang's display).
+   nodes per vertex, less the losses above, and draws L = F_t / pi (B + w(mu_o) R q_world) + L^(1) +
+   L^(ms) + F_r L_world over the base pass (``qg_display``): w is a half-space's law under uniform light
+   (``single_scattering.uniform_light_table``), 1 where the surface term is off (Wang's display).
 kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
 edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
 (``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
@@ -39,7 +38,6 @@ from ...geometry.mesh_measures import vertex_normals
 from ...geometry.volume_deformation import DeformationError
 from ...physics.dipole import A as internal_reflection
 from ...physics import diffusion as df
-from ...physics import milne
 from ...physics import single_scattering as ss
 from ...physics.fresnel import F_dr as diffuse_fresnel
 from .. import shaders
@@ -117,7 +115,6 @@ class Resources:
         self.h_table = (None, None)  # (medium key, texture): single_scattering.h_table
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
-        self.exit_table = (None, None)  # (medium key, texture): milne.exit_law_table
         self.world_table = (None, None)  # (medium key, texture): single_scattering.uniform_light_table
         self.iterations: list[int] = []
 
@@ -209,15 +206,6 @@ class Resources:
             self.h_table = (key, _rgb_table(ss.h_table(medium.sigma_a, medium.sigma_s_prime)))
         return self.h_table[1]
 
-
-    def exit_law(self, medium):
-        """The far light's angular law over Lambert's per channel (``milne.exit_law_table``), rebuilt when
-        the medium changes."""
-        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
-        if self.exit_table[0] != key:
-            self.exit_table = (key, _rgb_table(milne.exit_law_table(medium.sigma_a, medium.sigma_s_prime,
-                                                                    medium.eta)))
-        return self.exit_table[1]
 
     def world_law(self, medium):
         """The angular law of the world's light entering a flat face over Lambert's per channel
@@ -444,7 +432,6 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("loss", a.resources.loss[1][0])
             shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
             term = a.mesh.medium.single_scattering
-            shader.uniform_sampler("exit_law", a.resources.exit_law(a.mesh.medium) if term else unit_texture(pipeline))
             shader.uniform_sampler("world_law", a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
             shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
