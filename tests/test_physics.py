@@ -425,11 +425,12 @@ def test_light_entering_a_mean_free_path_deep_crosses_a_slab_as_a_random_walk_do
 # -- the world's light on a flat face (single_scattering.uniform_light_table) ----------------------
 def test_a_half_space_under_uniform_light_sends_more_towards_grazing_as_its_table_says():
     """skin1's blue (alpha 0.68), index-matched, light entering from every direction of the hemisphere
-    (cosine-weighted): what a random walk sends back into five cones of mu_o, over what a Lambertian
-    exit of the same flux sends there, is single_scattering.uniform_light_table's shape (Chandrasekhar's
-    1 - sqrt(1 - alpha) H(mu)) within 4 % (measured up to 2.6 %; 150k paths; the albedo 0.242 against
-    0.241); the diffusion's display
-    drew it Lambertian: 2.2 times too little at grazing against normal view (asserted: 1.6)."""
+    (cosine-weighted, one unit per path): what a random walk sends back into five cones of mu_o is
+    R times single_scattering.uniform_light_table's factor over the cone (Chandrasekhar's
+    1 - sqrt(1 - alpha) H(mu), R the diffusion's flat-face reflectance that the display draws
+    Lambertian) within 4 % (measured up to 3.0 %; 150k paths; the walk's albedo 0.242 against 0.241):
+    the diffusion's display sends 2.2 times too little towards grazing against normal view. At eta 1.3
+    the factor keeps less of its anisotropy (1 / A of it) at every angle."""
     rng = np.random.default_rng(17)
     sigma_a, sigma_s, n = 0.48, 1.01, 150000
     sigma_t = sigma_a + sigma_s
@@ -450,17 +451,14 @@ def test_a_half_space_under_uniform_light_sends_more_towards_grazing_as_its_tabl
         alive[stay[w[stay] < 1e-4]] = False
     exit_mu, exit_w = np.concatenate(exit_mu), np.concatenate(exit_w)
     table = ss.uniform_light_table([sigma_a] * 3, [sigma_s] * 3, 1.0, n=257)[:, 0]
+    R = float(diffusion.slab_reflectance(np.array([sigma_a]), np.array([sigma_s]), 1.0)[0])
     grid = np.linspace(0.0, 1.0, 257)
-    flux = exit_w.sum()
     for lo, hi in zip(np.linspace(0, 0.8, 5), np.linspace(0.2, 1.0, 5)):
         inside = (grid >= lo) & (grid <= hi)
-        model = flux * 2.0 * integrate.trapezoid((table * grid)[inside], grid[inside])
-        walk = float(exit_w[(exit_mu >= lo) & (exit_mu < hi)].sum())
+        model = R * 2.0 * integrate.trapezoid((table * grid)[inside], grid[inside])
+        walk = float(exit_w[(exit_mu >= lo) & (exit_mu < hi)].sum()) / n
         assert walk == pytest.approx(model, rel=0.04), (lo, walk / model)
     assert table[0] / table[-1] > 1.6
-    # At eta = 1.3 the table keeps the exitance the Lambertian display drew: int F_t w mu = int F_t mu.
-    table = ss.uniform_light_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.3, n=257)
-    F_t = 1.0 - fresnel_dielectric(grid, 1.3)
-    for c in range(3):
-        assert integrate.trapezoid(F_t * table[:, c] * grid, grid) == pytest.approx(
-            integrate.trapezoid(F_t * grid, grid), rel=2e-3)
+    refracting = ss.uniform_light_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.3)
+    matched = ss.uniform_light_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.0)
+    assert (np.abs(refracting - 1.0).max(axis=0) < np.abs(matched - 1.0).max(axis=0)).all()
