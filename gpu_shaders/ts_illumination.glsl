@@ -1,7 +1,8 @@
 /* TEXTURE_SPACE illumination map (Lensch Sec. 6.1, Eq. 3): one point per texel of the atlas,
  * lit at the texel's surface point x_c with its normal. mode 0: the world, E_sh(n) in spherical
  * harmonics through the boundary (pi L_w (1 - F_dr,in) for a uniform world) times the sky the point
- * sees past its object (``sky``: geometry/world_visibility.py; 1 where not baked); mode 1: one emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
+ * sees past its object (``sky``: geometry/world_visibility.py; 1 where not baked); mode 1: one
+ * emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
  * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's E is
  * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation, the world's by its last

@@ -206,7 +206,6 @@ class Resources:
             self.h_table = (key, _rgb_table(ss.h_table(medium.sigma_a, medium.sigma_s_prime)))
         return self.h_table[1]
 
-
     def world_law(self, medium):
         """The angular law of the world's light entering a flat face over Lambert's per channel
         (``single_scattering.uniform_light_table``), rebuilt when the medium changes."""
@@ -258,7 +257,7 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
         if mode == 0:
             with res.loss[0].bind():
                 clear_target(res.loss[0], depth=None)
-            if m.single_scattering:  # the world's flat-face response, drawn Lambertian apart from the far light
+            if m.single_scattering:  # the world's flat-face response R q_world, drawn with its own law
                 draw_illumination(res.loss_world[0], finest.points, finest.tables.layout.size, objects[a.index],
                                   frame_ubo, light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
             else:
