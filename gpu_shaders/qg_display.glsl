@@ -66,17 +66,6 @@ vec3 single_scattering(vec3 p)
   return weight > 0.0 ? sum / weight : vec3(0.0);
 }
 
-/* An angular law over Lambert's at the outside cosine mu_o, per channel, read linearly from an n x 1
- * table (one texel: that value at every angle). */
-vec3 angular_factor(sampler2D table, float mu_o)
-{
-  int n = textureSize(table, 0).x;
-  float u = clamp(mu_o, 0.0, 1.0) * float(n - 1);
-  int k = min(int(floor(u)), max(n - 2, 0));
-  return mix(texelFetch(table, ivec2(k, 0), 0).rgb, texelFetch(table, ivec2(min(k + 1, n - 1), 0), 0).rgb,
-             u - float(k));
-}
-
 void main()
 {
   vec3 n = normalize(v_normal);
@@ -87,7 +76,7 @@ void main()
   float mu_o = max(dot(n, to_eye), 0.0);
   float F_r = fresnel_dielectric(mu_o, eta);
   vec3 L_single = single_scattering(v_world) * v_factor;
-  vec3 L_diffusion = (1.0 - F_r) / PI * (v_radiosity + angular_factor(world_law, mu_o) * v_world_local);
+  vec3 L_diffusion = (1.0 - F_r) / PI * (v_radiosity + table_lerp(world_law, mu_o) * v_world_local);
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
    * drew single scattering alone, or the local multiple scattering alone) */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;

@@ -64,10 +64,7 @@ float light_path(vec3 p)
 /* Chandrasekhar's H(mu) of the medium's albedo alpha' per channel, linear in h_table (mu = k / (n - 1)). */
 vec3 chandrasekhar_H(float mu)
 {
-  int n = textureSize(h_table, 0).x;
-  float u = clamp(mu, 0.0, 1.0) * float(n - 1);
-  int k = min(int(floor(u)), n - 2);
-  return mix(texelFetch(h_table, ivec2(k, 0), 0).rgb, texelFetch(h_table, ivec2(k + 1, 0), 0).rgb, u - float(k));
+  return table_lerp(h_table, mu);
 }
 
 /* The local multiple scattering L^(ms) of light entering at this pixel's surface point:

@@ -57,3 +57,13 @@ float partition_weight_off_plane(float r, float rho, float h)
   float s = 1.0 - smoothstep(0.5, 0.8, h / max(r, 1e-12));
   return 1.0 - (1.0 - partition_weight(r, rho)) * s;
 }
+
+/* An n x 1 table's rgb at u in [0, 1] (texel k at u = k / (n - 1)), read linearly; one texel: its value. */
+vec3 table_lerp(sampler2D table, float u)
+{
+  int n = textureSize(table, 0).x;
+  float x = clamp(u, 0.0, 1.0) * float(n - 1);
+  int k = min(int(floor(x)), max(n - 2, 0));
+  return mix(texelFetch(table, ivec2(k, 0), 0).rgb, texelFetch(table, ivec2(min(k + 1, n - 1), 0), 0).rgb,
+             x - float(k));
+}

@@ -86,9 +86,9 @@ def display_normals_at(points, display_v, display_t, proxy_normals):
 def boundary_surface(points, tets):
     """(points, boundary triangles) of a tetrahedral mesh: the faces only one tetrahedron has (closed,
     whatever the mesh it was built from; orientation left as it comes)."""
-    faces = np.asarray(tets, np.int64)[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
-    _, index, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_counts=True)
-    return np.asarray(points, np.float64), faces[index[count == 1]]
+    tets = np.asarray(tets, np.int64)
+    t, f = np.nonzero(tetra.face_adjacency(tets) < 0)
+    return np.asarray(points, np.float64), tets[t[:, None], tetra.TET_FACES[f]]
 
 
 def bake(inputs):

@@ -111,11 +111,9 @@ class Resources:
         self.material_key = None
         self.materials = None
         self.display = {}
-        self.loss_table = (None, None)  # (medium key, texture): single_scattering.exitance_loss
-        self.h_table = (None, None)  # (medium key, texture): single_scattering.h_table
+        self.medium_tables = {}  # name: (medium key, n x 1 texture), the tables below
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
-        self.world_table = (None, None)  # (medium key, texture): single_scattering.uniform_light_table
         self.iterations: list[int] = []
 
     @property
@@ -194,26 +192,26 @@ class Resources:
         """What a lit node's exitance gives up per unit q to the surface term, R, as a one-texel table
         for ``ts_illumination``'s cosine table (``single_scattering.exitance_loss``), rebuilt when the
         medium changes."""
-        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
-        if self.loss_table[0] != key:
-            self.loss_table = (key, _rgb_table(ss.exitance_loss(medium.sigma_a, medium.sigma_s_prime, medium.eta)))
-        return self.loss_table[1]
+        return self._medium_table("loss", medium, ss.exitance_loss)
 
     def chandrasekhar_h(self, medium):
         """H(mu) of the medium's albedo per channel (``single_scattering.h_table``), rebuilt when it changes."""
-        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime))
-        if self.h_table[0] != key:
-            self.h_table = (key, _rgb_table(ss.h_table(medium.sigma_a, medium.sigma_s_prime)))
-        return self.h_table[1]
+        return self._medium_table("H", medium, lambda sigma_a, sigma_s_prime, eta: ss.h_table(sigma_a, sigma_s_prime))
 
     def world_law(self, medium):
         """The angular law of the world's light entering a flat face over Lambert's per channel
         (``single_scattering.uniform_light_table``), rebuilt when the medium changes."""
+        return self._medium_table("world", medium, ss.uniform_light_table)
+
+    def _medium_table(self, name: str, medium, table_of):
+        """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture, built again only when the
+        medium's coefficients change."""
         key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
-        if self.world_table[0] != key:
-            self.world_table = (key, _rgb_table(ss.uniform_light_table(medium.sigma_a, medium.sigma_s_prime,
-                                                                       medium.eta)))
-        return self.world_table[1]
+        cached = self.medium_tables.get(name)
+        if cached is None or cached[0] != key:
+            cached = self.medium_tables[name] = (key, _rgb_table(table_of(medium.sigma_a, medium.sigma_s_prime,
+                                                                          medium.eta)))
+        return cached[1]
 
 
 def _rgb_table(table):
