@@ -438,9 +438,10 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
     at 60 degrees (mu_o = 0.5): with the surface term off the top face draws B / pi (Wang's display); with
     it on, the world's own response there, R q_world / pi = R L_w (single_scattering.exitance_loss's R),
     leaves with the uniform-light law w(mu_o) (1.03-1.04 here) and the rest of B, the light that crossed,
-    as before: L_on = w R L_w + L_off - R L_w within 0.2 % (measured 3e-7). Taking the world's whole
+    as before: L_on = w R L_w + L_off - R L_w within 0.2 % (measured 7e-7). Taking the world's whole
     irradiance instead of R times it (the illumination pass once dropped the loss table for the world)
-    drew all of B with w: 1.2-1.8 % off here."""
+    drew all of B with w: 1.7-2.3 % off here. (At a sun of 20 x SLAB_SUN fTetWild's variance left blue
+    under the 1.3 R premise in one run of six.)"""
     slab = ext_module(tr, "translucent_addon.compare.slab_scene")
     ss = ext_module(tr, "translucent_addon.physics.single_scattering")
     demo = ext_module(tr, "translucent_addon.demo")
@@ -448,7 +449,7 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
                        eta=1.0)
     L_w = 0.2
     demo.uniform_world(scene, (L_w,) * 3, "Grey")
-    bpy.data.objects["SUN light"].data.energy = 20.0 * SLAB_SUN
+    bpy.data.objects["SUN light"].data.energy = 40.0 * SLAB_SUN  # blue off: 1.76-2.04 R over five bakes
     cam = scene.camera
     theta = math.acos(0.5)
     cam.location = (0.0, -0.5 * math.sin(theta), 0.5 * math.cos(theta))
