@@ -173,6 +173,19 @@ def test_thick_slab_on_the_graph_matches_the_dipole_total_reflectance_and_settle
 
 
 # -- solver (Sec. 4.3) --------------------------------------------------------------------------
+def test_the_continuous_model_in_a_box_tends_to_the_unbounded_slab():
+    """diffusion.box_transfer (Robin eigenmodes across the box) is diffusion.slab_transfer once the box
+    is wide against the diffusion length, and a 40 mm box loses some of 12 mm of marble's T by its sides;
+    the eigenmode sum has converged (120 and 40 modes agree)."""
+    for sigma_a, sigma_s_prime, L in ((0.0021, 2.19, 12.0), (0.032, 0.74, 6.0)):
+        R_slab, T_slab = df.slab_transfer([sigma_a], [sigma_s_prime], 1.0, L)
+        R_wide, T_wide = df.box_transfer(sigma_a, sigma_s_prime, 1.0, 2000.0, L, 5.0, modes=400)
+        assert T_wide == pytest.approx(T_slab[0], rel=2e-3) and R_wide == pytest.approx(R_slab[0], rel=2e-3)
+    R, T = df.box_transfer(0.0021, 2.19, 1.0, 40.0, 12.0, 40.0 / 6.0)
+    assert 0.9 < T / df.slab_transfer([0.0021], [2.19], 1.0, 12.0)[1][0] < 0.99  # measured 0.947
+    assert df.box_transfer(0.0021, 2.19, 1.0, 40.0, 12.0, 40.0 / 6.0, modes=40) == pytest.approx((R, T), rel=1e-5)
+
+
 def test_relaxation_converges_to_the_direct_solution(sphere_graph):
     g, _, _ = sphere_graph
     k, mu = _homogeneous(g, 0.05, 1.0)

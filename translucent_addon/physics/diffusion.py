@@ -91,6 +91,52 @@ def slab_transfer(sigma_a, sigma_s_prime, eta, thickness):
     return np.array(R), np.array(T)
 
 
+def _point_source_1d(k, mu, h, L, z0):
+    """(phi(0), phi(L)) of kappa phi'' = mu phi on [0, L] with phi - h phi' = 0 at z = 0, phi + h phi' = 0
+    at z = L and a unit point source at z0 (the solve of ``slab_transfer``); phi(L) = 0 beyond 18
+    diffusion lengths (below e^-18; past that the system's cosh terms leave float64's precision)."""
+    s = max(float(np.sqrt(mu / k)), 1e-12)
+    far = s * (L - z0) > 18.0
+    m = min(L - z0, 18.0 / s)
+    ch0, sh0, chm, shm = np.cosh(s * z0), np.sinh(s * z0), np.cosh(s * m), np.sinh(s * m)
+    M = np.array([[ch0 + h * s * sh0, -sh0 / s - h * ch0, 0.0],
+                  [chm + h * s * shm, 0.0, shm / s + h * chm],
+                  [0.0, -k, k]])
+    a, b1, b2 = np.linalg.solve(M, [0.0, 0.0, -1.0])
+    return a * ch0 - b1 * sh0 / s, 0.0 if far else a * chm + b2 * shm / s
+
+
+def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float, thickness: float,
+                 centre: float, modes: int = 120):
+    """(R, T): the continuous model of ``slab_transfer`` in a box width x width x thickness [mm] lit
+    uniformly over one square face, exitance over the centre square |x|, |y| < centre of the lit and the
+    far face. Across the box phi is a sum of the Robin eigenmodes cos(k_m x), k tan(k w / 2) = 1 / h
+    (h = 2 A kappa; even ones: the light is), each a slab problem with mu + kappa (k_m^2 + k_n^2) in
+    place of mu. A 40 mm box of marble 12 mm thick transmits 0.82 of the unbounded slab's T at its
+    centre (its light leaves by the sides too), 3 mm thick 1.00; tests compare the graph with this."""
+    from scipy.optimize import brentq
+
+    k = float(kappa(sigma_a, sigma_s_prime))
+    A = float(internal_reflection(eta))
+    h = 2.0 * A * k
+    z0 = min(3.0 * k, float(thickness))
+    half = 0.5 * float(width)
+    km = np.array([brentq(lambda x: x * np.tan(x * half) - 1.0 / h, m * np.pi / half + 1e-12,
+                          (m + 0.5) * np.pi / half - 1e-12) for m in range(modes)])
+    coefficient = (2.0 * np.sin(km * half) / km) / (half + np.sin(2.0 * km * half) / (2.0 * km))
+    weight = coefficient * np.sin(km * centre) / (km * centre)  # the mode's share, averaged over the centre
+    R = T = 0.0
+    for i in range(modes):
+        for j in range(modes):
+            w = weight[i] * weight[j]
+            if abs(w) > 1e-14:
+                phi_0, phi_L = _point_source_1d(k, float(sigma_a) + k * (km[i] ** 2 + km[j] ** 2), h,
+                                                float(thickness), z0)
+                R += w * phi_0 / (2.0 * A)
+                T += w * phi_L / (2.0 * A)
+    return R, T
+
+
 # -- the discrete system (Eq. 5-6) and its relaxation (Eq. 8-9) -----------------------------------
 # The surface link s-k is exponentially fitted: between the surface node and its inner node the
 # flux follows the 1-D solution of kappa phi'' = mu phi, phi = a e^{-sigma_tr x} + b e^{sigma_tr x},
