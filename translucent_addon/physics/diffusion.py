@@ -77,26 +77,29 @@ def slab_transfer(sigma_a, sigma_s_prime, eta, thickness):
     for mu, k in zip(np.atleast_1d(np.asarray(sigma_a, np.float64)),
                      np.atleast_1d(kappa(sigma_a, sigma_s_prime))):
         phi_0, phi_L = _point_source_1d(k, mu, 2.0 * A * k, float(thickness), min(3.0 * k, float(thickness)))
-        R.append(phi_0 / (2.0 * A))
-        T.append(phi_L / (2.0 * A))
+        R.append(float(phi_0) / (2.0 * A))
+        T.append(float(phi_L) / (2.0 * A))
     return np.array(R), np.array(T)
 
 
 def _point_source_1d(k, mu, h, L, z0):
     """(phi(0), phi(L)) of kappa phi'' = mu phi on [0, L] with phi - h phi' = 0 at z = 0, phi + h phi' = 0
-    at z = L and a unit point source at z0 (the solve of ``slab_transfer``); phi(L) = 0 beyond 18
-    diffusion lengths (below e^-18; past that the system's cosh terms leave float64's precision)."""
-    s = max(float(np.sqrt(mu / k)), 1e-12)
+    at z = L and a unit point source at z0 (the solve of ``slab_transfer``), for each absorption in ``mu``
+    (array; k, h, L, z0 scalars); phi(L) = 0 beyond 18 diffusion lengths (below e^-18; past that the
+    system's cosh terms leave float64's precision)."""
+    s = np.maximum(np.sqrt(np.asarray(mu, np.float64) / k), 1e-12)
     far = s * (L - z0) > 18.0
-    m = min(L - z0, 18.0 / s)
+    m = np.minimum(L - z0, 18.0 / s)
     # phi = a cosh(s t) + b sinh(s t) / s, t = z - z_0, on each side (a basis that stays independent
     # as s -> 0); continuity at z_0 (one a) and the jump k (b_below - b_above) = -1.
     ch0, sh0, chm, shm = np.cosh(s * z0), np.sinh(s * z0), np.cosh(s * m), np.sinh(s * m)
-    M = np.array([[ch0 + h * s * sh0, -sh0 / s - h * ch0, 0.0],
-                  [chm + h * s * shm, 0.0, shm / s + h * chm],
-                  [0.0, -k, k]])
-    a, b1, b2 = np.linalg.solve(M, [0.0, 0.0, -1.0])
-    return a * ch0 - b1 * sh0 / s, 0.0 if far else a * chm + b2 * shm / s
+    zero = np.zeros_like(s)
+    M = np.stack([np.stack([ch0 + h * s * sh0, -sh0 / s - h * ch0, zero], axis=-1),
+                  np.stack([chm + h * s * shm, zero, shm / s + h * chm], axis=-1),
+                  np.stack([zero, zero - k, zero + k], axis=-1)], axis=-2)
+    rhs = np.broadcast_to(np.array([0.0, 0.0, -1.0]), s.shape + (3,))[..., None]
+    a, b1, b2 = np.moveaxis(np.linalg.solve(M, rhs)[..., 0], -1, 0)
+    return a * ch0 - b1 * sh0 / s, np.where(far, 0.0, a * chm + b2 * shm / s)
 
 
 def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float, thickness: float,
@@ -105,8 +108,8 @@ def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float,
     uniformly over one square face, exitance over the centre square |x|, |y| < centre of the lit and the
     far face. Across the box phi is a sum of the Robin eigenmodes cos(k_m x), k tan(k w / 2) = 1 / h
     (h = 2 A kappa; even ones: the light is), each a slab problem with mu + kappa (k_m^2 + k_n^2) in
-    place of mu. A 40 mm box of marble 12 mm thick transmits 0.82 of the unbounded slab's T at its
-    centre (its light leaves by the sides too), 3 mm thick 1.00; tests compare the graph with this."""
+    place of mu. A 40 mm box of marble 12 mm thick transmits 0.947 of the unbounded slab's T at its
+    centre (its light leaves by the sides too), 3 mm thick all of it; tests compare the graph with this."""
     from scipy.optimize import brentq
 
     k = float(kappa(sigma_a, sigma_s_prime))
@@ -118,16 +121,10 @@ def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float,
                           (m + 0.5) * np.pi / half - 1e-12) for m in range(modes)])
     coefficient = (2.0 * np.sin(km * half) / km) / (half + np.sin(2.0 * km * half) / (2.0 * km))
     weight = coefficient * np.sin(km * centre) / (km * centre)  # the mode's share, averaged over the centre
-    R = T = 0.0
-    for i in range(modes):
-        for j in range(modes):
-            w = weight[i] * weight[j]
-            if abs(w) > 1e-14:
-                phi_0, phi_L = _point_source_1d(k, float(sigma_a) + k * (km[i] ** 2 + km[j] ** 2), h,
-                                                float(thickness), z0)
-                R += w * phi_0 / (2.0 * A)
-                T += w * phi_L / (2.0 * A)
-    return R, T
+    pair = np.outer(weight, weight)
+    phi_0, phi_L = _point_source_1d(k, float(sigma_a) + k * (km[:, None] ** 2 + km[None, :] ** 2), h,
+                                    float(thickness), z0)
+    return float((pair * phi_0).sum() / (2.0 * A)), float((pair * phi_L).sum() / (2.0 * A))
 
 
 # -- the discrete system (Eq. 5-6) and its relaxation (Eq. 8-9) -----------------------------------
