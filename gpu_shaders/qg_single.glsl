@@ -70,21 +70,47 @@ vec3 chandrasekhar_H(float mu)
 /* The local multiple scattering L^(ms) of light entering at this pixel's surface point:
  * Chandrasekhar's half-space (single_scattering.multiple_half_space), at the refracted cosines between
  * the Fresnel transmittances, for the light entering per unit area T_i E mu_i (mu_i outside, as q); the
- * light's visibility as q's (ts_illumination). */
-vec3 local_multiple(vec3 p, vec3 n, float mu_t)
+ * light's visibility as q's (ts_illumination). On a curved surface mu_i is the effective cosine of
+ * physics/terminator.py per channel, mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)), g = |grad_mu|
+ * the surface gradient of the light's cosine: the lateral spread of the light entering beside the
+ * terminator, which also lights the pixels just past it. There the light entered at about mu_eff
+ * (H and T_i take the larger of the two) and its visibility is the terminator's, the point
+ * -mu_i / g along the gradient, tested along the light. */
+vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 grad_mu)
 {
   vec3 to_light;
   vec3 E = emitter_irradiance(p, to_light);
   float mu_i = dot(n, to_light);
-  if (mu_i <= 0.0) {
+  float slope = length(grad_mu);
+  vec3 scale = slope * terminator_rho.rgb;
+  vec3 mu_eff;
+  for (int c = 0; c < 3; c++) {
+    float u = 0.5 + 0.5 * mu_i / (abs(mu_i) + scale[c] + 1e-30);
+    mu_eff[c] = max(mu_i, 0.0) + scale[c] * table_lerp(terminator_table, u)[c];
+  }
+  if (max(mu_eff.r, max(mu_eff.g, mu_eff.b)) <= 0.0) {
     return vec3(0.0);
   }
-  float mu_it = sqrt(1.0 - (1.0 - mu_i * mu_i) / (eta * eta));
+  float vis;
+  if (mu_i > 0.0) {
+    vis = visibility(p, n);
+  }
+  else {
+    float reach = 40.0 * max(terminator_rho.r, max(terminator_rho.g, terminator_rho.b));
+    vis = visibility(p + grad_mu / slope * min(-mu_i / slope, reach), to_light);
+  }
   vec3 sigma_s_prime = sigma_s.rgb * (1.0 - g);
   vec3 alpha_prime = sigma_s_prime / (sigma_a.rgb + sigma_s_prime);
-  vec3 HH = chandrasekhar_H(mu_it) * chandrasekhar_H(mu_t);
-  float T_i = 1.0 - fresnel_dielectric(mu_i, eta);
-  return T_i * visibility(p, n) * E * alpha_prime * mu_i * (HH - 1.0) / (4.0 * PI * (mu_it + mu_t));
+  vec3 H_o = chandrasekhar_H(mu_t);
+  vec3 L;
+  for (int c = 0; c < 3; c++) {
+    float mu_h = max(mu_i, mu_eff[c]);
+    float mu_it = sqrt(1.0 - (1.0 - mu_h * mu_h) / (eta * eta));
+    float T_i = 1.0 - fresnel_dielectric(mu_h, eta);
+    L[c] = T_i * E[c] * alpha_prime[c] * mu_eff[c] * (chandrasekhar_H(mu_it)[c] * H_o[c] - 1.0) /
+           (4.0 * PI * (mu_it + mu_t));
+  }
+  return vis * L;
 }
 
 float hg_phase(float cos_theta)
@@ -146,6 +172,15 @@ void main()
   if (!gl_FrontFacing) {
     n = -n;
   }
+  /* The surface gradient of the light's cosine from the pixel's derivatives (in uniform control flow):
+   * grad f = (f_x (P_y x m) + f_y (m x P_x)) / |m|^2, m = P_x x P_y, exact for f linear on the plane. */
+  vec3 to_light_here;
+  emitter_irradiance(v_world, to_light_here);
+  float mu_here = dot(n, to_light_here);
+  vec3 P_x = dFdx(v_world), P_y = dFdy(v_world);
+  vec3 m = cross(P_x, P_y);
+  float mm = dot(m, m);
+  vec3 grad_mu = mm > 0.0 ? (dFdx(mu_here) * cross(P_y, m) + dFdy(mu_here) * cross(m, P_x)) / mm : vec3(0.0);
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   /* Along outlines the smooth normal of a face that is seen can turn from the eye: bend it back to
    * graze at 0.05 rather than dropping the pixel, which left every other rim pixel dark. */
@@ -167,7 +202,7 @@ void main()
     L += (1.0 - F_0) * march(v_world, w_t, t_max, sigma_t);
   }
   if ((terms & 2) != 0) {
-    L += local_multiple(v_world, n, mu_t);
+    L += local_multiple(v_world, n, mu_t, grad_mu);
   }
   out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) * L, 0.0);
 }

@@ -466,3 +466,62 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
     assert (off > 1.3 * R).all(), "light crosses from below"
     assert (w > 1.02).all()
     np.testing.assert_allclose(on, w * R + off - R, rtol=2e-3)
+
+
+def test_past_the_terminator_of_a_ball_the_light_entering_beside_it_still_leaves(tr, scene):
+    """qg_single's local multiple scattering on a curved surface against physics/terminator.py: a 10 mm
+    skin1 ball (eta = 1) lit from the side by the sun and seen orthographically at 90 degrees to it, so
+    the terminator crosses the middle of the image. Each pixel's closed form takes the sphere's own
+    normal: mu_i = n . l, the cosine's surface gradient g = sqrt(1 - mu_i^2) / R, and
+    E alpha' mu_eff (H(mu_h) H(mu_o) - 1) / (4 pi (mu_h + mu_o)) with mu_eff = max(mu_i, 0) + g rho
+    G(mu_i / (g rho)) and mu_h = max(mu_i, mu_eff). The shader takes g from the pixel's derivatives of
+    the interpolated normal of a 20k-triangle ball: the median ratio over the pixels seen at mu_o > 0.3
+    within 2 % of 1 (measured: 0.04 %), 90 % of them within 8 % (measured: 3.2 %). Just past the
+    terminator (-0.15 < mu_i < -0.03), where the flat face's law gives 0, the pixels hold the light that
+    entered beside it (the test of its visibility, at the terminator along the light, passes there),
+    within 5 % in the median (measured: 0.1 %, 380 pixels)."""
+    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
+    term = ext_module(tr, "translucent_addon.physics.terminator")
+    set_world(scene, (0.0, 0.0, 0.0))
+    R = 0.01
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=R, location=(0, 0, 0))
+    ob = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    ob.translucent.preset = "skin1"
+    ob.translucent.eta = 1.0
+    ob.translucent.method = "QUADGRAPH"
+    ob.translucent.quadgraph_levels = 1
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    add_light(scene, "SUN", (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), energy=SLAB_SUN)
+    cam = add_camera(scene, (0.0, -0.2, 0.0), (0.0, 0.0, 0.0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 2.4 * R
+    scene.translucent.quadgraph_output = 3
+    n_px = 96
+    image = render(scene, n_px, n_px)[..., :3]
+    scene.translucent.quadgraph_output = 0
+    assert np.isfinite(image).all()
+    c = (np.arange(n_px) + 0.5) / n_px * 2.4 * R - 1.2 * R
+    x, z = np.meshgrid(c, c)  # row 0 at the bottom: z grows with the row
+    inside = x**2 + z**2 < (0.98 * R) ** 2
+    n_y = -np.sqrt(np.clip(1.0 - (x**2 + z**2) / R**2, 0.0, 1.0))
+    mu_i, mu_o = x / R, -n_y
+    m = ob.translucent
+    alpha = _alpha_prime(m)
+    g = np.sqrt(1.0 - mu_i**2) / (R * 1000.0)  # per mm, as sigma
+    expected = np.zeros_like(image)
+    for k in range(3):
+        mu_eff = term.effective_cosine(mu_i[inside], g[inside], m.sigma_a[k], m.sigma_s_prime[k], 1.0)
+        mu_h = np.maximum(mu_i[inside], mu_eff)
+        H = lambda mu: ss.chandrasekhar_H(alpha[k], mu)  # noqa: E731
+        expected[inside, k] = SLAB_SUN * alpha[k] * mu_eff * (H(mu_h) * H(mu_o[inside]) - 1.0) / (
+            4.0 * np.pi * (mu_h + mu_o[inside]))
+    seen = inside & (mu_o > 0.3) & (mu_i > -0.5)
+    past = seen & (mu_i > -0.15) & (mu_i < -0.03)
+    assert past.sum() > 30 and (expected[past] > 0).all()
+    ratio = image[seen] / expected[seen].clip(1e-12)
+    live = expected[seen] > 1e-3 * expected[seen].max()
+    assert abs(np.median(ratio[live]) - 1.0) < 0.02, np.median(ratio[live])
+    assert np.quantile(np.abs(ratio[live] - 1.0), 0.9) < 0.08, np.quantile(np.abs(ratio[live] - 1.0), 0.9)
+    past_ratio = image[past] / expected[past]
+    assert abs(np.median(past_ratio) - 1.0) < 0.05, np.median(past_ratio)

@@ -196,9 +196,10 @@ SPECS = {
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
-        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "depths"), (2, "FLOAT_2D", "h_table")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "depths"), (2, "FLOAT_2D", "h_table"),
+                  (3, "FLOAT_2D", "terminator_table")),
         push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("FLOAT", "g"), ("VEC4", "sigma_a"), ("VEC4", "sigma_s"),
-                        ("INT", "segments"), ("FLOAT", "tau_max"), ("INT", "terms")),
+                        ("VEC4", "terminator_rho"), ("INT", "segments"), ("FLOAT", "tau_max"), ("INT", "terms")),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
     "env_background": ShaderSpec(

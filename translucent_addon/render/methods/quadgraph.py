@@ -39,6 +39,7 @@ from ...geometry.volume_deformation import DeformationError
 from ...physics.dipole import A as internal_reflection
 from ...physics import diffusion as df
 from ...physics import single_scattering as ss
+from ...physics import terminator
 from ...physics.fresnel import F_dr as diffuse_fresnel
 from .. import shaders
 from ..targets import new_target, screen_quad, texture_from_array
@@ -198,19 +199,26 @@ class Resources:
         """H(mu) of the medium's albedo per channel (``single_scattering.h_table``), rebuilt when it changes."""
         return self._medium_table("H", medium, lambda sigma_a, sigma_s_prime, eta: ss.h_table(sigma_a, sigma_s_prime))
 
+    def terminator(self, medium):
+        """The clamped ramp's excess G per channel as a texture and the kernel's mean radius rho in mm
+        (``physics.terminator``), rebuilt when the medium changes."""
+        rho = self._medium_table("rho", medium, lambda *m: np.array([terminator.kernel_mean_radius(*c, m[2])
+                                                                     for c in zip(m[0], m[1])]), texture=False)
+        return self._medium_table("terminator", medium, terminator.excess_table), rho
+
     def world_law(self, medium):
         """The angular law of the world's light entering a flat face over Lambert's per channel
         (``single_scattering.uniform_light_table``), rebuilt when the medium changes."""
         return self._medium_table("world", medium, ss.uniform_light_table)
 
-    def _medium_table(self, name: str, medium, table_of):
-        """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture, built again only when the
-        medium's coefficients change."""
+    def _medium_table(self, name: str, medium, table_of, texture: bool = True):
+        """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture (or as it is), built again
+        only when the medium's coefficients change."""
         key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
         cached = self.medium_tables.get(name)
         if cached is None or cached[0] != key:
-            cached = self.medium_tables[name] = (key, _rgb_table(table_of(medium.sigma_a, medium.sigma_s_prime,
-                                                                          medium.eta)))
+            table = table_of(medium.sigma_a, medium.sigma_s_prime, medium.eta)
+            cached = self.medium_tables[name] = (key, _rgb_table(table) if texture else table)
         return cached[1]
 
 
@@ -314,6 +322,9 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 shader.uniform_float("sigma_a", (*map(float, (sigma_t - sigma_s) * m.mm_per_unit), 0.0))
                 shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
                 shader.uniform_sampler("h_table", a.resources.chandrasekhar_h(m))
+                table, rho_mm = a.resources.terminator(m)
+                shader.uniform_sampler("terminator_table", table)
+                shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
                 a.resources.display_batch(a.mesh).draw(shader)  # qg_single reads its pos and nor
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
