@@ -12,7 +12,8 @@
  *   sigma_s p E exp(-sigma_t (t + d)) per segment with the exponent linear; into the medium, the
  *   normal-incidence 1 - F_0 (the entry point's normal is not in the map);
  * - local multiple scattering L^(ms): Chandrasekhar's lit half-space less its first order at the
- *   pixel's own surface point, with q's visibility and 1 - F_r(mu_i) into the medium.
+ *   pixel's own surface point, with q's visibility and 1 - F_r(mu_i) into the medium, its cosine the
+ *   lateral average of the clamped ramp the curved surface sees (physics/terminator.py).
  * Both leave through T_o = 1 - F_r(mu_o). sigma_a, sigma_s: rgb per world unit, in vec4s. */
 #ifdef GPU_VERTEX_SHADER
 void main()
