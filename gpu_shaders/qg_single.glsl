@@ -75,8 +75,10 @@ vec3 chandrasekhar_H(float mu)
  * physics/terminator.py per channel, mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)), g = |grad_mu|
  * the surface gradient of the light's cosine: the lateral spread of the light entering beside the
  * terminator, which also lights the pixels just past it. There the light entered at about mu_eff
- * (H and T_i take the larger of the two) and its visibility is the terminator's, the point
- * -mu_i / g along the gradient, tested along the light. */
+ * (H and T_i take the larger of the two) and its visibility is the lit side's one kernel radius past
+ * the terminator (min(-mu_i / g, 8 rho) + rho along the gradient, tested along the light; the
+ * terminator itself lies on the outline the light sees, where a faceted mesh shadows it: black wedges
+ * on a 320-triangle ball, as the pixel's own point tested along the light gave jagged streaks). */
 vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 grad_mu)
 {
   vec3 to_light;
@@ -97,8 +99,8 @@ vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 grad_mu)
     vis = visibility(p, n);
   }
   else {
-    float reach = 40.0 * max(terminator_rho.r, max(terminator_rho.g, terminator_rho.b));
-    vis = visibility(p + grad_mu / slope * min(-mu_i / slope, reach), to_light);
+    float rho = max(terminator_rho.r, max(terminator_rho.g, terminator_rho.b));
+    vis = visibility(p + grad_mu / slope * (min(-mu_i / slope, 8.0 * rho) + rho), to_light);
   }
   vec3 sigma_s_prime = sigma_s.rgb * (1.0 - g);
   vec3 alpha_prime = sigma_s_prime / (sigma_a.rgb + sigma_s_prime);
