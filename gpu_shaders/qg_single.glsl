@@ -92,7 +92,7 @@ vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 grad_mu)
    * most 1 / pi at the terminator; a ball much smaller than rho averages max(0, cos) to 1 / 4), not
    * g rho / pi without bound on a low-poly mesh's sharp bends (the cow's normals turn by 0.14 / mm in
    * the median triangle, 1.2 / mm in one of a hundred). */
-  vec3 scale = min(slope * terminator_rho.rgb, vec3(1.0));
+  vec3 scale = min(slope * terminator_rho.rgb, vec3(1.0)); /* terminator.SCALE_MAX */
   vec3 mu_eff;
   for (int c = 0; c < 3; c++) {
     float u = 0.5 + 0.5 * mu_i / (abs(mu_i) + scale[c] + 1e-30);

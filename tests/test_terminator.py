@@ -51,7 +51,8 @@ def test_the_ramp_response_equals_the_marginal_of_the_dipole_integrated_apart(si
 
 def test_the_effective_cosine_is_the_flat_faces_away_from_the_terminator():
     """On a flat face (g = 0) mu_eff is max(mu_i, 0) exactly, and where the ramp stays positive under the
-    kernel (mu_i = 50 g rho) within 1e-6; at the terminator it is g rho / pi, past it positive and falling."""
+    kernel (mu_i = 50 g rho) within 1e-6; at the terminator it is g rho / pi, past it positive and falling;
+    a bend sharper than the kernel is held at g rho = 1."""
     sigma_a, sigma_s_prime = MEDIA[1]
     rho = terminator.kernel_mean_radius(sigma_a, sigma_s_prime, 1.0)
     mu = np.array([-0.3, 0.0, 0.2, 0.9])
@@ -62,6 +63,9 @@ def test_the_effective_cosine_is_the_flat_faces_away_from_the_terminator():
     assert terminator.effective_cosine(0.0, g, sigma_a, sigma_s_prime, 1.0)[0] == pytest.approx(g * rho / np.pi, rel=1e-9)
     past = terminator.effective_cosine(-g * rho * np.array([0.5, 1.0, 2.0]), g, sigma_a, sigma_s_prime, 1.0)
     assert (past > 0).all() and (np.diff(past) < 0).all()
+    # a bend sharper than the kernel (g rho = 5): the ramp is held at g rho = 1, mu_eff at most 1 / pi
+    sharp = terminator.effective_cosine(0.0, 5.0 / rho, sigma_a, sigma_s_prime, 1.0)[0]
+    assert sharp == pytest.approx(1.0 / np.pi, rel=1e-9)
 
 
 def test_the_table_holds_the_excess_at_its_coordinates():

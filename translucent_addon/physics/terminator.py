@@ -20,7 +20,10 @@ about the pixel
 
 and the effective cosine is mu_eff = g rho F(s) = max(mu_i, 0) + g rho G(s) with G(s) = F(s) - max(s, 0),
 which is even (F(s) - F(-s) = s for a symmetric kernel), non-negative, largest at the terminator,
-G(0) = 1 / pi (E|r cos phi| / 2), and 0 once |s| passes the kernel's reach: on a flat face (g = 0) mu_eff = mu_i exactly.
+G(0) = 1 / pi (E|r cos phi| / 2), and 0 once |s| passes the kernel's reach: on a flat face (g = 0)
+mu_eff = mu_i exactly. The ramp holds while the kernel spans less than the curvature's radius, so g rho
+is taken at most 1 (SCALE_MAX; a ball much smaller than rho averages max(0, cos) to 1 / 4, where
+g rho / pi would grow without bound on a low-poly mesh's sharp bends).
 """
 from __future__ import annotations
 
@@ -29,6 +32,7 @@ import numpy as np
 from . import dipole
 
 TABLE_SIZE = 257
+SCALE_MAX = 1.0  # the largest g rho the ramp is trusted with
 
 
 def _radial_grid(sigma_a: float, sigma_s_prime: float, eta: float):
@@ -94,10 +98,11 @@ def excess_table(sigma_a, sigma_s_prime, eta: float, n: int = TABLE_SIZE) -> np.
 
 
 def effective_cosine(mu_i, g, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
-    """mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)) for one channel; g per unit length (as sigma_a)."""
+    """mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)) for one channel, g rho at most SCALE_MAX; g per
+    unit length (as sigma_a). ``qg_single`` draws the same."""
     rho = kernel_mean_radius(sigma_a, sigma_s_prime, eta)
     mu_i, g = np.broadcast_arrays(np.atleast_1d(np.asarray(mu_i, np.float64)), np.asarray(g, np.float64))
-    scale = g * rho
+    scale = np.minimum(g * rho, SCALE_MAX)
     G = np.zeros_like(mu_i)
     live = scale > 0
     if live.any():
