@@ -71,8 +71,8 @@ vec3 chandrasekhar_H(float mu)
 /* The local multiple scattering L^(ms) of light entering at this pixel's surface point:
  * Chandrasekhar's half-space (single_scattering.multiple_half_space), at the refracted cosines between
  * the Fresnel transmittances, for the light entering per unit area T_i E mu_i (mu_i outside, as q); the
- * light's visibility as q's (ts_illumination). On a curved surface mu_i is the effective cosine of
- * physics/terminator.py per channel, mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)), g = |grad_mu|
+ * light's visibility as q's (ts_illumination); E and to_light: the emitter's at p. On a curved
+ * surface mu_i is the effective cosine of physics/terminator.py per channel, mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)), g = |grad_mu|
  * the surface gradient of the light's cosine: the lateral spread of the light entering beside the
  * terminator, which also lights the pixels just past it. There the light entered at about mu_eff
  * (H and T_i take the larger of the two) and its visibility is the terminator's, min(-mu_i / g, 8 rho)
@@ -82,10 +82,8 @@ vec3 chandrasekhar_H(float mu)
  * light into cast shadows (3 pixels inside the outline, the cow's RMSE 0.118 -> 0.142 where this
  * rule gave 0.132 -> 0.134, on other bakes); the pixel's own point tested along the light draws jagged
  * streaks. */
-vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 grad_mu)
+vec3 local_multiple(vec3 p, vec3 n, float mu_t, vec3 E, vec3 to_light, vec3 grad_mu)
 {
-  vec3 to_light;
-  vec3 E = emitter_irradiance(p, to_light);
   float mu_i = dot(n, to_light);
   float slope = length(grad_mu);
   /* The ramp holds while the kernel spans less than the curvature's radius: g rho at most 1 (mu_eff at
@@ -184,9 +182,9 @@ void main()
   }
   /* The surface gradient of the light's cosine from the pixel's derivatives (in uniform control flow):
    * grad f = (f_x (P_y x m) + f_y (m x P_x)) / |m|^2, m = P_x x P_y, exact for f linear on the plane. */
-  vec3 to_light_here;
-  emitter_irradiance(v_world, to_light_here);
-  float mu_here = dot(n, to_light_here);
+  vec3 to_light;
+  vec3 E = emitter_irradiance(v_world, to_light);
+  float mu_here = dot(n, to_light);
   vec3 P_x = dFdx(v_world), P_y = dFdy(v_world);
   vec3 m = cross(P_x, P_y);
   float mm = dot(m, m);
@@ -212,7 +210,7 @@ void main()
     L += (1.0 - F_0) * march(v_world, w_t, t_max, sigma_t);
   }
   if ((terms & 2) != 0) {
-    L += local_multiple(v_world, n, mu_t, grad_mu);
+    L += local_multiple(v_world, n, mu_t, E, to_light, grad_mu);
   }
   out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) * L, 0.0);
 }

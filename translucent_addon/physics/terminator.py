@@ -37,7 +37,8 @@ SCALE_MAX = 1.0  # the largest g rho the ramp is trusted with
 
 def _radial_grid(sigma_a: float, sigma_s_prime: float, eta: float):
     """Radii (per unit of sigma's length) and trapezoid weights of R_d(r) r dr, fine where R_d peaks
-    (the real source's depth z_r, much less than 1 / sigma_tr at high albedo), out to 40 / sigma_tr."""
+    (the real source's depth z_r, much less than 1 / sigma_tr at high albedo), out to 40 / sigma_tr,
+    and the mean radius rho on that grid."""
     _, sigma_tr, z_r, _ = dipole.dipole_parameters(sigma_a, sigma_s_prime, eta)
     r = np.concatenate([[0.0], np.geomspace(1e-4 * min(z_r, 1.0 / sigma_tr), 40.0 / sigma_tr, 4000)])
     f = dipole.R_d(r, sigma_a, sigma_s_prime, eta) * r
@@ -45,13 +46,18 @@ def _radial_grid(sigma_a: float, sigma_s_prime: float, eta: float):
     dr = np.diff(r)
     w[:-1] += 0.5 * dr
     w[1:] += 0.5 * dr
-    return r, f * w
+    weight = f * w
+    return r, weight, float((r * weight).sum() / weight.sum())
 
 
 def kernel_mean_radius(sigma_a: float, sigma_s_prime: float, eta: float) -> float:
     """rho = E[r] under the normalised R_d r dr: the length unit of the table (G(0) = rho / pi)."""
-    r, weight = _radial_grid(sigma_a, sigma_s_prime, eta)
-    return float((r * weight).sum() / weight.sum())
+    return _radial_grid(sigma_a, sigma_s_prime, eta)[2]
+
+
+def kernel_mean_radii(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
+    """rho per channel, (3,): what ``qg_single`` scales the table's coordinate with."""
+    return np.array([kernel_mean_radius(a, sp, eta) for a, sp in zip(sigma_a, sigma_s_prime)])
 
 
 def ramp_angular(s, r):
@@ -65,8 +71,8 @@ def ramp_angular(s, r):
 
 def ramp_response(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     """F(s): the dipole kernel's average of max(0, s + x), s and the lateral offset x in units of rho."""
-    r, weight = _radial_grid(sigma_a, sigma_s_prime, eta)
-    r = r / kernel_mean_radius(sigma_a, sigma_s_prime, eta)
+    r, weight, rho = _radial_grid(sigma_a, sigma_s_prime, eta)
+    r = r / rho
     s = np.atleast_1d(np.asarray(s, np.float64))
     total = 2.0 * np.pi * weight.sum()
     return (ramp_angular(s[:, None], r[None, :]) * weight[None, :]).sum(axis=1) / total

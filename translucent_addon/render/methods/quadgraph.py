@@ -202,8 +202,7 @@ class Resources:
     def terminator(self, medium):
         """The clamped ramp's excess G per channel as a texture and the kernel's mean radius rho in mm
         (``physics.terminator``), rebuilt when the medium changes."""
-        rho = self._medium_table("rho", medium, lambda *m: np.array([terminator.kernel_mean_radius(*c, m[2])
-                                                                     for c in zip(m[0], m[1])]), texture=False)
+        rho = self._medium_table("rho", medium, terminator.kernel_mean_radii, texture=False)
         return self._medium_table("terminator", medium, terminator.excess_table), rho
 
     def world_law(self, medium):
