@@ -462,3 +462,28 @@ def test_a_half_space_under_uniform_light_sends_more_towards_grazing_as_its_tabl
     refracting = ss.uniform_light_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.3)
     matched = ss.uniform_light_table([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.0)
     assert (np.abs(refracting - 1.0).max(axis=0) < np.abs(matched - 1.0).max(axis=0)).all()
+
+
+def test_the_chord_factor_keeps_a_flat_face_and_follows_the_eyes_chord():
+    """single_scattering.chord_factor, the local multiple scattering's geometry factor: 1 under a thick
+    flat face (the march integrates exp(-sigma_t t - sigma_tr t mu_t / mu_i) exactly, so the half-space
+    law stays exact), (1 - exp(-k H / mu_t)) for a slab that the eye's ray leaves after H / mu_t, above 1
+    where the light's path to the ray is shorter than under a flat face (a ridge lit on its far side),
+    and held at CHORD_FACTOR_MAX."""
+    from translucent_addon.physics import single_scattering as ss
+
+    sigma_t, sigma_tr = np.array([0.77, 1.05, 1.49]), np.array([0.27, 0.69, 1.46])  # skin1, per mm
+    mu_t, mu_i = 0.8, 0.5
+    nodes = ss.march_nodes(sigma_t)
+    np.testing.assert_allclose(ss.chord_factor(nodes, nodes * mu_t / mu_i, sigma_t, sigma_tr, mu_t, mu_i), 1.0,
+                               rtol=1e-12)
+    H = 1.0
+    t = min(nodes[-1], H / mu_t) * (np.arange(ss.SEGMENTS + 1) / ss.SEGMENTS) ** 2
+    k = sigma_t + sigma_tr * mu_t / mu_i
+    slab = ss.chord_factor(t, t * mu_t / mu_i, sigma_t, sigma_tr, mu_t, mu_i)
+    np.testing.assert_allclose(slab, -np.expm1(-k * H / mu_t) / -np.expm1(-k * nodes[-1]), rtol=1e-12)
+    assert (slab < 1.0).all()
+    ridge = ss.chord_factor(nodes, 0.5 * nodes * mu_t / mu_i, sigma_t, sigma_tr, mu_t, mu_i)
+    assert (ridge > 1.0).all() and (ridge < ss.CHORD_FACTOR_MAX).all()
+    lit_throughout = ss.chord_factor(nodes, np.zeros_like(nodes), sigma_t, sigma_tr, mu_t, 0.01)
+    np.testing.assert_allclose(lit_throughout, ss.CHORD_FACTOR_MAX)

@@ -82,3 +82,40 @@ def test_the_table_holds_the_excess_at_its_coordinates():
     assert terminator.table_coordinate(s) == pytest.approx(u)
     for c, (a, sp) in enumerate(MEDIA):
         assert table[40, c] == pytest.approx(terminator.excess(s, a, sp, 1.0)[0], rel=1e-12)
+
+
+@pytest.mark.parametrize("sigma_a, sigma_s_prime", MEDIA)
+def test_the_share_beyond_a_line_is_the_slope_of_the_excess(sigma_a, sigma_s_prime):
+    """beta(s), the kernel's share beyond a line s rho away, is 1 / 2 on the line, falls to 0, and equals
+    -dG/ds (F'(s) = P(x > -s)): what qg_single takes from the table by a forward difference of 0.02."""
+    s = np.array([0.0, 0.1, 0.3, 1.0, 3.0])
+    beta = terminator.beyond_line(s, sigma_a, sigma_s_prime, 1.3)
+    assert beta[0] == pytest.approx(0.5, abs=1e-9)
+    assert (np.diff(beta) < 0).all() and beta[-1] < 0.02
+    h = 1e-4
+    slope = (terminator.excess(s, sigma_a, sigma_s_prime, 1.3) - terminator.excess(s + h, sigma_a, sigma_s_prime, 1.3)) / h
+    np.testing.assert_allclose(beta, slope, atol=2e-3)
+    coarse = (terminator.excess(s, sigma_a, sigma_s_prime, 1.3) - terminator.excess(s + 0.02, sigma_a, sigma_s_prime, 1.3)) / 0.02
+    np.testing.assert_allclose(coarse, beta, atol=0.02)
+
+
+def test_the_facet_weight_follows_the_triangle_against_the_kernel():
+    """The triangle's own normal's share: all of it deep inside a triangle many kernels wide, none at its
+    edges (the smooth normal there already averages the two faces), none on a mesh far finer than the
+    kernel, and between for the cow's median triangle (4.3 mm edges, 1.25 mm from each edge at its
+    centroid) against skin1's red kernel (rho 2.8 mm) and blue (0.9 mm): more for the narrower kernel."""
+    red, blue = (0.032, 0.74), (0.48, 1.01)
+    big = terminator.facet_weight([[60.0, 60.0, 60.0]], *red, 1.3)
+    edge = terminator.facet_weight([[0.0, 60.0, 60.0]], *red, 1.3)
+    fine = terminator.facet_weight([[0.05, 0.05, 0.05]], *red, 1.3)
+    assert big[0] == pytest.approx(1.0, abs=1e-3)
+    assert edge[0] == 0.0 and fine[0] == 0.0
+    centroid = [[1.25, 1.25, 1.25]]
+    t_red, t_blue = terminator.facet_weight(centroid, *red, 1.3)[0], terminator.facet_weight(centroid, *blue, 1.3)[0]
+    assert t_red == 0.0 < t_blue < 0.95  # red's kernel reaches past the edges: within 1/2 of it inside
+    wide = [[2.7, 2.7, 2.7]]  # the cow's 90th-percentile triangle (9.3 mm edges)
+    assert 0.0 < terminator.facet_weight(wide, *red, 1.3)[0] < terminator.facet_weight(wide, *blue, 1.3)[0]
+    # w = prod (1 - beta) taken apart
+    rho = terminator.kernel_mean_radius(*blue, 1.3)
+    w = (1.0 - terminator.beyond_line(np.array([1.25 / rho]), *blue, 1.3)[0]) ** 3
+    assert t_blue == pytest.approx(2.0 * w - 1.0, rel=1e-9)

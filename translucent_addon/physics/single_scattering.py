@@ -27,6 +27,7 @@ import numpy as np
 
 TAU_MAX = 8.0  # optical depth the march covers along the view ray (exp(-8) = 3e-4 left out)
 SEGMENTS = 16  # march segments; nodes crowd the surface (t_k = t_max (k / N)^2)
+CHORD_FACTOR_MAX = 4.0  # the local multiple scattering's geometry factor is held below this
 
 
 def hg_phase(cos_theta, g: float):
@@ -54,6 +55,17 @@ def march_nodes(sigma_t, segments: int = SEGMENTS, tau_max: float = TAU_MAX) -> 
     return t_max * (np.arange(segments + 1) / segments) ** 2
 
 
+def _segments(t, a) -> np.ndarray:
+    """integral of exp(a(t)) over each segment between nodes t (n,), a (n, c) linear inside it: exact
+    (below |da| = 1e-3, as the shader, where float32 cancels: sinh(x) / x = 1 + x^2 / 6, x = da / 2)."""
+    dt = np.diff(t)[:, None]
+    a0, a1 = a[:-1], a[1:]
+    da = a1 - a0
+    small = np.abs(da) < 1e-3
+    return np.where(small, dt * np.exp(0.5 * (a0 + a1)) * (1.0 + da * da / 24.0),
+                    dt * (np.exp(a1) - np.exp(a0)) / np.where(small, 1.0, da))
+
+
 def march(t, d, sigma_t, source) -> np.ndarray:
     """integral of source(t) exp(-sigma_t (t + d(t))) dt from nodes: per segment, the exponent is linear
     between its ends (integrated exactly) and the source (sigma_s p E, slowly varying) is their mean.
@@ -61,13 +73,38 @@ def march(t, d, sigma_t, source) -> np.ndarray:
     t = np.asarray(t, np.float64)
     a = -np.asarray(sigma_t, np.float64)[None, :] * (t + np.asarray(d, np.float64))[:, None]
     s = np.broadcast_to(np.asarray(source, np.float64), a.shape)
-    dt = np.diff(t)[:, None]
-    a0, a1 = a[:-1], a[1:]
-    da = a1 - a0
-    small = np.abs(da) < 1e-3  # as the shader: float32 cancels there; sinh(x) / x = 1 + x^2 / 6, x = da / 2
-    seg = np.where(small, dt * np.exp(0.5 * (a0 + a1)) * (1.0 + da * da / 24.0),
-                   dt * (np.exp(a1) - np.exp(a0)) / np.where(small, 1.0, da))
-    return (0.5 * (s[:-1] + s[1:]) * seg).sum(axis=0)
+    return (0.5 * (s[:-1] + s[1:]) * _segments(t, a)).sum(axis=0)
+
+
+def diffuse_reach(t, d, sigma_t, sigma_tr) -> np.ndarray:
+    """integral of exp(-sigma_t t - sigma_tr d(t)) dt along the view ray from the march's nodes: how much
+    of the multiply-scattered light, which falls off as exp(-sigma_tr d) with the light's path d, the
+    eye's ray gathers before the medium hides it or the ray leaves. (c,)."""
+    t = np.asarray(t, np.float64)
+    a = -(np.asarray(sigma_t, np.float64)[None, :] * t[:, None]
+          + np.asarray(sigma_tr, np.float64)[None, :] * np.asarray(d, np.float64)[:, None])
+    return _segments(t, a).sum(axis=0)
+
+
+def flat_reach(sigma_t, sigma_tr, mu_t, mu_i, t_max) -> np.ndarray:
+    """``diffuse_reach`` under a flat face with no far side within t_max: the light's straight path
+    d = t mu_t / mu_i (mu_t the view ray's cosine inside, mu_i the light's outside, as the distance map
+    measures it), (1 - exp(-k t_max)) / k with k = sigma_t + sigma_tr mu_t / mu_i."""
+    k = np.asarray(sigma_t, np.float64) + np.asarray(sigma_tr, np.float64) * mu_t / mu_i
+    return -np.expm1(-k * t_max) / k
+
+
+def chord_factor(t, d, sigma_t, sigma_tr, mu_t, mu_i, t_full: float | None = None) -> np.ndarray:
+    """The local multiple scattering's geometry factor (``qg_single``): ``diffuse_reach`` along the eye's
+    actual chord (nodes t up to where it leaves, the light's paths d from the distance map) over a flat
+    face's, ``flat_reach`` to the march's full depth TAU_MAX / min sigma_t. 1 under a flat face (the
+    half-space law stays exact); above 1 on a ridge whose far side the light meets at a steeper angle
+    (the eye's ray passes under it), below 1 where the medium ends behind a thin part. At most
+    CHORD_FACTOR_MAX. ``t_full``: the march's full depth when sigma_t holds fewer channels than the
+    medium's."""
+    sigma_t = np.asarray(sigma_t, np.float64)
+    full = flat_reach(sigma_t, sigma_tr, mu_t, mu_i, TAU_MAX / float(np.min(sigma_t)) if t_full is None else t_full)
+    return np.clip(diffuse_reach(t, d, sigma_t, sigma_tr) / full, 0.0, CHORD_FACTOR_MAX)
 
 
 def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_theta: float,

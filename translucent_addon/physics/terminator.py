@@ -84,6 +84,35 @@ def excess(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     return ramp_response(s, sigma_a, sigma_s_prime, eta) - np.maximum(s, 0.0)
 
 
+def beyond_line(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+    """beta(s): the share of the lateral kernel that lies beyond a line s rho away (s >= 0), 1 / 2 at
+    s = 0. It is -dG/ds (F'(s) = P(x > -s), G = F - max(s, 0)), which ``qg_single`` takes from the
+    table by a forward difference; ``facet_weight`` builds on it."""
+    r, weight, rho = _radial_grid(sigma_a, sigma_s_prime, eta)
+    s = np.atleast_1d(np.asarray(s, np.float64))
+    # Around the circle of radius r the arc beyond the line x = s rho spans 2 arccos(s rho / r).
+    arc = 2.0 * np.arccos(np.clip(s[:, None] * rho / np.maximum(r[None, :], 1e-300), -1.0, 1.0))
+    return (arc * weight[None, :]).sum(axis=1) / (2.0 * np.pi * weight.sum())
+
+
+def facet_weight(edge_distances, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+    """The triangle's own normal's share t in the medium's normal at the kernel's scale,
+    n_k ~ n_smooth + t (n_facet - n_smooth), from the point's distances to the triangle's three edges
+    (..., 3), in sigma's length unit.
+
+    The medium Cycles walks in is bounded by the flat triangles, not by the interpolated normals the
+    mesh is shaded with. The kernel's share inside the triangle is about w = prod_i (1 - beta(d_i / rho)):
+    1 deep inside a triangle much wider than rho, 1 / 2 on an edge, 1 / 4 at a vertex, little anywhere
+    on a mesh much finer than the kernel. n_k must not jump across an edge, where the smooth normal is
+    the one normal both triangles share, so t = max(2 w - 1, 0): the triangle's normal deep inside a
+    triangle wider than the kernel, the smooth one within about a kernel radius of its edges and on fine
+    meshes (where the smooth normal is the kernel's average)."""
+    d = np.asarray(edge_distances, np.float64)
+    rho = kernel_mean_radius(sigma_a, sigma_s_prime, eta)
+    inside = np.prod(1.0 - beyond_line(d.reshape(-1) / rho, sigma_a, sigma_s_prime, eta).reshape(d.shape), axis=-1)
+    return np.maximum(2.0 * inside - 1.0, 0.0)
+
+
 def table_coordinate(s):
     """u = (1 + s / (|s| + 1)) / 2 in [0, 1]: fine at the terminator, the tails (G < 1e-3 G(0) past
     |s| = 40) in the last texels."""

@@ -193,8 +193,8 @@ SPECS = {
     "qg_single": ShaderSpec(
         source="qg_single.glsl",
         libraries=_SHADOW_LIBS,
-        vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
-        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "corner")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_corner")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "depths"), (2, "FLOAT_2D", "h_table"),
                   (3, "FLOAT_2D", "terminator_table")),

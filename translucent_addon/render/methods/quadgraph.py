@@ -112,6 +112,7 @@ class Resources:
         self.material_key = None
         self.materials = None
         self.display = {}
+        self.surface = {}
         self.medium_tables = {}  # name: (medium key, n x 1 texture), the tables below
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
@@ -187,6 +188,21 @@ class Resources:
                 "nor": np.ascontiguousarray(mesh.normals, np.float32),
                 "links": slots, "link_weights": np.ascontiguousarray(self.display_weight, np.float32),
                 "mask": np.ascontiguousarray(np.clip(mesh.paint[:, 0], 0.0, 1.0), np.float32)})
+        return batch
+
+    def surface_batch(self, mesh):
+        """The mesh's triangles for ``qg_single``: positions, smooth normals and each corner's barycentric
+        (1, 0, 0), (0, 1, 0), (0, 0, 1), from which the pass has a point's distances to its triangle's
+        edges (the triangle's share in the medium's normal at the kernel's scale)."""
+        batch = self.surface.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.surface.clear()
+            corner = np.tile(np.eye(3, dtype=np.float32), (len(mesh.positions) // 3, 1))
+            batch = self.surface[mesh.key] = batch_for_shader(shaders.get("qg_single"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32), "corner": corner})
         return batch
 
     def exitance_loss(self, medium):
@@ -324,7 +340,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 table, rho_mm = a.resources.terminator(m)
                 shader.uniform_sampler("terminator_table", table)
                 shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
-                a.resources.display_batch(a.mesh).draw(shader)  # qg_single reads its pos and nor
+                a.resources.surface_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
 
