@@ -6,7 +6,8 @@
  * surface term of qg_single (single and local multiple scattering), summed over the emitters in a
  * screen target, is added to L, with the painted factor on the light entering (mask x glow x tint)
  * interpolated like B; B gives up the exitance the term takes over where light enters (``loss``:
- * single_scattering.exitance_loss), and the world's light gives up its flat-face response too
+ * single_scattering.exitance_loss, times ``loss_scale``, diffusion.held_source_gain: what more the
+ * graph reflects where a surface link is shorter than z_0 and the source is held at the inner node), and the world's light gives up its flat-face response too
  * (``loss_world``), drawn with a half-space's law under uniform light (``world_law``:
  * single_scattering.uniform_light_table; one texel of 1 where the surface term is off: Wang's
  * display). What B keeps then, light that entered elsewhere and crossed the medium, is drawn
@@ -21,17 +22,24 @@ void main()
   vec3 factor = vec3(0.0);
   vec3 taken = vec3(0.0);
   vec3 taken_world = vec3(0.0);
+  vec3 held_world = vec3(0.0);
   for (int j = 0; j < 4; j++) {
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
     vec3 f = texelFetch(q_factor, t, 0).rgb;
+    vec3 gain = texelFetch(loss_scale, t, 0).rgb;
+    vec3 world = link_weights[j] * texelFetch(loss_world, t, 0).rgb * f;
     B += link_weights[j] * phi_s;
-    taken += link_weights[j] * texelFetch(loss, t, 0).rgb * f;
-    taken_world += link_weights[j] * texelFetch(loss_world, t, 0).rgb * f;
+    taken += link_weights[j] * texelFetch(loss, t, 0).rgb * f * gain;
+    taken_world += world;
+    held_world += world * (gain - 1.0);
     factor += link_weights[j] * f;
   }
   v_factor = factor;
-  B = (1.0 - F_dr) * B / (2.0 * (1.0 + F_dr));
+  /* Where light enters, the graph's flat face reflects gain R q (the source held too shallow): the
+   * emitters' gain R q goes to the surface term, the world's R q_world to its half-space law, and the
+   * rest of the world's, (gain - 1) R q_world, is the graph's own excess, drawn by neither. */
+  B = max((1.0 - F_dr) * B / (2.0 * (1.0 + F_dr)) - held_world, vec3(0.0));
   v_world_local = min(taken_world, max(B - taken, vec3(0.0)));
   v_radiosity = max(B - taken - taken_world, vec3(0.0));
   v_mask = mask;

@@ -113,6 +113,7 @@ class Resources:
         self.materials = None
         self.display = {}
         self.surface = {}
+        self._loss_scale = None  # (material key, finest tables, texture): Resources.loss_scale
         self.medium_tables = {}  # name: (medium key, n x 1 texture), the tables below
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
@@ -141,6 +142,19 @@ class Resources:
             lg.set_q_factor(self.q_factors[h])
         self.paint = tuple(np.array(a) for a in paint)
         self.material_key = None  # the blur changes kappa and mu
+
+    def loss_scale(self):
+        """The finest level's surface nodes' held_source_gain as a texture (1 at inner nodes), which
+        qg_display applies to the losses: built again when the material or the pose changes."""
+        finest = self.levels_cpu[-1]
+        cached = self._loss_scale
+        if cached is None or cached[0] != self.material_key or cached[1] is not finest:
+            kappa, mu = self.materials[-1]
+            gain = np.ones((finest.count, 3))
+            gain[:finest.n_surface] = df.held_source_gain(kappa, mu, finest.d_surface)
+            cached = self._loss_scale = (self.material_key, finest,
+                                         texture_from_array(self.levels[-1].tables.image(gain)))
+        return cached[2]
 
     def set_material(self, medium) -> None:
         key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.veins, medium.veins_spacing_mm)
@@ -454,6 +468,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("q_factor", finest.q_factor)
             shader.uniform_sampler("loss", a.resources.loss[1][0])
             shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
+            shader.uniform_sampler("loss_scale", a.resources.loss_scale())
             term = a.mesh.medium.single_scattering
             shader.uniform_sampler("world_law", a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
             shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
