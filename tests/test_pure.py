@@ -480,3 +480,22 @@ def test_sky_visibility_through_voxels_matches_ray_casting_against_the_triangles
         exact.append(1.0 - occluded(origins, dirs, np.full(len(dirs), np.inf), v[f]).mean())
     np.testing.assert_allclose(V, exact, atol=0.04)
     assert V[-1] == pytest.approx(1.0) and 0.4 < V[1] < 0.6 and V[0] > V[3] > V[2] > V[1]
+
+
+def test_the_noise_of_a_mean_of_renders_follows_their_spread():
+    """compare.metrics.mean_noise: for two renders, half the RMSE between them relative to their mean
+    (the bench's old rule, which took it relative to the second); for n renders of a known noise sigma around a flat image, sigma / sqrt(n) relative to it
+    (within 3 % over 20k pixels), so four seeds keep half the noise of one."""
+    from translucent_addon.compare import metrics
+
+    rng = np.random.default_rng(3)
+    mask = np.ones((100, 200), bool)
+    a, b = rng.random((2, 100, 200, 4))
+    half = 0.5 * metrics.relative_rmse(a, b, mask) * np.sqrt(np.mean(b[..., :3] ** 2) / np.mean(((a + b)[..., :3] / 2) ** 2))
+    assert metrics.mean_noise(np.stack([a, b]), mask) == pytest.approx(half, rel=1e-12)
+    sigma = 0.1
+    for n in (2, 4, 8):
+        renders = 1.0 + sigma * rng.standard_normal((n, 100, 200, 4))
+        assert metrics.mean_noise(renders, mask) == pytest.approx(sigma / np.sqrt(n), rel=0.03)
+    with pytest.raises(ValueError):
+        metrics.mean_noise(a[None], mask)

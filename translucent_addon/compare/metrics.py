@@ -20,6 +20,20 @@ def relative_rmse(image, reference, mask) -> float:
     return float(np.sqrt(np.mean(diff**2)) / norm)
 
 
+def mean_noise(samples, mask) -> float:
+    """The relative RMSE that the mean of n independent renders (n, h, w, c) keeps from their noise:
+    sqrt(mean over the masked pixels and channels of s^2 / n) / sqrt(mean of the mean's square), s^2 the
+    unbiased variance across the renders (for two, half the relative RMSE between them)."""
+    samples = np.asarray(samples, np.float64)[..., :3]
+    n = len(samples)
+    if n < 2:
+        raise ValueError("the noise of a mean needs at least two renders")
+    mask = np.asarray(mask, dtype=bool)
+    var = samples.var(axis=0, ddof=1)[mask]
+    norm = np.sqrt(np.mean(samples.mean(axis=0)[mask] ** 2))
+    return float(np.sqrt(np.mean(var / n)) / norm)
+
+
 def median_relative_error(image, reference, mask) -> float:
     """Median over the masked pixels of |I - R| / mean(R) (luminance): robust to fireflies."""
     return float(np.median(relative_error_image(image, reference, mask)[np.asarray(mask, bool)]))
