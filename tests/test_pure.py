@@ -178,6 +178,17 @@ def test_a_narrow_spot_gets_one_shadow_face_holding_its_cone():
         np.testing.assert_array_equal(faces, cube)
 
 
+def test_a_single_shadow_face_takes_a_2x2_block_of_the_atlas():
+    """The atlas holds 3 x 2 tiles of ``texels``: a fitted spot's or a sun's one face gets twice the texels
+    (the 2 x 2 block at tile 0 fits: 2 texels high and at most 3 wide); cube faces keep theirs."""
+    for texels in (512, 1024, 2048):
+        width, height = 3 * texels, 2 * texels  # pipeline._shadow_atlas
+        one = blocks.face_texels(texels, 1)
+        assert one == 2 * texels and one <= min(width, height)
+        cube = blocks.face_texels(texels, 6)
+        assert cube == texels and (5 % 3 + 1) * cube == width and (5 // 3 + 1) * cube == height  # face 5's corner
+
+
 def test_directional_shadow_map_covers_the_scene_sphere():
     rot = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0.0]])
     (e,) = emitters_from_light("s", "SUN", _light_at(3.0, rot), (1, 1, 1), 1.0)

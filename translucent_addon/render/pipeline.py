@@ -170,8 +170,10 @@ class Pipeline:
             t1 = time.perf_counter()
             with_caustics = caustic_plan is not None and e.caustics
             faces, origin, n_faces, tan_half = blocks.shadow_faces(e, centre, radius, fit_spot=not with_caustics)
-            light_ubo = gpu.types.GPUUniformBuf(blocks.light_block(e, faces, origin, texels, radius, tan_half=tan_half))
-            self._draw_shadow(n_faces, batches, objects, light_ubo, atlas)
+            face_texels = blocks.face_texels(texels, n_faces)
+            light_ubo = gpu.types.GPUUniformBuf(blocks.light_block(e, faces, origin, face_texels, radius,
+                                                                   tan_half=tan_half))
+            self._draw_shadow(n_faces, face_texels, batches, objects, light_ubo, atlas)
             t2 = time.perf_counter()
             # The shadow pass bound the atlas: bind the target explicitly for the light pass.
             with fb.bind():
@@ -251,10 +253,10 @@ class Pipeline:
             base.draw(shader)
 
     @staticmethod
-    def _draw_shadow(n_faces: int, batches, objects, light_ubo, atlas) -> None:
+    def _draw_shadow(n_faces: int, texels: int, batches, objects, light_ubo, atlas) -> None:
         import gpu
 
-        texels, _, _, fb = atlas
+        fb = atlas[3]
         shader = shaders.get("shadow_distance")
         with fb.bind():
             clear_target(fb, (3.0e38, 0.0, 0.0, 0.0))
