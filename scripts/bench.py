@@ -4,7 +4,8 @@ For each scene of translucent_addon/demo.py SCENES: translucent.compare_cycles' 
 at several shadow resolutions, Cycles random walk and brute force at several sample counts, EEVEE
 at several sample counts, the CPU dipole model) against a cached Cycles random-walk reference.
 Writes bench/results/<scene>/ (report.json, chart.png, images), bench/results/summary.md (the
-table) and bench/results/machine.json.
+table), bench/results/pareto.png (every scene's speed against accuracy, with its Pareto front) and
+bench/results/machine.json. ``--charts-only`` draws the charts again from the report.json files.
 """
 from __future__ import annotations
 
@@ -47,7 +48,11 @@ def main() -> int:
     parser.add_argument("--no-blending", action="store_true", help="skip the TEXTURE_SPACE checkerboard phase")
     parser.add_argument("--only-texture-space", action="store_true",
                         help="run only the TEXTURE_SPACE phases (bake curve, blending, discretisation)")
+    parser.add_argument("--charts-only", action="store_true",
+                        help="render nothing: draw every scene's chart.png and pareto.png again from report.json")
     args = parser.parse_args()
+    if args.charts_only:
+        return draw_charts(Path(args.output))
 
     package = blender_env.start()
     import importlib
@@ -101,9 +106,35 @@ def main() -> int:
         print(texture_space_table(ts_rows, args))
         return 0
     (out / "machine.json").write_text(json.dumps(machine, indent=2))
+    draw_charts(out)
     (out / "summary.md").write_text(summary_table(rows, machine) + discretisation_table(disc_rows, args)
                                     + texture_space_table(ts_rows, args) + texture_space_extras(ts_out))
     print(f"wrote {out / 'summary.md'}")
+    return 0
+
+
+def draw_charts(out: Path) -> int:
+    """Each scene's chart.png and the summary pareto.png, from the scenes' report.json (pure: no Blender)."""
+    sys.path.insert(0, str(ROOT))
+    from translucent_addon.compare import report
+
+    scenes, size = {}, None
+    for path in sorted(out.glob("*/report.json")):
+        entries, meta = report.read_report(path)
+        scenes[path.parent.name] = entries
+        size = meta["size"]
+        report.speed_accuracy_chart(entries, path.parent / "chart.png",
+                                    f"{path.parent.name}: speed against accuracy ({size[0]}x{size[1]}); "
+                                    f"reference {meta['reference']}")
+    if not scenes:
+        print(f"no report.json under {out}: run the bench first", file=sys.stderr)
+        return 1
+    machine = json.loads((out / "machine.json").read_text()) if (out / "machine.json").exists() else {}
+    report.pareto_summary_chart(scenes, out / "pareto.png",
+                                f"Median relative error against Cycles random walk 1024 spp, {size[0]}x{size[1]}; "
+                                f"{machine.get('cpu', 'this machine')}, one run (Mesa llvmpipe for our engine "
+                                f"and EEVEE)")
+    print(f"wrote {out / 'pareto.png'} and {len(scenes)} scene charts")
     return 0
 
 

@@ -456,6 +456,44 @@ def test_reference_cache_round_trip(tmp_path):
     assert cache.load(tmp_path, {"scene": "a", "samples": 65}) is None
 
 
+def test_pareto_front_keeps_exactly_the_points_nothing_beats_in_both_time_and_error():
+    from translucent_addon.compare.report import pareto_front
+
+    seconds = [1.0, 2.0, 2.0, 3.0, 0.5, 4.0, 3.0]
+    errors = [0.30, 0.20, 0.25, 0.20, 0.50, 0.05, 0.10]
+    front = pareto_front(seconds, errors)
+    # 0.5 s at 0.50, 1 s at 0.30, 2 s at 0.20, 3 s at 0.10, 4 s at 0.05; (2, 0.25), (3, 0.20) are beaten.
+    assert front.tolist() == [4, 0, 1, 6, 5]
+    t, e = np.array(seconds), np.array(errors)
+    for i in range(len(t)):
+        beaten = ((t <= t[i]) & (e < e[i])).any() or ((t < t[i]) & (e <= e[i])).any()
+        assert (i in front) != beaten, i
+    assert pareto_front([], []).tolist() == []
+
+
+def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
+    """bench's pareto.png: drawn from report entries, not blank (the panels' lines differ from the page)."""
+    import matplotlib.pyplot as plt
+
+    from translucent_addon.compare.report import Entry, pareto_summary_chart, speed_accuracy_chart
+
+    def entries(scale):
+        return [Entry(series=s, engine="X", settings={"label": f"{n}"}, seconds=t, reference="ref",
+                      rel_rmse=scale * e * 2, median_rel_error=scale * e)
+                for s, n, t, e in (("Cycles random walk", 16, 0.7, 0.14), ("Cycles random walk", 64, 2.6, 0.07),
+                                   ("EEVEE", 16, 10.0, 0.43), ("Translucent (TEXTURE_SPACE)", 512, 1.5, 0.23))]
+
+    path = tmp_path / "pareto.png"
+    pareto_summary_chart({"a": entries(1.0), "b": entries(0.5), "c": entries(2.0)}, path, "test")
+    image = plt.imread(path)
+    assert image.shape[0] > 400 and image.shape[1] > 1000
+    assert image[..., :3].std() > 0.05  # lines and text on the white page
+    speed_accuracy_chart(entries(1.0), tmp_path / "chart.png", "one scene")
+    assert plt.imread(tmp_path / "chart.png")[..., :3].std() > 0.05
+    with pytest.raises(ValueError, match="no scenes"):
+        pareto_summary_chart({}, tmp_path / "none.png", "empty")
+
+
 # -- the sky a surface point sees (geometry/world_visibility.py) ------------------------------------
 def _box_mesh(lo, hi):
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)

@@ -63,37 +63,109 @@ def read_report(path: Path) -> tuple[list[Entry], dict]:
     return [Entry(**e) for e in data["renders"]], data["meta"]
 
 
+# What each chart panel plots: the RMSE, and the median that fireflies in the reference cannot move.
+CHART_METRICS = (("rel_rmse", "relative RMSE over the object"),
+                 ("median_rel_error", "median relative error over the object"))
+
+
+def pareto_front(seconds, errors) -> np.ndarray:
+    """Indices of the points that no other point beats in both time and error (faster and at least as
+    accurate, or as fast and more accurate), in order of time: the choices worth having."""
+    t = np.asarray(seconds, np.float64)
+    e = np.asarray(errors, np.float64)
+    front, best = [], np.inf
+    for i in np.lexsort((e, t)):  # by time, then by error
+        if e[i] < best:
+            front.append(int(i))
+            best = e[i]
+    return np.array(front, np.int64)
+
+
+def _measured(entries, metric: str):
+    return [e for e in entries if getattr(e, metric) is not None and getattr(e, metric) > 0]
+
+
+def _series_colours(names) -> dict:
+    """One colour per series, the same in every panel and chart."""
+    return {name: f"C{k % 10}" for k, name in enumerate(sorted(set(names)))}
+
+
+def _speed_accuracy_panel(ax, entries, metric: str, ylabel: str, colours: dict, labels: bool = True) -> None:
+    """One log-log panel: a line per series, setting labels, the Pareto front of all points dashed."""
+    markers = "osD^v<>px*h"
+    items = _measured(entries, metric)
+    series = {}
+    for e in items:
+        series.setdefault(e.series, []).append(e)
+    for name, group in sorted(series.items()):
+        group.sort(key=lambda e: e.seconds)
+        k = sorted(colours).index(name)
+        ax.plot([e.seconds for e in group], [getattr(e, metric) for e in group], marker=markers[k % len(markers)],
+                color=colours[name], label=name)
+        for e in group if labels else ():
+            label = e.settings.get("label")
+            if label:
+                ax.annotate(label, (e.seconds, getattr(e, metric)), textcoords="offset points", xytext=(4, 4),
+                            fontsize=6)
+    if items:
+        front = [items[i] for i in pareto_front([e.seconds for e in items], [getattr(e, metric) for e in items])]
+        ax.step([e.seconds for e in front], [getattr(e, metric) for e in front], where="post", color="grey",
+                linestyle="--", linewidth=1.0, label="Pareto front")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("seconds per frame (this machine, one run)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+
+
 def speed_accuracy_chart(entries: list[Entry], path: Path, title: str) -> None:
-    """Relative RMSE against seconds per frame (log-log), one line per series, labels with settings."""
+    """Error against seconds per frame (log-log), one line per series, labels with settings: the relative
+    RMSE (which a few fireflies in the reference can dominate) and the median relative error beside it."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 5))
-    series = {}
-    for e in entries:
-        if e.rel_rmse is None or e.rel_rmse <= 0:
-            continue
-        series.setdefault(e.series, []).append(e)
-    markers = "osD^v<>px*h"
-    for k, (name, items) in enumerate(sorted(series.items())):
-        items.sort(key=lambda e: e.seconds)
-        ax.plot([e.seconds for e in items], [e.rel_rmse for e in items], marker=markers[k % len(markers)],
-                label=name)
-        for e in items:
-            label = e.settings.get("label")
-            if label:
-                ax.annotate(label, (e.seconds, e.rel_rmse), textcoords="offset points", xytext=(4, 4), fontsize=7)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("seconds per frame (this machine, one run)")
-    ax.set_ylabel("relative RMSE over the object (linear radiance)")
-    ax.set_title(title, fontsize=10)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    fig, axes = plt.subplots(1, 2, figsize=(14, 5))
+    colours = _series_colours(e.series for e in entries)
+    for ax, (metric, ylabel) in zip(axes, CHART_METRICS):
+        _speed_accuracy_panel(ax, entries, metric, ylabel, colours)
+    axes[1].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "median_rel_error") -> None:
+    """Every scene's speed against accuracy in one figure (a panel per scene, the same colour per series
+    in each), with each scene's Pareto front: which method and setting is worth its time where."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = sorted(scenes)
+    if not names:
+        raise ValueError("no scenes to chart")
+    cols = min(2, len(names))
+    rows = (len(names) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(7.5 * cols, 4.8 * rows), squeeze=False)
+    colours = _series_colours(e.series for entries in scenes.values() for e in entries)
+    ylabel = dict(CHART_METRICS)[metric]
+    for ax, name in zip(axes.flat, names):
+        _speed_accuracy_panel(ax, scenes[name], metric, ylabel, colours, labels=False)
+        ax.set_title(name, fontsize=9)
+    for ax in list(axes.flat)[len(names):]:
+        ax.axis("off")
+    handles = {}
+    for ax in axes.flat:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(label, h)
+    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.06 + 0.02 * rows, 1, 0.97))
+    fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
