@@ -33,12 +33,18 @@ from . import dipole
 
 TABLE_SIZE = 257
 SCALE_MAX = 1.0  # the largest g rho the ramp is trusted with
+# A medium that does not absorb (sigma_a = 0 is valid: spectralon) has sigma_tr = 0 and a kernel whose
+# mean radius grows without bound (R_d r ~ 1 / r^2 far out): its grid is taken at this absorption (a
+# 10^8 mm absorption length), where rho is a few tens of the transport mean free path and g rho is
+# held at SCALE_MAX anyway.
+SIGMA_A_FLOOR = 1e-8
 
 
 def _radial_grid(sigma_a: float, sigma_s_prime: float, eta: float):
     """Radii (per unit of sigma's length) and trapezoid weights of R_d(r) r dr, fine where R_d peaks
     (the real source's depth z_r, much less than 1 / sigma_tr at high albedo), out to 40 / sigma_tr,
     and the mean radius rho on that grid."""
+    sigma_a = max(float(sigma_a), SIGMA_A_FLOOR)
     _, sigma_tr, z_r, _ = dipole.dipole_parameters(sigma_a, sigma_s_prime, eta)
     r = np.concatenate([[0.0], np.geomspace(1e-4 * min(z_r, 1.0 / sigma_tr), 40.0 / sigma_tr, 4000)])
     f = dipole.R_d(r, sigma_a, sigma_s_prime, eta) * r
