@@ -5,7 +5,9 @@ physical bounds. sigma_a from 0 (no absorption) to 100 / mm, sigma_s' from 1e-3 
 thinner in scattering than air in fog) to 1000 / mm, eta from index-matched to diamond-like.
 
 Found by this suite: QUADGRAPH's terminator table (``physics/terminator.py``) was NaN at sigma_a = 0,
-whose kernel has no finite mean radius; it is now taken at ``SIGMA_A_FLOOR``."""
+whose kernel has no finite mean radius (it is now taken at ``SIGMA_A_FLOOR``), and TEXTURE_SPACE's R_d
+table reached 40 / sigma_tr = infinity there, so its bake kept no form factor and drew a black object
+(the table now stops at ``lensch.TABLE_REACH_MAX_MM``, exact beyond)."""
 from __future__ import annotations
 
 import itertools
@@ -13,6 +15,7 @@ import itertools
 import numpy as np
 import pytest
 
+from translucent_addon.bake import lensch
 from translucent_addon.physics import diffusion as df
 from translucent_addon.physics import dipole, lut, terminator
 from translucent_addon.physics import single_scattering as ss
@@ -39,6 +42,11 @@ def test_dipole_and_image_space_tables_stay_finite_and_bounded(sigma_a, sigma_s_
     assert np.isfinite(r) and r > 0
     t = lut.image_space_tables([sigma_a] * 3, [sigma_s_prime] * 3, eta, 1.0)
     assert _finite(t.far, t.tail, t.near) and (t.far >= 0).all() and (t.near >= 0).all()
+    # TEXTURE_SPACE's tabulated profile: what the exact one gives, from 0.01 mm to 2 m.
+    medium = lensch.Material((sigma_a,) * 3, (sigma_s_prime,) * 3, eta)
+    radii = np.geomspace(0.01, 2000.0, 60)
+    exact = medium.R_d_exact(radii)
+    assert _finite(medium.R_d(radii)) and medium.R_d(radii) == pytest.approx(exact, rel=0.02, abs=1e-12 * exact.max())
 
 
 @pytest.mark.parametrize("sigma_a,sigma_s_prime,eta", DOMAIN)

@@ -90,6 +90,7 @@ class Material:
 
 
 TABLE_SAMPLES = 1 << 14
+TABLE_REACH_MAX_MM = 1000.0  # beyond the 40 / sigma_tr of every measured material (marble: 330 mm)
 
 
 @functools.lru_cache(maxsize=8)
@@ -98,7 +99,10 @@ def _profile_table(material: Material):
     sample (zero after the last)): interpolation error < 1e-4."""
     sigma_t = np.asarray(material.sigma_a) + np.asarray(material.sigma_s_prime)
     sigma_tr = np.sqrt(3.0 * np.asarray(material.sigma_a) * sigma_t)
-    reach = float(np.max(40.0 / sigma_tr))  # R_d is e^-40 of its peak scale there
+    # R_d is e^-40 of its peak scale at 40 / sigma_tr; a medium that does not absorb (sigma_tr = 0) has
+    # no such reach, and past TABLE_REACH_MAX_MM R_d is evaluated exactly.
+    with np.errstate(divide="ignore"):
+        reach = float(min(np.max(40.0 / sigma_tr), TABLE_REACH_MAX_MM))
     root = math.sqrt(reach)
     r = (np.linspace(0.0, root, TABLE_SAMPLES)) ** 2
     table = material.R_d_exact(r)
