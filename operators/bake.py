@@ -16,6 +16,9 @@ from ..translucent_addon.bake.inputs import gather
 from ..translucent_addon.render.methods import bake_cache
 
 
+BAKED_AUTO = {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}  # methods whose Auto resolutions a bake uses
+
+
 def _active_mesh(context):
     ob = context.active_object
     if ob is None:
@@ -117,6 +120,15 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
         if error:
             self.report({"ERROR"}, error)
             return None
+        if ob.translucent.quality == "AUTO" and ob.translucent.method in BAKED_AUTO:
+            from .workflow import apply_auto
+
+            try:
+                choice = apply_auto(context, ob)
+            except registry.BakeInputError as err:
+                self.report({"ERROR"}, str(err))
+                return None
+            self.report({"INFO"}, f"'{ob.name}' Auto: {choice.summary()}")
         depsgraph = context.evaluated_depsgraph_get()
         try:
             inputs = gather(ob.evaluated_get(depsgraph), for_bake=True)

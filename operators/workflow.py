@@ -1,7 +1,10 @@
-"""translucent.set_physical_size and translucent.apply_quality: the size helper and quality tiers."""
+"""translucent.set_physical_size, translucent.apply_quality and translucent.auto_quality: the size helper,
+quality tiers and AUTO quality."""
 import bpy
 
-from ..translucent_addon import preferences, props, quality
+from ..translucent_addon import preferences, props, quality, quality_auto
+from ..translucent_addon.bake.inputs import object_view
+from ..translucent_addon.bake.registry import BakeInputError
 from ..translucent_addon.physics import presets
 
 
@@ -62,6 +65,66 @@ class TRANSLUCENT_OT_apply_quality(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def apply_auto(context, ob) -> quality_auto.Choice:
+    """AUTO quality on one object: choose its method's resolutions and write them (and the scene's splat
+    overlap, which every IMAGE_SPACE object shares: it is raised to this object's, never lowered)."""
+    s = ob.translucent
+    view = object_view(ob.evaluated_get(context.evaluated_depsgraph_get()))
+    tile_mm = s.grass_tile * s.mm_per_unit if s.grass else None
+    if s.method == "OFF":
+        if tile_mm is None:
+            raise BakeInputError(f"'{ob.name}': no translucency method to choose resolutions for")
+        choice = quality_auto.Choice("OFF", {"grass_resolution": quality_auto.grass_resolution(view, tile_mm)}, {},
+                                     None, {}, [])
+    else:
+        try:
+            choice = quality_auto.choose(s.method, view, s.target_error, grass_tile_mm=tile_mm)
+        except ValueError as err:
+            raise BakeInputError(f"'{ob.name}': {err}") from err
+    for name, value in choice.settings.items():
+        setattr(s, name, value)
+    if choice.scene_settings:  # IMAGE_SPACE's overlap is the scene's: the largest any Auto object needs
+        depsgraph = context.evaluated_depsgraph_get()
+        others = [quality_auto.choose("IMAGE_SPACE", object_view(o.evaluated_get(depsgraph)), o.translucent.target_error)
+                  for o in context.scene.objects if o is not ob and o.type == "MESH"
+                  and o.translucent.method == "IMAGE_SPACE" and o.translucent.quality == "AUTO"]
+        need = max([choice, *others], key=lambda c: c.scene_settings["splat_overlap"])
+        for name, value in need.scene_settings.items():
+            setattr(context.scene.translucent, name, value)
+    s.auto_summary = choice.summary()
+    return choice
+
+
+class TRANSLUCENT_OT_auto_quality(bpy.types.Operator):
+    """Choose resolutions for the objects whose quality is Auto (the active one, or every one in the scene):
+    the least cost that reaches each object's target error, from its material, its size on the camera's image
+    and the benchmark's measured curves"""
+
+    bl_idname = "translucent.auto_quality"
+    bl_label = "Choose Resolutions"
+    bl_options = {"REGISTER", "UNDO"}
+
+    all_objects: bpy.props.BoolProperty(name="Every Auto object", default=False)
+
+    def execute(self, context):
+        if self.all_objects:
+            objects = [o for o in context.scene.objects if o.type == "MESH" and o.translucent.quality == "AUTO"]
+        else:
+            ob = context.active_object
+            objects = [ob] if ob is not None and ob.type == "MESH" else []
+        if not objects:
+            self.report({"ERROR"}, "no mesh to choose resolutions for: select one, or set an object's Quality to Auto")
+            return {"CANCELLED"}
+        for ob in objects:
+            try:
+                choice = apply_auto(context, ob)
+            except BakeInputError as err:
+                self.report({"ERROR"}, str(err))
+                return {"CANCELLED"}
+            self.report({"INFO"}, f"'{ob.name}' {choice.method}: {choice.summary()}")
+        return {"FINISHED"}
+
+
 class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
     """Save the active object's coefficients as your own preset (kept in Blender's user configuration,
     listed under Preset in every file)"""
@@ -111,5 +174,6 @@ class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (TRANSLUCENT_OT_set_physical_size, TRANSLUCENT_OT_apply_quality, TRANSLUCENT_OT_save_preset,
+classes = (TRANSLUCENT_OT_set_physical_size, TRANSLUCENT_OT_apply_quality, TRANSLUCENT_OT_auto_quality,
+           TRANSLUCENT_OT_save_preset,
            TRANSLUCENT_OT_remove_preset)

@@ -148,6 +148,25 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         description="Millimetres per Blender unit for this object (1 m = 1000 mm); sets the scale of scattering",
         min=1e-6, soft_max=1e5, default=1000.0,
     )
+    quality: bpy.props.EnumProperty(
+        name="Quality",
+        description="How this object's resolutions are set",
+        items=[("MANUAL", "Manual", "The resolutions below, as you set them (or a tier from Apply Quality)"),
+               ("AUTO", "Auto", "Chosen at each bake (and by Choose Resolutions) to reach the target error at the "
+                                "least cost, from the material's scattering length, the object's size on the "
+                                "camera's image and the benchmark's measured curves")],
+        default="MANUAL",
+    )
+    target_error: bpy.props.FloatProperty(
+        name="Target error",
+        description="Auto: the discretisation error to reach, relative RMSE against the method's own model "
+                    "(0.05: 5 %)",
+        min=0.005, max=0.5, default=0.05, precision=3, step=0.5,
+    )
+    auto_summary: bpy.props.StringProperty(
+        name="Auto choice", description="What Auto chose last, its predicted error and cost, and why",
+        default="", options={"HIDDEN"},
+    )
     atlas_resolution: bpy.props.IntProperty(
         name="Atlas texels",
         description="TEXTURE_SPACE: texels along the side of the texture atlas (Lensch used 512); the proxy "

@@ -49,6 +49,16 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
             size_mm = [d * s.mm_per_unit for d in ob.dimensions]
             row.label(text="Size: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
             row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
+        if s.method != "OFF" or s.grass:
+            box = layout.box()
+            row = box.row(align=True)
+            row.prop(s, "quality", expand=True)
+            if s.quality == "AUTO":
+                row = box.row(align=True)
+                row.prop(s, "target_error")
+                row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
+                for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
+                    box.label(text=line)
         if s.method == "IMAGE_SPACE":
             layout.prop(s, "profile")
             if s.profile == "MULTIPOLE":
@@ -112,6 +122,13 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 op = grid.operator("translucent.add_paint_layer", text=label)
                 op.layer = layer
 
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    """A long line in panel-sized pieces (a label does not wrap)."""
+    import textwrap
+
+    return textwrap.wrap(text, width) or [""]
 
 def _grass_box(layout, ob) -> None:
     """Grass field: settings, BTF status and statistics, bake."""

@@ -67,6 +67,31 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     return inputs
 
 
+def object_view(ob_eval):
+    """What AUTO quality needs of an object (``quality_auto.ObjectView``): its size in mm with its scale,
+    its area, its material and its bounding-box diagonal on the camera's image."""
+    from ..quality_auto import ObjectView
+    from .proxy import surface_area
+
+    props = ob_eval.original.translucent
+    mesh = ob_eval.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        vertices = np.empty(len(mesh.vertices) * 3, np.float64)
+        mesh.vertices.foreach_get("co", vertices)
+        triangles = np.empty(len(mesh.loop_triangles) * 3, np.int64)
+        mesh.loop_triangles.foreach_get("vertices", triangles)
+    finally:
+        ob_eval.to_mesh_clear()
+    if not len(triangles):
+        raise BakeInputError(f"'{ob_eval.original.name}' has no faces: nothing to choose resolutions for")
+    v_mm = vertices.reshape(-1, 3) @ stretch_of(np.array(ob_eval.matrix_world)[:3, :3]).T * props.mm_per_unit
+    return ObjectView(diagonal_mm=float(np.linalg.norm(np.ptp(v_mm, axis=0))),
+                      area_mm2=surface_area(v_mm, triangles.reshape(-1, 3)), screen_pixels=screen_pixels(ob_eval),
+                      sigma_a=tuple(props.sigma_a), sigma_s_prime=tuple(props.sigma_s_prime), eta=float(props.eta),
+                      triangles=len(triangles) // 3)
+
+
 def screen_pixels(ob_eval) -> float | None:
     """The object's bounding-box diagonal on the scene camera's image, in pixels (None: no camera)."""
     import bpy
