@@ -37,6 +37,7 @@ bench: $(STAMP)
 	$(PY) scripts/bench_grass.py
 	$(PY) scripts/bench_interval.py
 	$(PY) scripts/bench_stability.py
+	$(PY) scripts/bench_auto.py
 	$(PY) scripts/look_world_light.py
 
 clean:

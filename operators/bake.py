@@ -121,7 +121,7 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"ERROR"}, error)
             return None
         if ob.translucent.quality == "AUTO" and ob.translucent.method in BAKED_AUTO:
-            from .workflow import apply_auto
+            from ..translucent_addon.quality_apply import apply_auto
 
             try:
                 choice = apply_auto(context, ob)

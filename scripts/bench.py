@@ -1,8 +1,10 @@
 """`make bench`: every scene of the set, every series, in one run on this machine.
 
-For each scene of translucent_addon/demo.py SCENES: translucent.compare_cycles' runner (our engine
-at several shadow resolutions, Cycles random walk and brute force at several sample counts, EEVEE
-at several sample counts, the CPU dipole model) against a cached Cycles random-walk reference.
+For each scene of translucent_addon/demo.py SCENES: translucent.compare_cycles' runner (IMAGE_SPACE at
+four splat overlaps, TEXTURE_SPACE at three atlas and proxy settings, QUADGRAPH at K = 2, 1 and 0.5, Quality
+= Auto at a 5 % target for IMAGE_SPACE and TEXTURE_SPACE, Cycles random walk and brute force at several
+sample counts, EEVEE at several sample counts, the CPU dipole model) against a cached Cycles random-walk
+reference.
 Writes bench/results/<scene>/ (report.json, chart.png, images), bench/results/summary.md (the
 table), bench/results/pareto.png (every scene's speed against accuracy, with its Pareto front) and
 bench/results/machine.json. ``--charts-only`` draws the charts again from the report.json files.
@@ -74,7 +76,8 @@ def main() -> int:
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = demo.build_scene(name, bpy.context.scene)
         scene.render.resolution_x, scene.render.resolution_y = args.width, args.height
-        settings = runner.CompareSettings.quick() if args.quick else runner.CompareSettings()
+        settings = runner.CompareSettings.quick() if args.quick else runner.CompareSettings(
+            texture_space_atlas=(256, 512, (512, 2.4)), quadgraph_K=(2.0, 1.0, 0.5), auto_targets=(0.05,))
         settings.cache_dir = args.cache
         print(f"== {name}", flush=True)
         subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
@@ -130,12 +133,48 @@ def draw_charts(out: Path) -> int:
         print(f"no report.json under {out}: run the bench first", file=sys.stderr)
         return 1
     machine = json.loads((out / "machine.json").read_text()) if (out / "machine.json").exists() else {}
-    report.pareto_summary_chart(scenes, out / "pareto.png",
-                                f"Median relative error against Cycles random walk 1024 spp, {size[0]}x{size[1]}; "
-                                f"{machine.get('cpu', 'this machine')}, one run (Mesa llvmpipe for our engine "
-                                f"and EEVEE)")
+    others, metrics, titles = other_scenes(out, report)
+    report.pareto_summary_chart({**scenes, **others}, out / "pareto.png",
+                                f"Median relative error against Cycles random walk 1024 spp, {size[0]}x{size[1]} "
+                                f"(glass and caustics: their benchmarks' references); "
+                                f"{machine.get('cpu', 'this machine')}, one make bench (Mesa llvmpipe for our engine "
+                                f"and EEVEE)", panel_metrics=metrics, panel_titles=titles)
     print(f"wrote {out / 'pareto.png'} and {len(scenes)} scene charts")
     return 0
+
+
+def other_scenes(out: Path, report) -> tuple[dict, dict, dict]:
+    """The glass bunny (bench_geocube.py) and the caustic ball (bench_caustics.py) as report entries, for
+    the summary chart: (entries per scene, the metric of each, the title of each)."""
+    scenes, metrics, titles = {}, {}, {}
+    geocube = out / "geocube" / "results.json"
+    if geocube.exists():
+        series = {"GEOCUBE": ("Translucent (GEOCUBE)", "TRANSLUCENT_RT"), "EEVEE 16": ("EEVEE", "BLENDER_EEVEE"),
+                  "Cycles 16": ("Cycles path tracing", "CYCLES")}
+        rows = [r for r in json.loads(geocube.read_text())["images"] if r["case"] == "bunny_glass"]
+        scenes["bunny_glass"] = [report.Entry(series=series[r["label"]][0], engine=series[r["label"]][1],
+                                              settings={"label": r["label"]}, seconds=r["seconds"],
+                                              reference="Cycles 256", rel_rmse=r["rel_rmse"],
+                                              median_rel_error=r["median"])
+                                 for r in rows if r["label"] in series]
+        titles["bunny_glass"] = "bunny_glass (bench_geocube; median against Cycles 256 spp)"
+    caustics = out / "caustics" / "results.json"
+    if caustics.exists():
+        entries = []
+        for r in json.loads(caustics.read_text())["ball"]:
+            if r["label"].startswith("ours") and "fixed" not in r["label"]:
+                name, engine = f"Translucent (caustics, grid {r['grid']})", "TRANSLUCENT_RT"
+            elif r["label"].startswith("Cycles MNEE"):
+                name, engine = "Cycles MNEE", "CYCLES"
+            elif r["label"].startswith("EEVEE"):
+                name, engine = "EEVEE", "BLENDER_EEVEE"
+            else:
+                continue
+            entries.append(report.Entry(series=name, engine=engine, settings={"label": r["label"]},
+                                        seconds=r["seconds"], reference="exact trace", rel_rmse=r["rel_rmse"]))
+        scenes["caustic_ball"], metrics["caustic_ball"] = entries, "rel_rmse"
+        titles["caustic_ball"] = "caustic_ball (bench_caustics; relative RMSE against an exact photon trace)"
+    return scenes, metrics, titles
 
 
 def summary_table(rows, machine) -> str:

@@ -98,3 +98,28 @@ def test_compare_steps_report_progress_and_stop_cleanly(tr, scene, tmp_path):
     next(job)
     job.close()
     assert scene.render.engine == engine and [s.material for s in ob.material_slots] == materials
+
+
+def test_compare_quadgraph_and_auto_series_restore_the_object(tr, scene, tmp_path):
+    ball = _scene(tr, scene)
+    ball.translucent.atlas_resolution = 384
+    overlap = scene.translucent.splat_overlap
+    runner = ext_module(tr, "translucent_addon.compare.runner")
+    settings = runner.CompareSettings(our_quality=(), cycles_random_walk_samples=(), cycles_brute_force_samples=(),
+                                      eevee_samples=(), reference_samples=16, brute_force_reference_samples=0,
+                                      model_reference_samples=0, texture_space_atlas=(), quadgraph_K=(2.0,),
+                                      auto_targets=(0.1,))
+    entries, _ = runner.run(scene, tmp_path, settings, progress=lambda s: None)
+    by_series = {e.series: e for e in entries}
+    assert set(by_series) == {"Cycles random walk (reference)", "Translucent (QUADGRAPH)",
+                              "Translucent Auto (IMAGE_SPACE)", "Translucent Auto (TEXTURE_SPACE)"}
+    assert by_series["Translucent (QUADGRAPH)"].settings["bake_seconds"] > 0
+    auto_ts = by_series["Translucent Auto (TEXTURE_SPACE)"]
+    assert "atlas_resolution" in auto_ts.settings["choice"] and auto_ts.settings["bake_seconds"] > 0
+    assert "splat_overlap" in by_series["Translucent Auto (IMAGE_SPACE)"].settings["choice"]
+    for e in entries[1:]:
+        assert math.isfinite(e.rel_rmse) and e.rel_rmse < 1.0, e.series  # lit, not black
+    # The object and the scene as they were.
+    assert ball.translucent.method == "IMAGE_SPACE" and ball.translucent.quality == "MANUAL"
+    assert ball.translucent.atlas_resolution == 384 and ball.translucent.auto_summary == ""
+    assert scene.translucent.splat_overlap == overlap

@@ -492,6 +492,20 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
     assert plt.imread(tmp_path / "chart.png")[..., :3].std() > 0.05
     with pytest.raises(ValueError, match="no scenes"):
         pareto_summary_chart({}, tmp_path / "none.png", "empty")
+    # A panel with only the RMSE (the caustic ball's benchmark): drawn from that metric, under its own title.
+    from unittest import mock
+
+    import translucent_addon.compare.report as report_module
+
+    rmse_only = [Entry(series=f"S{k}", engine="X", settings={}, seconds=0.1 * (k + 1), reference="ref",
+                       rel_rmse=0.5 / (k + 1)) for k in range(12)]  # 12 series: past ten colours
+    with mock.patch.object(report_module, "_speed_accuracy_panel", wraps=report_module._speed_accuracy_panel) as panel:
+        pareto_summary_chart({"a": entries(1.0), "caustic": rmse_only}, tmp_path / "mixed.png", "t",
+                             panel_metrics={"caustic": "rel_rmse"}, panel_titles={"caustic": "caustic ball"})
+    assert [(len(c.args[1]), c.args[2]) for c in panel.call_args_list] == [(4, "median_rel_error"), (12, "rel_rmse")]
+    assert plt.imread(tmp_path / "mixed.png")[..., :3].std() > 0.05
+    colours = report_module._series_colours(e.series for e in rmse_only)
+    assert len({tuple(c) for c in colours.values()}) == 12
 
 
 # -- the sky a surface point sees (geometry/world_visibility.py) ------------------------------------

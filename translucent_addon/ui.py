@@ -123,12 +123,12 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 op.layer = layer
 
 
-
 def _wrap(text: str, width: int) -> list[str]:
     """A long line in panel-sized pieces (a label does not wrap)."""
     import textwrap
 
     return textwrap.wrap(text, width) or [""]
+
 
 def _grass_box(layout, ob) -> None:
     """Grass field: settings, BTF status and statistics, bake."""

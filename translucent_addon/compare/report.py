@@ -86,8 +86,14 @@ def _measured(entries, metric: str):
 
 
 def _series_colours(names) -> dict:
-    """One colour per series, the same in every panel and chart."""
-    return {name: f"C{k % 10}" for k, name in enumerate(sorted(set(names)))}
+    """One colour per series, the same in every panel and chart (tab20 past ten series: no two alike)."""
+    names = sorted(set(names))
+    if len(names) <= 10:
+        return {name: f"C{k}" for k, name in enumerate(names)}
+    from matplotlib import colormaps
+
+    palette = colormaps["tab20"]
+    return {name: palette(k % 20) for k, name in enumerate(names)}
 
 
 def _speed_accuracy_panel(ax, entries, metric: str, ylabel: str, colours: dict, labels: bool = True) -> None:
@@ -137,9 +143,12 @@ def speed_accuracy_chart(entries: list[Entry], path: Path, title: str) -> None:
     plt.close(fig)
 
 
-def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "median_rel_error") -> None:
+def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "median_rel_error",
+                         panel_metrics: dict | None = None, panel_titles: dict | None = None) -> None:
     """Every scene's speed against accuracy in one figure (a panel per scene, the same colour per series
-    in each), with each scene's Pareto front: which method and setting is worth its time where."""
+    in each), with each scene's Pareto front: which method and setting is worth its time where.
+    ``panel_metrics`` and ``panel_titles`` override the metric and the title of named panels (a scene whose
+    benchmark measured only the RMSE, against its own reference)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -152,10 +161,10 @@ def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "me
     rows = (len(names) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(7.5 * cols, 4.8 * rows), squeeze=False)
     colours = _series_colours(e.series for entries in scenes.values() for e in entries)
-    ylabel = dict(CHART_METRICS)[metric]
     for ax, name in zip(axes.flat, names):
-        _speed_accuracy_panel(ax, scenes[name], metric, ylabel, colours, labels=False)
-        ax.set_title(name, fontsize=9)
+        m = (panel_metrics or {}).get(name, metric)
+        _speed_accuracy_panel(ax, scenes[name], m, dict(CHART_METRICS)[m], colours, labels=False)
+        ax.set_title((panel_titles or {}).get(name, name), fontsize=9)
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
     handles = {}

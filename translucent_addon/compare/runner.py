@@ -58,6 +58,9 @@ class CompareSettings:
     cache_dir: str = ""  # default: <output_dir>/cache
     # TEXTURE_SPACE series: atlas resolutions baked and drawn (the objects' method is restored after).
     texture_space_atlas: tuple = (256, 512)
+    quadgraph_K: tuple = ()  # QUADGRAPH series: densities baked and drawn (the benchmark: 2, 1, 0.5)
+    # Quality = Auto at these target errors, for IMAGE_SPACE and TEXTURE_SPACE (the benchmark: 0.05)
+    auto_targets: tuple = ()
 
     @classmethod
     def quick(cls) -> "CompareSettings":
@@ -239,7 +242,8 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     entries: list[Entry] = []
     total = (1 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
              + len(settings.cycles_brute_force_samples) + len(settings.eevee_samples) + len(settings.our_quality)
-             + 2 * len(settings.texture_space_atlas) + bool(settings.model_reference_samples) + 1)
+             + 2 * len(settings.texture_space_atlas) + len(settings.quadgraph_K) + 2 * len(settings.auto_targets)
+             + bool(settings.model_reference_samples) + 1)
     steps = [0]
 
     def step(text):
@@ -301,6 +305,25 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         yield step(f"Translucent (TEXTURE_SPACE) {label}: done")
         add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", label, sec, img, methods=["TEXTURE_SPACE"],
             atlas_resolution=res, proxy_spacing=spacing, product=product, bake_seconds=bake_seconds)
+    for K in settings.quadgraph_K:
+        yield step(f"Translucent (QUADGRAPH) K={K:g} ...")
+        with method_applied(objects, "QUADGRAPH", quadgraph_K=K):
+            bake_seconds, _ = bake_objects(objects, "QUADGRAPH", lambda text: None)
+            img, sec = warm_render(scene, width, height)
+        add("Translucent (QUADGRAPH)", "TRANSLUCENT_RT", f"K={K:g}", sec, img, methods=["QUADGRAPH"], quadgraph_K=K,
+            bake_seconds=bake_seconds)
+    for target in settings.auto_targets:
+        for method in ("IMAGE_SPACE", "TEXTURE_SPACE"):
+            yield step(f"Translucent Auto ({method}), target {target:g} ...")
+            with method_applied(objects, method, quality="AUTO", target_error=target), scene_kept(scene):
+                from ..quality_apply import apply_auto
+
+                choices = [apply_auto(bpy.context, ob) for ob in objects]
+                bake_seconds = bake_objects(objects, method, lambda text: None)[0] if method != "IMAGE_SPACE" else 0.0
+                img, sec = warm_render(scene, width, height)
+            add(f"Translucent Auto ({method})", "TRANSLUCENT_RT", f"target {100 * target:g} %", sec, img,
+                methods=[method], target_error=target, bake_seconds=bake_seconds,
+                choice="; ".join(c.summary() for c in choices))
     model_image = None
     if settings.model_reference_samples:
         yield step(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
@@ -363,6 +386,43 @@ def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict
         progress(f"baked {ob.name} ({method}): {meta.get('proxy_vertices', '?')} proxy vertices, "
                  f"{time.perf_counter() - t0:.1f} s")
     return time.perf_counter() - t0, metas
+
+
+@contextlib.contextmanager
+def method_applied(objects, method: str, **props):
+    """The objects drawn with ``method`` and these Object.translucent values; every value restored after."""
+    names = ["method", *props, "atlas_resolution", "proxy_spacing", "quadgraph_K", "geocube_resolution",
+             "auto_summary"]
+    saved = [(ob, {n: getattr(ob.translucent, n) for n in dict.fromkeys(names)}) for ob in objects]
+    try:
+        for ob in objects:
+            ob.translucent.method = method
+            for name, value in props.items():
+                setattr(ob.translucent, name, value)
+        yield
+    finally:
+        for ob, values in saved:
+            for name, value in values.items():
+                setattr(ob.translucent, name, value)
+
+
+@contextlib.contextmanager
+def scene_kept(scene):
+    """Scene.translucent's sampling values (which Auto may set) restored after."""
+    names = ("splat_overlap", "splat_max_grid")
+    saved = {n: getattr(scene.translucent, n) for n in names}
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(scene.translucent, name, value)
+
+
+def warm_render(scene, width: int, height: int):
+    """Our engine's second frame (the first uploads a bake and starts a relaxation cold): (image, seconds)."""
+    with engine_setup(scene, "TRANSLUCENT_RT"):
+        render_pixels(scene, width, height)
+        return render_pixels(scene, width, height)
 
 
 def texture_space_setting(item) -> tuple[int, float]:
