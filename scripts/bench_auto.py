@@ -34,6 +34,8 @@ def main() -> int:
     parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "auto"))
     parser.add_argument("--cache", default=str(ROOT / "bench" / "cache"))
     parser.add_argument("--charts-only", action="store_true")
+    parser.add_argument("--cases", nargs="*", help="run only these cases (e.g. cow_backlit bunny_backlit_x20); "
+                                                    "the other cases' rows are kept from results.json")
     args = parser.parse_args()
     out = Path(args.output)
     if args.charts_only:
@@ -47,9 +49,13 @@ def main() -> int:
     runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
+    if args.cases and (out / "results.json").exists():
+        rows = [r for r in json.loads((out / "results.json").read_text())["rows"] if r["case"] not in args.cases]
     t_start = time.perf_counter()
     for name, scale in CASES:
         case = name if scale == 1.0 else f"{name}_x{scale:g}"
+        if args.cases and case not in args.cases:
+            continue
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = demo.build_scene(name, bpy.context.scene)
         scene.render.resolution_x = scene.render.resolution_y = SIZE
@@ -115,7 +121,8 @@ def main() -> int:
             bpy.ops.translucent.auto_quality()
             texture_space(f"auto {target:g}", "auto", target)
     meta = {"size": [SIZE, SIZE], "blender": bpy.app.version_string, **runner.machine_description(),
-            "total_seconds": round(time.perf_counter() - t_start, 1)}
+            "total_seconds": round(time.perf_counter() - t_start, 1),
+            "cases_run": args.cases or [c if s == 1.0 else f"{c}_x{s:g}" for c, s in CASES]}
     result = {"machine": meta, "rows": rows}
     (out / "results.json").write_text(json.dumps(result, indent=1))
     return draw(out, result)

@@ -10,12 +10,13 @@ How: from the benchmark's measured curves (``data/quality_curves.json``, written
 other objects:
 
 * IMAGE_SPACE: error against the splat overlap k (light-view samples per splat radius r_max). The spacing
-  r_max / k need not be finer than half a pixel of the object on screen (``PIXEL_SAMPLES``), which caps k
-  for objects far larger than their scattering length or small on screen.
+  r_max / k need not be finer than an eighth of a pixel of the object on screen (``PIXEL_SAMPLES``), which
+  caps k for objects far larger than their scattering length or small on screen.
 * TEXTURE_SPACE: error against the proxy's edge h over the object's bounding-box diagonal D (the light's
   structure on an object, shadows and terminators, scales with it). Candidates are every atlas resolution
   and proxy spacing; the cheapest (fewest form factors: bake time and memory) that reaches the target wins,
-  with no proxy edge below a pixel and no more form factors than ``FORM_FACTOR_BUDGET``.
+  with no proxy edge below a quarter pixel (``PIXEL_VERTICES``) and no more form factors than
+  ``FORM_FACTOR_BUDGET``.
 * QUADGRAPH: error against exact transport is flat over K = 1, 0.5, 0.3 (its model's error dominates), so K
   = 1 unless even K = 2's surface nodes are finer than a pixel.
 * GEOCUBE: cube texels from the object's pixels (``bake.geocube.resolution_for``).
@@ -38,11 +39,18 @@ from .physics.dipole import r_max
 
 CURVES_JSON = Path(__file__).parent / "data" / "quality_curves.json"
 TARGET_DEFAULT = 0.05
-PIXEL_SAMPLES = 2.0  # IMAGE_SPACE: light-view samples per pixel of the object, at most
+# IMAGE_SPACE: light-view samples per pixel of the object, at most. Measured: the cow's error at 512x512 still
+# fell from k = 32 to 48 (3 to 5 samples per pixel: 5.2 to 3.7 %), and a cap at 2 left it at 8.2 % for a 5 %
+# target (bench/results/auto); splat sums alias below a pixel, so the cap only bites where r_max nears a pixel.
+PIXEL_SAMPLES = 8.0
 SPLAT_OVERLAP_RANGE = (4.0, 64.0)
 ATLAS_CHOICES = (128, 192, 256, 384, 512, 768, 1024)
 SPACING_CHOICES = (3.5, 2.4)  # the default and the High tier's proxy spacing (texels)
-FORM_FACTOR_BUDGET = 15_000_000  # about 240 MB of throughput factors (16 bytes each), 90 s of bake here
+# TEXTURE_SPACE: proxy vertices per pixel of the object (along a side), at most. Measured: the back-lit cow at
+# 192x144 (2.5 mm a pixel) went from 8.6 % at a proxy edge of a pixel and a half to 4.2 % at about one
+# (bench/results/summary.md), so a cap at one vertex a pixel stopped short; a quarter pixel is the finest kept.
+PIXEL_VERTICES = 4.0
+FORM_FACTOR_BUDGET = 20_000_000  # 305 MB of throughput factors (16 bytes each), 100 s of bake here; High takes 14M
 BYTES_PER_FORM_FACTOR = 16
 QUADGRAPH_K_CHOICES = (2.0, 1.0)
 GRASS_CHOICES = (64, 128, 256)
@@ -229,7 +237,7 @@ def splat_overlap_for(view: ObjectView, target: float, curves: str = str(CURVES_
         k_pixel = PIXEL_SAMPLES * view.r_max_mm / view.pixel_mm
         if k_pixel < k:
             k = k_pixel
-            notes.append(f"splats finer than half a pixel would not show: k capped at {k_pixel:.1f}")
+            notes.append(f"samples finer than an eighth of a pixel would not show: k capped at {k_pixel:.1f}")
     lo, hi = SPLAT_OVERLAP_RANGE
     if k > hi:
         notes.append(f"the target needs k = {k:.0f}; k stops at {hi:g}")
@@ -282,7 +290,8 @@ def _form_factors(view: ObjectView, vertices: float) -> float:
 
 def _texture_space(view: ObjectView, target: float, curves: str) -> Choice:
     cands = [texture_space_candidate(view, a, s, curves) for a in ATLAS_CHOICES for s in SPACING_CHOICES]
-    visible = [c for c in cands if c["h_mm"] >= view.pixel_mm] or [max(cands, key=lambda c: c["h_mm"])]
+    visible = [c for c in cands if c["h_mm"] >= view.pixel_mm / PIXEL_VERTICES] or [
+        max(cands, key=lambda c: c["h_mm"])]
     affordable = [c for c in visible if c["form_factors"] <= FORM_FACTOR_BUDGET] or [
         min(visible, key=lambda c: c["form_factors"])]
     meeting = [c for c in affordable if c["error"] <= target]
@@ -294,8 +303,8 @@ def _texture_space(view: ObjectView, target: float, curves: str) -> Choice:
         if not any(c["error"] <= target for c in cands):
             notes.append("the target is beyond the finest setting: the finest")
         elif not any(c["error"] <= target for c in visible):
-            notes.append("the target needs a proxy finer than a pixel of the object, which would not show: "
-                         "the finest that shows")
+            notes.append("the target needs a proxy finer than a quarter pixel of the object, which would not "
+                         "show: the finest that shows")
         else:
             notes.append(f"the target needs more than {FORM_FACTOR_BUDGET / 1e6:g}M form factors: the finest "
                          "within them")
