@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 
 from translucent_addon.bake.proxy import ATLAS_FILL, surface_area  # noqa: E402
 from translucent_addon.geometry.mesh_io import load_npz  # noqa: E402
-from translucent_addon.physics.dipole import r_max  # noqa: E402
+from translucent_addon.physics.dipole import dipole_parameters, r_max  # noqa: E402
 from translucent_addon.physics.presets import load_presets  # noqa: E402
 
 RESULTS = ROOT / "bench" / "results"
@@ -42,8 +42,7 @@ def scene_measures(name: str) -> dict:
     v, t = load_npz(ROOT / "translucent_addon" / "data" / "meshes" / f"{mesh}.npz")
     v = v * (size * 1000.0 / np.ptp(v, axis=0).max())
     m = load_presets()[preset]
-    sigma_a, sigma_s_prime = np.asarray(m.sigma_a), np.asarray(m.sigma_s_prime)
-    sigma_tr = np.sqrt(3.0 * sigma_a * (sigma_a + sigma_s_prime))  # Jensen 2001 Eq. 4 (Shah Eq. 6.6)
+    sigma_tr = dipole_parameters(m.sigma_a, m.sigma_s_prime, m.eta)[1]
     return {"ell_min_mm": round(float(1.0 / sigma_tr.max()), 4),
             "ell_max_mm": round(float(1.0 / sigma_tr.min()), 4), "diagonal_mm": round(float(np.linalg.norm(np.ptp(v, axis=0))), 2),
             "area_mm2": round(surface_area(v, t), 1), "triangles": int(len(t)), "preset": preset,

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .physics.dipole import r_max
+from .physics.dipole import dipole_parameters, r_max
 
 CURVES_JSON = Path(__file__).parent / "data" / "quality_curves.json"
 TARGET_DEFAULT = 0.05
@@ -191,12 +191,13 @@ def texture_space_model(path: str = str(CURVES_JSON)) -> TextureSpaceModel:
 def form_factor_calibration(path: str = str(CURVES_JSON)) -> float:
     """Measured form factors over ``texture_space_candidate``'s estimate, the median over the measured bakes."""
     data = load_curves(path)
+    from .physics.presets import load_presets
+
+    presets = load_presets()
     ratios = []
     for r in data["texture_space"]:
         s = data["scenes"][r["scene"]]
-        from .physics.presets import load_presets
-
-        m = load_presets()[s["preset"]]
+        m = presets[s["preset"]]
         view = ObjectView(s["diagonal_mm"], s["area_mm2"], None, m.sigma_a, m.sigma_s_prime, m.eta, s["triangles"])
         ratios.append(r["form_factors"] / _form_factors(view, r["proxy_vertices"]))
     return float(np.median(ratios))
@@ -273,9 +274,8 @@ def texture_space_candidate(view: ObjectView, atlas: int, spacing: float, curves
 
 
 def sigma_tr(view: ObjectView) -> np.ndarray:
-    """Effective transport coefficient per channel, sqrt(3 sigma_a sigma_t') (Jensen 2001 Eq. 4)."""
-    sigma_a = np.asarray(view.sigma_a, float)
-    return np.sqrt(3.0 * sigma_a * (sigma_a + np.asarray(view.sigma_s_prime, float)))
+    """Effective transport coefficient per channel, sqrt(3 sigma_a sigma_t') (Shah Eq. 6.6)."""
+    return dipole_parameters(view.sigma_a, view.sigma_s_prime, view.eta)[1]
 
 
 def _form_factors(view: ObjectView, vertices: float) -> float:

@@ -16,26 +16,14 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     original = ob_eval.original
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
-    mesh = ob_eval.to_mesh()
-    try:
-        mesh.calc_loop_triangles()
-        vertices = np.empty(len(mesh.vertices) * 3, np.float32)
-        mesh.vertices.foreach_get("co", vertices)
-        triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-        corner_normals = None
-        if (method or original.translucent.method) == "TEXTURE_SPACE":
-            from ..render.extract import mesh_corner_arrays
-
-            corner_normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
-    finally:
-        ob_eval.to_mesh_clear()
+    vertices, triangles, corner_normals = mesh_arrays(
+        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE")
     props = original.translucent
     inputs = BakeInputs(
         name=original.name,
         method=method or props.method,
-        vertices=vertices.reshape(-1, 3),
-        triangles=triangles.reshape(-1, 3),
+        vertices=vertices,
+        triangles=triangles,
         corner_normals=corner_normals,
         mm_per_unit=float(props.mm_per_unit),
         sigma_a=tuple(props.sigma_a),
@@ -67,6 +55,26 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     return inputs
 
 
+def mesh_arrays(ob_eval, *, corner_normals: bool = False):
+    """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32, corner
+    normals (T, 3, 3) or None), read in bulk."""
+    mesh = ob_eval.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        vertices = np.empty(len(mesh.vertices) * 3, np.float32)
+        mesh.vertices.foreach_get("co", vertices)
+        triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+        mesh.loop_triangles.foreach_get("vertices", triangles)
+        normals = None
+        if corner_normals:
+            from ..render.extract import mesh_corner_arrays
+
+            normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
+    finally:
+        ob_eval.to_mesh_clear()
+    return vertices.reshape(-1, 3), triangles.reshape(-1, 3), normals
+
+
 def object_view(ob_eval):
     """What AUTO quality needs of an object (``quality_auto.ObjectView``): its size in mm with its scale,
     its area, its material and its bounding-box diagonal on the camera's image."""
@@ -74,22 +82,14 @@ def object_view(ob_eval):
     from .proxy import surface_area
 
     props = ob_eval.original.translucent
-    mesh = ob_eval.to_mesh()
-    try:
-        mesh.calc_loop_triangles()
-        vertices = np.empty(len(mesh.vertices) * 3, np.float64)
-        mesh.vertices.foreach_get("co", vertices)
-        triangles = np.empty(len(mesh.loop_triangles) * 3, np.int64)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-    finally:
-        ob_eval.to_mesh_clear()
+    vertices, triangles, _ = mesh_arrays(ob_eval)
     if not len(triangles):
         raise BakeInputError(f"'{ob_eval.original.name}' has no faces: nothing to choose resolutions for")
-    v_mm = vertices.reshape(-1, 3) @ stretch_of(np.array(ob_eval.matrix_world)[:3, :3]).T * props.mm_per_unit
+    v_mm = vertices.astype(np.float64) @ stretch_of(np.array(ob_eval.matrix_world)[:3, :3]).T * props.mm_per_unit
     return ObjectView(diagonal_mm=float(np.linalg.norm(np.ptp(v_mm, axis=0))),
-                      area_mm2=surface_area(v_mm, triangles.reshape(-1, 3)), screen_pixels=screen_pixels(ob_eval),
+                      area_mm2=surface_area(v_mm, triangles), screen_pixels=screen_pixels(ob_eval),
                       sigma_a=tuple(props.sigma_a), sigma_s_prime=tuple(props.sigma_s_prime), eta=float(props.eta),
-                      triangles=len(triangles) // 3)
+                      triangles=len(triangles))
 
 
 def screen_pixels(ob_eval) -> float | None:

@@ -442,15 +442,9 @@ def texture_space_series(scene, objects, settings, width: int, height: int, prog
     Every setting is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
     The objects' method, resolution and spacing are restored afterwards.
     """
-    saved = [(ob, ob.translucent.method, ob.translucent.atlas_resolution, ob.translucent.proxy_spacing)
-             for ob in objects]
-    try:
-        for i, item in enumerate(settings):
-            res, spacing = texture_space_setting(item)
-            for ob in objects:
-                ob.translucent.method = "TEXTURE_SPACE"
-                ob.translucent.atlas_resolution = res
-                ob.translucent.proxy_spacing = spacing
+    for i, item in enumerate(settings):
+        res, spacing = texture_space_setting(item)
+        with method_applied(objects, "TEXTURE_SPACE", atlas_resolution=res, proxy_spacing=spacing):
             bake_seconds, metas = bake_objects(objects, "TEXTURE_SPACE", progress)
             for product in ("GPU", "CPU") if i == 0 else ("GPU",):
                 with engine_setup(scene, "TRANSLUCENT_RT", translucent_texture_product=product):
@@ -458,11 +452,6 @@ def texture_space_series(scene, objects, settings, width: int, height: int, prog
                     render_pixels(scene, width, height)  # first frame uploads the bake to the GPU
                     img, sec = render_pixels(scene, width, height)
                 yield (res, spacing), product, bake_seconds, metas, img, sec
-    finally:
-        for ob, method, res, spacing in saved:
-            ob.translucent.method = method
-            ob.translucent.atlas_resolution = res
-            ob.translucent.proxy_spacing = spacing
 
 
 def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
