@@ -47,6 +47,7 @@ def main() -> int:
 
     demo = importlib.import_module(f"{package}.translucent_addon.demo")
     runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
+    engine = importlib.import_module(f"{package}.translucent_addon.render.engine")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     if args.cases and (out / "results.json").exists():
@@ -73,12 +74,13 @@ def main() -> int:
 
         def image_space(label, kind, target=None):
             img, sec = runner.warm_render(scene, width, height)
-            s = scene.translucent
+            # Auto's k is the frame's (the engine chooses it per frame), the manual one the scene's.
+            k = engine.LAST_AUTO_OVERLAP["overlap"] if kind == "auto" else scene.translucent.splat_overlap
             rows.append({"case": case, "method": "IMAGE_SPACE", "kind": kind, "label": label, "target": target,
-                         "k": s.splat_overlap, "cost_seconds": sec, "frame_seconds": sec, "error": measured(img),
+                         "k": k, "cost_seconds": sec, "frame_seconds": sec, "error": measured(img),
                          "summary": subject.translucent.auto_summary if kind == "auto" else ""})
             runner.save_image_png(out / f"{case}_image_space_{label.replace(' ', '_')}.png", img)
-            say(f"IMAGE_SPACE {label}: k {s.splat_overlap:g}, {sec:.2f} s, error {rows[-1]['error']:.4f}")
+            say(f"IMAGE_SPACE {label}: k {k:g}, {sec:.2f} s, error {rows[-1]['error']:.4f}")
 
         subject.translucent.method = "IMAGE_SPACE"
         for k in IMAGE_SPACE_K if scale == 1.0 else (32.0,):

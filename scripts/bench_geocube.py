@@ -7,8 +7,9 @@
    coverage.
 2. Images against Cycles (glass boundary around a volume with the same sigma_a, sigma_s, g: the brute-force
    twin of the physics issue) for a sphere at three scattering levels (the paper's Fig. 15) and a glass
-   bunny, in front of a procedural environment; EEVEE with the same twin material (its screen-space
-   refraction) and Cycles at a low sample count, timed in the same run. Relative RMSE over the object's
+   bunny, in front of a procedural environment: GEOCUBE at three cube resolutions (16, 32, 64 texels a
+   face), EEVEE with the same twin material (its screen-space refraction) at 4 and 16 samples, and Cycles at
+   4, 16 and 64 samples, timed in the same run. Relative RMSE and median relative error over the object's
    pixels; the sphere's blur at the silhouette against the centre.
 Writes bench/results/geocube/ (summary.md, results.json, chart.png, images).
 """
@@ -28,6 +29,7 @@ import blender_env  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 SPHERE_LEVELS = {"clear": 0.0, "slight": 0.002, "milky": 0.008}  # sigma_s' (1/mm), g = 0.9: tau = 0, 2, 8 across
 GLASS_SIGMA_A = (0.002, 0.004, 0.012)  # 1/mm: a green-blue tinted glass, darker where thicker
+IMAGE_CASES = ("sphere_clear", "sphere_slight", "sphere_milky", "bunny_glass")
 
 
 def environment_image(w=512, h=256) -> np.ndarray:
@@ -57,6 +59,11 @@ def main() -> int:
     parser.add_argument("--resolutions", nargs="*", type=int, default=[16, 32, 64])
     parser.add_argument("--caps", nargs="*", type=int, default=[4, 8, 16, 32])
     parser.add_argument("--reference-samples", type=int, default=256)
+    parser.add_argument("--image-resolutions", nargs="*", type=int, default=[16, 32, 64],
+                        help="GEOCUBE cube texels a face in the image phase")
+    parser.add_argument("--eevee-samples", nargs="*", type=int, default=[4, 16])
+    parser.add_argument("--cycles-samples", nargs="*", type=int, default=[4, 16, 64])
+    parser.add_argument("--cases", nargs="*", default=list(IMAGE_CASES))
     parser.add_argument("--skip-exits", action="store_true")
     parser.add_argument("--exits-only", action="store_true")
     parser.add_argument("--meshes", nargs="*", default=["bunny", "cow"])
@@ -72,8 +79,10 @@ def main() -> int:
 
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    exits = [] if args.skip_exits else exit_accuracy(mod, args)
-    images = [] if args.exits_only else image_phase(bpy, mod, args, out)
+    previous = json.loads((out / "results.json").read_text()) if (out / "results.json").exists() else {}
+    # a phase skipped keeps the last run's rows, so that the summary stays whole
+    exits = previous.get("exits", []) if args.skip_exits else exit_accuracy(mod, args)
+    images = previous.get("images", []) if args.exits_only else image_phase(bpy, mod, args, out)
     (out / "results.json").write_text(json.dumps({"exits": exits, "images": images}, indent=2, default=float))
     chart(images, exits, out)
     (out / "summary.md").write_text(summary(exits, images, args))
@@ -175,7 +184,7 @@ def image_phase(bpy, mod, args, out: Path) -> list[dict]:
     bvh = mod("compare.bvh_tracer")
     w, h = args.width, args.height
     rows = []
-    for case in ("sphere_clear", "sphere_slight", "sphere_milky", "bunny_glass"):
+    for case in args.cases:
         scene, ob = build_scene(bpy, mod, case)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
@@ -212,19 +221,25 @@ def image_phase(bpy, mod, args, out: Path) -> list[dict]:
             print(f"[{case}] {label}: relative RMSE {row['rel_rmse']:.3f}, median {row['median']:.3f}, "
                   f"{seconds:.2f} s", flush=True)
 
-        bake_seconds, (meta,) = runner.bake_objects([ob], "GEOCUBE", progress=lambda t: None)
-        with runner.engine_setup(scene, "TRANSLUCENT_RT"):
-            runner.render_pixels(scene, w, h)  # uploads the bake, builds the environment and transfer tables
-            img, sec = runner.render_pixels(scene, w, h)
-        measure("GEOCUBE", img, sec, bake_seconds=round(bake_seconds, 2), cubes=meta["geocube_cubes"],
-                res=meta["geocube_res"], coverage=meta["geocube_coverage"])
-        with runner.twin_materials_applied([ob], "brute_force"), \
-                runner.engine_setup(scene, "BLENDER_EEVEE", **runner.eevee_options(16)):
-            scene.eevee.use_raytracing = True
-            img, sec = runner.render_pixels(scene, w, h)
-        measure("EEVEE 16", img, sec)
-        img, sec = cycles(16)
-        measure("Cycles 16", img, sec)
+        for res in args.image_resolutions:
+            ob.translucent.geocube_resolution = res
+            bake_seconds, (meta,) = runner.bake_objects([ob], "GEOCUBE", progress=lambda t: None)
+            with runner.engine_setup(scene, "TRANSLUCENT_RT"):
+                runner.render_pixels(scene, w, h)  # uploads the bake, builds the environment and transfer tables
+                img, sec = runner.render_pixels(scene, w, h)
+            measure(f"GEOCUBE {res}", img, sec, bake_seconds=round(bake_seconds, 2), cubes=meta["geocube_cubes"],
+                    res=meta["geocube_res"], coverage=meta["geocube_coverage"])
+        for i, spp in enumerate(args.eevee_samples):
+            with runner.twin_materials_applied([ob], "brute_force"), \
+                    runner.engine_setup(scene, "BLENDER_EEVEE", **runner.eevee_options(spp)):
+                scene.eevee.use_raytracing = True
+                if i == 0:
+                    runner.warm_eevee(scene, w, h)
+                img, sec = runner.render_pixels(scene, w, h)
+            measure(f"EEVEE {spp}", img, sec)
+        for spp in args.cycles_samples:
+            img, sec = cycles(spp)
+            measure(f"Cycles {spp}", img, sec)
         measure(f"Cycles {args.reference_samples} (reference)", ref, ref_sec)
     return rows
 
@@ -245,40 +260,65 @@ def blur_profile(image, mask) -> dict:
     return {"contrast_centre": float(lap[centre].mean()), "contrast_ring": float(lap[ring].mean())}
 
 
+def family(label: str) -> str:
+    """The renderer of an image row: 'GEOCUBE 32' -> 'GEOCUBE'; the reference keeps its own name."""
+    return "reference" if "reference" in label else label.split()[0]
+
+
+def setting(label: str) -> int:
+    return int(label.split()[1])
+
+
 def chart(images, exits, out: Path) -> None:
+    """Speed against accuracy per case (each renderer's settings joined, cheapest first) and the exit
+    accuracy against the step cap."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
-    ax = axes[0]
-    markers = {"GEOCUBE": "o", "EEVEE 16": "s", "Cycles 16": "^"}
-    for label, mk in markers.items():
-        pts = [(r["seconds"], r["rel_rmse"], r["case"]) for r in images if r["label"] == label]
-        if pts:
-            ax.scatter([p[0] for p in pts], [p[1] for p in pts], marker=mk, label=label, s=50)
-            for x, y, c in pts:
-                ax.annotate(c.replace("_", " "), (x, y), fontsize=7, xytext=(3, 3), textcoords="offset points")
-    ax.set_xscale("log")
-    ax.set_xlabel("seconds per frame (llvmpipe, this machine)")
-    ax.set_ylabel("relative RMSE against Cycles 256 spp")
-    ax.set_title("GEOCUBE against EEVEE and Cycles")
-    ax.legend()
-    ax = axes[1]
-    for name in sorted({r["mesh"] for r in exits}):
-        for res in sorted({r["res"] for r in exits}):
-            rs = [r for r in exits if r["mesh"] == name and r["res"] == res]
-            ax.plot([r["cap"] for r in rs], [r["above_1pct"] + 1e-4 for r in rs], marker="o",
-                    label=f"{name} {res}x{res}x6")
-    ax.set_xscale("log", base=2)
-    ax.set_yscale("log")
-    ax.set_xlabel("step cap")
-    ax.set_ylabel("share of exits off by > 1 % of the size")
-    ax.set_title("Exit points against exact ray casting")
-    ax.legend(fontsize=7)
+    cases = list(dict.fromkeys(r["case"] for r in images))
+    panels = len(cases) + (1 if exits else 0)
+    cols = min(3, max(panels, 1))
+    rows_n = -(-max(panels, 1) // cols)
+    fig, axes = plt.subplots(rows_n, cols, figsize=(5.2 * cols, 4.2 * rows_n), squeeze=False)
+    axes = axes.ravel()
+    styles = {"GEOCUBE": ("o", "tab:green", "cube texels"), "EEVEE": ("s", "tab:orange", "samples"),
+              "Cycles": ("^", "tab:blue", "samples")}
+    for ax, case in zip(axes, cases):
+        for fam, (mk, colour, unit) in styles.items():
+            rs = sorted((r for r in images if r["case"] == case and family(r["label"]) == fam),
+                        key=lambda r: r["seconds"])
+            if not rs:
+                continue
+            ax.plot([r["seconds"] for r in rs], [r["median"] for r in rs], marker=mk, color=colour,
+                    label=f"{fam} ({unit})")
+            for r in rs:
+                ax.annotate(str(setting(r["label"])), (r["seconds"], r["median"]), fontsize=7,
+                            xytext=(3, 3), textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("seconds per frame (llvmpipe, this machine)")
+        ax.set_ylabel("median relative error vs Cycles 256 spp")
+        ax.set_title(case.replace("_", " "))
+        ax.legend(fontsize=7)
+    if exits:
+        ax = axes[len(cases)]
+        for name in sorted({r["mesh"] for r in exits}):
+            for res in sorted({r["res"] for r in exits}):
+                rs = [r for r in exits if r["mesh"] == name and r["res"] == res]
+                ax.plot([r["cap"] for r in rs], [r["above_1pct"] + 1e-4 for r in rs], marker="o",
+                        label=f"{name} {res}x{res}x6")
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_xlabel("step cap")
+        ax.set_ylabel("share of exits off by > 1 % of the size")
+        ax.set_title("Exit points against exact ray casting")
+        ax.legend(fontsize=7)
+    for ax in axes[panels:]:
+        ax.axis("off")
     fig.tight_layout()
-    fig.savefig(out / "chart.png", dpi=120)
+    fig.savefig(out / "chart.png", dpi=110)
 
 
 def summary(exits, images, args) -> str:
@@ -293,13 +333,13 @@ def summary(exits, images, args) -> str:
                          f"{100 * r['premature']:.1f} % | {r['mean_steps']:.1f} |")
         lines.append("")
     lines += [f"## Images against Cycles {args.reference_samples} spp (glass boundary around the same volume)", "",
-              "| case | renderer | s/frame | relative RMSE | median | contrast centre | contrast ring |",
-              "|---|---|---|---|---|---|---|"]
+              "| case | renderer | bake s | s/frame | relative RMSE | median | contrast centre | contrast ring |",
+              "|---|---|---|---|---|---|---|---|"]
     for r in images:
         cc = f"{r['contrast_centre']:.4f}" if "contrast_centre" in r else ""
         cr = f"{r['contrast_ring']:.4f}" if "contrast_ring" in r else ""
-        lines.append(f"| {r['case']} | {r['label']} | {r['seconds']} | {r['rel_rmse']:.3f} | {r['median']:.3f} | "
-                     f"{cc} | {cr} |")
+        lines.append(f"| {r['case']} | {r['label']} | {r.get('bake_seconds', '')} | {r['seconds']} | "
+                     f"{r['rel_rmse']:.3f} | {r['median']:.3f} | {cc} | {cr} |")
     lines.append("")
     return "\n".join(lines)
 

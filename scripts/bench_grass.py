@@ -11,6 +11,9 @@
 4. Blender scenes (256 x 256): a ball half sunk in a field, a hill crest against the sky, frame time
    at 10^3 and 10^6 equivalent blades (the same BTF over tiles of 1.4 m and 4.5 cm), with and without
    fewer eigen-textures far away; the same blades as geometry in EEVEE at 10^3 .. 10^5 blades.
+5. The field against Cycles: 1.2 m of grass, our BTF layer at three compression targets, EEVEE (4, 16
+   samples) and Cycles (16, 64) with the blades as geometry, against Cycles at 512 samples: relative
+   RMSE per pixel and over 8 x 8 blocks, median, mean brightness.
 Writes bench/results/grass/ (summary.md, results.json, chart.png, images).
 """
 from __future__ import annotations
@@ -139,68 +142,97 @@ def unsampled_phase(mod, btf, spectra) -> list[dict]:
 def _store_btf(mod, ob, arrays, meta, tile):
     store, grass_btf, gp = mod("bake.store"), mod("bake.grass_btf"), mod("geometry.grass_patch")
     s = ob.translucent
+    target = float(meta["target_error"])
     s.grass, s.grass_tile, s.grass_blade_height = True, tile, 0.45 * tile
-    s.grass_blades, s.grass_seed, s.grass_resolution, s.grass_target_error = 500, 7, "128", 0.5
+    s.grass_blades, s.grass_seed, s.grass_resolution, s.grass_target_error = 500, 7, "128", target
     params = grass_btf.params_from_settings(s.grass_tile, s.grass_blade_height, 500, 7)
     assert params == gp.GrassParams(blades=500, height=0.45, seed=7)
-    store.write(ob, "GRASS", grass_btf.settings_hash(params, 128, 0.5), arrays, meta)
+    store.write(ob, "GRASS", grass_btf.settings_hash(params, 128, s.grass_target_error), arrays, meta)
     status = mod("render.extract").grass_status(ob)[0]
     if status != "OK":
         raise RuntimeError(f"the stored BTF does not match the settings of '{ob.name}' ({status})")
 
 
+def new_scene(bpy, demo, sky=(0.35, 0.45, 0.7)):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    demo.uniform_world(scene, sky)
+    scene.render.engine = "TRANSLUCENT_RT"
+    return scene
+
+
+def light_and_camera(bpy, scene, cam_loc, target, lens=50.0):
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.7, 0.3, 0.6)
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = lens
+    cam.location = cam_loc
+    from mathutils import Vector
+    cam.rotation_euler = (Vector(target) - Vector(cam_loc)).to_track_quat("-Z", "Y").to_euler()
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+
+
+def ground(bpy, demo, scene, size_m, name="Ground"):
+    h = size_m / 2
+    ob = demo.mesh_from_arrays(name, np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, h, 0]], np.float64),
+                               np.array([[0, 1, 2], [0, 2, 3]]))
+    obj = bpy.data.objects.new(name, ob)
+    soil = demo._material("Soil", (0.12, 0.08, 0.05))
+    bsdf = next(n for n in soil.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0  # a Lambert soil, as our base pass draws it
+    obj.data.materials.append(soil)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def blades_object(bpy, demo, patch, field, side, material, count=None):
+    """The patch's blades as geometry, tiled side x side over a field centred at the origin, tile k's
+    corner at (k * tile - field / 2): the BTF layer's tiles exactly (its uv is the ground's local xy over
+    the tile) when field / 2 is a whole number of tiles. ``count`` tiles (row by row) if fewer; the
+    reflectance and transmittance as the point attributes rho_r and rho_t (``twin_materials.leaf``)."""
+    n = side * side if count is None else count
+    tile = field / side
+    offs = np.array([(i, j) for i in range(side) for j in range(side)][:n], np.float64)
+    verts = (patch.positions[None, :, :] * tile + np.c_[offs * tile - field / 2, np.zeros(len(offs))][:, None, :])
+    tris = patch.triangles[None] + (np.arange(len(offs)) * len(patch.positions))[:, None, None]
+    mesh = demo.mesh_from_arrays("Blades", verts.reshape(-1, 3), tris.reshape(-1, 3))
+    mesh.shade_smooth()
+    for name, rho in (("rho_r", patch.rho_r), ("rho_t", patch.rho_t)):
+        attr = mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT")
+        rgba = np.concatenate([np.tile(rho, (len(offs), 1)), np.ones((len(offs) * len(rho), 1), np.float32)], 1)
+        attr.data.foreach_set("color", rgba.astype(np.float32).ravel())
+    ob = bpy.data.objects.new("Blades", mesh)
+    ob.data.materials.append(material)
+    return ob, int(500 * len(offs)), int(tris.size // 3)
+
+
 def scenes_phase(bpy, mod, arrays, meta, out: Path, size: int) -> dict:
     runner, report, demo = mod("compare.runner"), mod("compare.report"), mod("demo")
+    twins = mod("compare.twin_materials")
     results = {}
 
-    def new_scene(sky=(0.35, 0.45, 0.7)):
-        bpy.ops.wm.read_homefile(use_empty=True)
-        scene = bpy.context.scene
-        demo.uniform_world(scene, sky)
-        scene.render.engine = "TRANSLUCENT_RT"
-        return scene
-
-    def light_and_camera(scene, cam_loc, target, lens=50.0):
-        sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-        sun.data.energy = 3.0
-        sun.rotation_euler = (0.7, 0.3, 0.6)
-        scene.collection.objects.link(sun)
-        cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-        cam.data.lens = lens
-        cam.location = cam_loc
-        from mathutils import Vector
-        cam.rotation_euler = (Vector(target) - Vector(cam_loc)).to_track_quat("-Z", "Y").to_euler()
-        scene.collection.objects.link(cam)
-        scene.camera = cam
-
-    def ground(scene, size_m, name="Ground"):
-        h = size_m / 2
-        ob = demo.mesh_from_arrays(name, np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, h, 0]], np.float64),
-                                   np.array([[0, 1, 2], [0, 2, 3]]))
-        obj = bpy.data.objects.new(name, ob)
-        obj.data.materials.append(demo._material("Soil", (0.12, 0.08, 0.05)))
-        scene.collection.objects.link(obj)
-        return obj
-
     # Ball half sunk in the field.
-    scene = new_scene()
-    g = ground(scene, FIELD)
+    scene = new_scene(bpy, demo)
+    g = ground(bpy, demo, scene, FIELD)
     _store_btf(mod, g, arrays, meta, 0.1)
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.06, location=(0, 0, 0), segments=64, ring_count=32)
     bpy.context.active_object.data.materials.append(demo._material("Red", (0.7, 0.05, 0.04)))
-    light_and_camera(scene, (0.0, -0.45, 0.22), (0.0, 0.0, 0.02), lens=50.0)
+    light_and_camera(bpy, scene, (0.0, -0.45, 0.22), (0.0, 0.0, 0.02), lens=50.0)
     img, sec = runner.render_pixels(scene, size, size)
     img, sec = runner.render_pixels(scene, size, size)
     report.save_image_png(out / "sunk_ball.png", img)
     results["sunk_ball_s"] = sec
     # Hill crest against the sky.
-    scene = new_scene()
+    scene = new_scene(bpy, demo)
     bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(0, 0, -0.7), segments=96, ring_count=48)
     hill = bpy.context.active_object
     hill.data.materials.append(demo._material("Soil", (0.12, 0.08, 0.05)))
     bpy.ops.object.shade_smooth()
     _store_btf(mod, hill, arrays, meta, 0.1)
-    light_and_camera(scene, (0.0, -3.0, 0.35), (0.0, 0.0, 0.3), lens=85.0)
+    light_and_camera(bpy, scene, (0.0, -3.0, 0.35), (0.0, 0.0, 0.3), lens=85.0)
     img, sec = runner.render_pixels(scene, size, size)
     report.save_image_png(out / "hill_crest.png", img)
     # Frame time against blade density: the same BTF over big and small tiles (equivalent blades =
@@ -209,11 +241,11 @@ def scenes_phase(bpy, mod, arrays, meta, out: Path, size: int) -> dict:
     for blades in (1e3, 1e6):
         tile = float(np.sqrt(FIELD * FIELD * 500 / blades))
         for lod in (0.0, 1.0):
-            scene = new_scene()
-            g = ground(scene, FIELD)
+            scene = new_scene(bpy, demo)
+            g = ground(bpy, demo, scene, FIELD)
             _store_btf(mod, g, arrays, meta, tile)
             g.translucent.grass_lod = lod
-            light_and_camera(scene, DENSITY_CAMERA, (0.0, 0.0, 0.0), lens=35.0)
+            light_and_camera(bpy, scene, DENSITY_CAMERA, (0.0, 0.0, 0.0), lens=35.0)
             runner.render_pixels(scene, size, size)
             img, sec = min((runner.render_pixels(scene, size, size) for _ in range(2)), key=lambda r: r[1])
             timing.append({"blades": blades, "tile_m": tile, "lod": lod, "seconds": sec})
@@ -225,35 +257,120 @@ def scenes_phase(bpy, mod, arrays, meta, out: Path, size: int) -> dict:
     patch = gp.build_patch()
     eevee = []
     for blades in (1e3, 1e4, 1e5):
-        scene = new_scene()
-        g = ground(scene, FIELD)
+        scene = new_scene(bpy, demo)
+        g = ground(bpy, demo, scene, FIELD)
         n = max(1, int(round(blades / 500)))
-        side = int(np.ceil(np.sqrt(n)))
-        tile = FIELD / side
-        offs = np.array([(i, j) for i in range(side) for j in range(side)][:n], np.float64)
-        verts = (patch.positions[None, :, :] * tile + np.c_[offs * tile - FIELD / 2, np.zeros(len(offs))][:, None, :])
-        tris = patch.triangles[None] + (np.arange(len(offs)) * len(patch.positions))[:, None, None]
-        mesh = demo.mesh_from_arrays("Blades", verts.reshape(-1, 3), tris.reshape(-1, 3))
-        ob = bpy.data.objects.new("Blades", mesh)
-        ob.data.materials.append(demo._material("Blade", (0.08, 0.2, 0.04)))
+        ob, n_blades, n_tris = blades_object(bpy, demo, patch, FIELD, int(np.ceil(np.sqrt(n))),
+                                             twins.leaf("Blade", patch.params.specular), count=n)
         scene.collection.objects.link(ob)
-        light_and_camera(scene, DENSITY_CAMERA, (0.0, 0.0, 0.0), lens=35.0)
+        light_and_camera(bpy, scene, DENSITY_CAMERA, (0.0, 0.0, 0.0), lens=35.0)
         with runner.engine_setup(scene, "BLENDER_EEVEE", **runner.eevee_options(16)):
+            runner.warm_eevee(scene, size, size)
             img, sec = runner.render_pixels(scene, size, size)
-        eevee.append({"blades": int(500 * len(offs)), "triangles": int(tris.size // 3), "seconds": sec})
+        eevee.append({"blades": n_blades, "triangles": n_tris, "seconds": sec})
         report.save_image_png(out / f"eevee_geometry_{int(blades):d}.png", img)
         print(f"[grass] EEVEE geometry {eevee[-1]}", flush=True)
     results["eevee_geometry"] = eevee
     return results
 
 
-def chart(comp: dict, unsampled: list, scenes: dict, out: Path) -> None:
+# The field against Cycles: 1.2 m of ground under 0.1 m tiles (144 tiles, 72,000 blades, 864,000
+# triangles as geometry), seen from 0.67 m at 42 degrees down: the field fills the image below a strip
+# of sky beyond its far edge.
+REF_FIELD, REF_TILE = 1.2, 0.1
+REF_CAMERA, REF_TARGET = (0.0, -0.5, 0.45), (0.0, 0.05, 0.0)
+REF_COMPRESSION = (0.6, 0.5, 0.4)  # our three quality settings: the BTF's compression targets
+
+
+def reference_phase(bpy, mod, btf, spectra, seconds, out: Path, size: int, args) -> list[dict]:
+    """The same field three ways against Cycles path tracing the blades as geometry (the leaf twin of the
+    acquisition's shading, ``twin_materials.leaf``; Cycles adds the light that bounces between blades and
+    the blades' shadows on the soil, which the BTF's direct light leaves out): our BTF layer at three
+    compression targets, EEVEE with the blades as geometry, Cycles at fewer samples. Errors over the whole
+    pixels that see the field (the rest is sky beyond its far edge): per pixel, the median, and over 8 x 8
+    blocks (the texture's look without each blade's place)."""
+    runner, report, demo = mod("compare.runner"), mod("compare.report"), mod("demo")
+    twins, metrics, cache = mod("compare.twin_materials"), mod("compare.metrics"), mod("compare.cache")
+    grass_btf, gp = mod("bake.grass_btf"), mod("geometry.grass_patch")
+    patch = gp.build_patch()
+    scene = new_scene(bpy, demo)
+    g = ground(bpy, demo, scene, REF_FIELD)
+    light_and_camera(bpy, scene, REF_CAMERA, REF_TARGET, lens=50.0)
+    side = int(round(REF_FIELD / REF_TILE))
+    description = {"bench": "grass_reference_v1", "size": size, "field": REF_FIELD, "tile": REF_TILE,
+                   "camera": REF_CAMERA, "params": patch.params.as_dict(), "blender": bpy.app.version_string}
+    # The pixels that see the field (its far edge is in view): the rays that meet the ground within it,
+    # a blade's height in from its borders (no side wall there in either render).
+    extract, camera_rays = mod("render.extract"), mod("geometry.camera")
+    cam = extract.render_camera(bpy.context.evaluated_depsgraph_get(), size, size)
+    origins, dirs = camera_rays.pixel_rays(cam.view_proj, size, size)
+    t = -origins[..., 2] / np.where(np.abs(dirs[..., 2]) > 1e-12, dirs[..., 2], -1e-12)
+    ground_hit = origins + t[..., None] * dirs
+    inner = REF_FIELD / 2 - 0.45 * REF_TILE
+    mask = (t > 0) & (np.abs(ground_hit[..., 0]) < inner) & (np.abs(ground_hit[..., 1]) < inner)
+    print(f"[grass reference] {mask.mean():.1%} of the image sees the field", flush=True)
+    rows = []
+
+    def cycles(spp):
+        desc = {**description, "samples": spp}
+        hit = cache.load(Path(args.cache), desc)
+        if hit is None:
+            print(f"[grass reference] Cycles {spp} spp ...", flush=True)
+            with runner.engine_setup(scene, "CYCLES", **runner.cycles_options(spp, 16)):
+                hit = runner.render_pixels(scene, size, size)
+            cache.store(Path(args.cache), desc, *hit)
+        return hit
+
+    # Ours first, with the grass on the ground; then the blades as geometry for the others.
+    ours = []
+    for target in REF_COMPRESSION:
+        arrays, meta = grass_btf.package(btf, spectra, gp.GrassParams(), 128, target, seconds)
+        _store_btf(mod, g, arrays, meta, REF_TILE)
+        img, sec = runner.warm_render(scene, size, size)
+        ours.append((f"BTF {target:g}", img, sec, {"counts": list(meta["counts"]),
+                                                    "MB": meta["storage"]["total"] / 2**20}))
+    g.translucent.grass = False
+    blades, n_blades, n_tris = blades_object(bpy, demo, patch, REF_FIELD, side,
+                                             twins.leaf("Blade", patch.params.specular))
+    scene.collection.objects.link(blades)
+    ref, ref_sec = cycles(args.reference_samples)
+    report.save_image_png(out / f"reference_cycles_{args.reference_samples}.png", ref)
+
+    def measure(label, image, sec, **extra):
+        row = {"label": label, "seconds": round(sec, 3), "rel_rmse": metrics.relative_rmse(image, ref, mask),
+               "median": metrics.median_relative_error(image, ref, mask),
+               "blocks8": metrics.block_relative_rmse(image, ref, mask, 8),
+               "mean_ratio": float(image[..., :3][mask].mean() / ref[..., :3][mask].mean()),
+               "field_pixels": float(mask.mean()), **extra}
+        slug = "".join(c if c.isalnum() else "_" for c in label).lower()
+        report.save_image_png(out / f"reference_{slug}.png", image)
+        report.save_error_png(out / f"reference_{slug}_error.png", image, ref, mask)
+        rows.append(row)
+        print(f"[grass reference] {label}: relative RMSE {row['rel_rmse']:.3f}, 8x8 blocks {row['blocks8']:.3f}, "
+              f"median {row['median']:.3f}, mean ratio {row['mean_ratio']:.3f}, {sec:.2f} s", flush=True)
+
+    for label, img, sec, extra in ours:
+        measure(label, img, sec, **extra)
+    for i, spp in enumerate(args.eevee_samples):
+        with runner.engine_setup(scene, "BLENDER_EEVEE", **runner.eevee_options(spp)):
+            if i == 0:
+                runner.warm_eevee(scene, size, size)
+            img, sec = runner.render_pixels(scene, size, size)
+        measure(f"EEVEE {spp}", img, sec, triangles=n_tris)
+    for spp in args.cycles_samples:
+        img, sec = cycles(spp)
+        measure(f"Cycles {spp}", img, sec, triangles=n_tris)
+    measure(f"Cycles {args.reference_samples} (reference)", ref, ref_sec, blades=n_blades, triangles=n_tris)
+    return rows
+
+
+def chart(comp: dict, unsampled: list, scenes: dict, reference: list, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    fig, axes = plt.subplots(1, 4 if reference else 3, figsize=(20 if reference else 15, 4.2))
     curves = np.array(comp["curves"])
     n = np.arange(curves.shape[1])
     for c, name in enumerate(("Y", "Cb", "Cr")):
@@ -286,12 +403,28 @@ def chart(comp: dict, unsampled: list, scenes: dict, out: Path) -> None:
     axes[2].set_xlabel("blades in the field")
     axes[2].set_ylabel("seconds per frame (llvmpipe, 256^2)")
     axes[2].legend(fontsize=8)
+    if reference:
+        ax = axes[3]
+        for fam, mk in (("BTF", "o"), ("EEVEE", "s"), ("Cycles", "^")):
+            rs = sorted((r for r in reference if r["label"].startswith(fam) and "reference" not in r["label"]),
+                        key=lambda r: r["seconds"])
+            for key, ls in (("rel_rmse", "-"), ("blocks8", "--")):
+                ax.plot([r["seconds"] for r in rs], [r[key] for r in rs], marker=mk, ls=ls,
+                        label=f"{fam}, {'per pixel' if key == 'rel_rmse' else '8x8 blocks'}")
+            for r in rs:
+                ax.annotate(r["label"].split()[1], (r["seconds"], r["rel_rmse"]), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_xlabel("seconds per frame (llvmpipe, 256^2)")
+        ax.set_ylabel("relative RMSE against Cycles (blades as geometry)")
+        ax.set_title("The field against Cycles")
+        ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "chart.png", dpi=90)
     plt.close(fig)
 
 
-def summary(comp, unsampled, scenes, bake_meta) -> str:
+def summary(comp, unsampled, scenes, reference, bake_meta, args) -> str:
     lines = ["# Grass BTF (Shah ch. 4)", "",
              "Machine: 2-core AMD EPYC, Mesa llvmpipe (no GPU), bpy 5.0.1. Patch: 500 blades per tile, "
              "blade height 0.45 tile, 81 views x 21 lights at 128 x 128, our moderngl rasteriser (direct light, "
@@ -324,17 +457,39 @@ def summary(comp, unsampled, scenes, bake_meta) -> str:
     lines += ["", "| EEVEE 16, blades as geometry | triangles | s/frame |", "|---|---|---|"]
     for r in scenes.get("eevee_geometry", []):
         lines.append(f"| {r['blades']:.0e} | {r['triangles']:,} | {r['seconds']:.2f} |")
+    if reference:
+        ref = next(r for r in reference if "reference" in r["label"])
+        lines += ["", f"## The field against Cycles {args.reference_samples} spp (blades as geometry)", "",
+                  f"{REF_FIELD} m of ground under {REF_TILE} m tiles: {ref['blades']:,} blades, {ref['triangles']:,} "
+                  "triangles as geometry with the leaf twin of the acquisition's shading (Cycles adds the light "
+                  "bouncing between blades and their shadows on the soil). Errors over the pixels that see the field "
+                  f"({100 * ref['field_pixels']:.0f} % of the image): per pixel, median, and of 8 x 8 block means; the "
+                  "mean brightness against the reference.", "",
+                  "| renderer | s/frame | relative RMSE | 8x8 blocks | median | mean ratio | eigen-textures (Y, chroma) | MB |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for r in reference:
+            counts = f"{r['counts'][0]}, {r['counts'][1]}" if "counts" in r else ""
+            mb = f"{r['MB']:.1f}" if "MB" in r else ""
+            lines.append(f"| {r['label']} | {r['seconds']:.2f} | {r['rel_rmse']:.3f} | {r['blocks8']:.3f} | "
+                         f"{r['median']:.3f} | {r['mean_ratio']:.3f} | {counts} | {mb} |")
     lines += ["", f"Default bake (target error 0.5): {bake_meta['counts'][0]} Y + 2 x {bake_meta['counts'][1]} "
                   f"chroma eigen-textures, {bake_meta['storage']['total'] / 2**20:.1f} MB, {bake_meta['bake_s']:.0f} s.",
               "", "Images: coefficients_fig4_5.png (4, 40, 140 Y and the render), sunk_ball.png, hill_crest.png, "
-                  "field_*.png, eevee_geometry_*.png."]
+                  "field_*.png, eevee_geometry_*.png, reference_*.png (the field against Cycles, with error images)."]
     return "\n".join(lines) + "\n"
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "grass"))
+    parser.add_argument("--cache", default=str(ROOT / "bench" / "cache"))
     parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--reference-samples", type=int, default=512)
+    parser.add_argument("--eevee-samples", nargs="*", type=int, default=[4, 16])
+    parser.add_argument("--cycles-samples", nargs="*", type=int, default=[16, 64])
+    parser.add_argument("--only-reference", action="store_true",
+                        help="acquire and compress, then only the field against Cycles; the other phases' "
+                             "results are kept from the last run")
     args = parser.parse_args()
     package = blender_env.start()
     import importlib
@@ -346,17 +501,20 @@ def main() -> int:
 
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
+    previous = json.loads((out / "results.json").read_text()) if (out / "results.json").exists() else {}
     t0 = time.perf_counter()
     comp, btf, spectra = compression_phase(mod, out)
-    unsampled = unsampled_phase(mod, btf, spectra)
+    unsampled = previous.get("unsampled", []) if args.only_reference else unsampled_phase(mod, btf, spectra)
     grass_btf, gp = mod("bake.grass_btf"), mod("geometry.grass_patch")
-    arrays, meta = grass_btf.package(btf, spectra, gp.GrassParams(), 128, 0.5, comp["acquisition_s"] + comp["svd_s"])
+    bake_s = comp["acquisition_s"] + comp["svd_s"]
+    arrays, meta = grass_btf.package(btf, spectra, gp.GrassParams(), 128, 0.5, bake_s)
+    reference = reference_phase(bpy, mod, btf, spectra, bake_s, out, args.size, args)
     del btf, spectra
-    scenes = scenes_phase(bpy, mod, arrays, meta, out, args.size)
+    scenes = previous.get("scenes", {}) if args.only_reference else scenes_phase(bpy, mod, arrays, meta, out, args.size)
     (out / "results.json").write_text(json.dumps({"compression": comp, "unsampled": unsampled, "scenes": scenes,
-                                                  "bake": meta}, indent=2, default=float))
-    chart(comp, unsampled, scenes, out)
-    (out / "summary.md").write_text(summary(comp, unsampled, scenes, meta))
+                                                  "reference": reference, "bake": meta}, indent=2, default=float))
+    chart(comp, unsampled, scenes, reference, out)
+    (out / "summary.md").write_text(summary(comp, unsampled, scenes, reference, meta, args))
     print(f"wrote {out / 'summary.md'} in {time.perf_counter() - t0:.0f} s")
     return 0
 

@@ -562,3 +562,73 @@ def test_the_noise_of_a_mean_of_renders_follows_their_spread():
         assert metrics.mean_noise(renders, mask) == pytest.approx(sigma / np.sqrt(n), rel=0.03)
     with pytest.raises(ValueError):
         metrics.mean_noise(a[None], mask)
+
+
+def test_block_error_sees_texture_level_differences_and_not_blade_positions():
+    """compare.metrics.block_relative_rmse: a stripe pattern against its shifted copy is wrong at every pixel
+    (relative RMSE sqrt(2)) but right in every 8 x 8 block (0); a 10 % brighter image is 10 % off in both;
+    masked pixels count only where the mask is; an image smaller than a block is refused."""
+    from translucent_addon.compare import metrics
+
+    h, w = 64, 96
+    x = np.arange(w)[None, :, None] * np.ones((h, 1, 4))
+    stripes = (x % 2).astype(np.float64)
+    shifted = ((x + 1) % 2).astype(np.float64)
+    mask = np.ones((h, w), bool)
+    assert metrics.relative_rmse(shifted, stripes, mask) == pytest.approx(np.sqrt(2.0))
+    assert metrics.block_relative_rmse(shifted, stripes, mask) == pytest.approx(0.0, abs=1e-12)
+    rng = np.random.default_rng(5)
+    ref = rng.random((h, w, 4)) + 0.5
+    assert metrics.block_relative_rmse(1.1 * ref, ref, mask) == pytest.approx(0.1, rel=1e-9)
+    half = mask.copy()
+    half[:, w // 2:] = False
+    wrong_right = ref.copy()
+    wrong_right[:, w // 2:] *= 3.0  # outside the mask: no effect
+    assert metrics.block_relative_rmse(wrong_right, ref, half) == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError):
+        metrics.block_relative_rmse(ref[:4, :4], ref[:4, :4], mask[:4, :4])
+
+
+def test_the_cache_key_of_a_mesh_ignores_the_order_blender_lists_its_corners_in():
+    """compare.cache.corner_digest: the same triangles shuffled, each started at another corner, give the
+    same digest (Blender lists a UV sphere's corners in another order from one session to the next); a
+    corner moved by 1e-3, a colour changed, or the winding reversed give another."""
+    from translucent_addon.compare.cache import corner_digest
+
+    rng = np.random.default_rng(2)
+    T = 200
+    pos = rng.random((3 * T, 3)).astype(np.float32)
+    col = rng.random((3 * T, 3)).astype(np.float32)
+    d = corner_digest(pos, col)
+    perm = rng.permutation(T)
+    shift = rng.integers(0, 3, T)
+    idx = (3 * perm[:, None] + (shift[:, None] + np.arange(3)[None, :]) % 3).reshape(-1)
+    assert corner_digest(pos[idx], col[idx]) == d
+    moved = pos.copy()
+    moved[7, 1] += 1e-3
+    assert corner_digest(moved, col) != d
+    recoloured = col.copy()
+    recoloured[11, 0] = 0.5
+    assert corner_digest(pos, recoloured) != d
+    flipped = pos.reshape(T, 3, 3)[:, ::-1].reshape(-1, 3)
+    assert corner_digest(flipped, col.reshape(T, 3, 3)[:, ::-1].reshape(-1, 3)) != d
+
+
+def test_the_cache_key_of_normals_survives_their_float_noise():
+    """compare.cache.normals_digest: a unit sphere's smooth normals with 1e-7 of noise (Blender sums them in
+    another order between sessions) keep the digest, and so does a moment that comes out -0 instead of 0;
+    the sphere's flat (face) normals change it."""
+    from translucent_addon.compare.cache import normals_digest
+
+    rng = np.random.default_rng(4)
+    tri = rng.normal(size=(3000, 3, 3))
+    tri = np.concatenate([tri, -tri])  # antipodal pairs: sum n is 0 up to noise of either sign
+    tri /= np.linalg.norm(tri, axis=2, keepdims=True)
+    pos = tri.reshape(-1, 3)
+    smooth = pos.copy()
+    d = normals_digest(pos, smooth)
+    for _ in range(5):
+        assert normals_digest(pos, smooth + 1e-7 * rng.standard_normal(smooth.shape)) == d
+    face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    face /= np.linalg.norm(face, axis=1, keepdims=True)
+    assert normals_digest(pos, np.repeat(face, 3, axis=0)) != d

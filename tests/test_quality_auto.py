@@ -130,27 +130,125 @@ def test_auto_refuses_bad_input():
         qa.choose("OFF", view(), 0.05)
 
 
+# IMAGE_SPACE's k chosen every frame (render/methods/image_space_auto.py).
+
+def _box_mesh(name, half, target, model=None, preset="marble"):
+    from translucent_addon.render.scene_data import Medium, MeshInstance
+
+    c = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)], np.float32)
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    pos = c[np.array(faces).reshape(-1)]
+    m = PRESETS[preset]
+    return MeshInstance(f"{name}:box", name, pos, np.zeros_like(pos) + [0, 0, 1], np.full_like(pos, 0.8),
+                        np.eye(4) if model is None else model, method="IMAGE_SPACE",
+                        medium=Medium(m.sigma_a, m.sigma_s_prime, m.eta, 1000.0), auto_target=target)
+
+
+def _camera(distance, width=256, height=256):
+    from translucent_addon.render import blocks
+    from translucent_addon.render.scene_data import CameraView
+
+    view_m = blocks.look_at((0.0, -distance, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    return CameraView(view_m, blocks.perspective(np.radians(40.0), width / height, 0.01, 100.0), width, height)
+
+
+def test_k_is_rounded_up_to_quarter_octaves_within_its_range():
+    from translucent_addon.render.methods.image_space_auto import quantised
+
+    assert quantised(16.0) == pytest.approx(16.0)
+    assert quantised(16.1) == pytest.approx(16.0 * 2 ** 0.25)
+    assert quantised(17.0) == pytest.approx(16.0 * 2 ** 0.25) and quantised(19.1) == pytest.approx(16.0 * 2 ** 0.5)
+    assert quantised(1.0) == qa.SPLAT_OVERLAP_RANGE[0] and quantised(500.0) == qa.SPLAT_OVERLAP_RANGE[1]
+
+
+def test_screen_diagonal_matches_the_projection_and_clamps_like_the_scene_camera():
+    """A 0.2-unit box 1 unit in front of a 40-degree camera at 256 px spans 0.2 / (2 tan 20deg) of the
+    image across (the face nearest the camera a little more); points behind the camera count as the far
+    side of the half-image margin, so the box never looks larger than 2 x 2 images."""
+    from translucent_addon.render.methods.image_space_auto import screen_diagonal
+
+    cam = _camera(1.0)
+    square = np.array([[x, 0.0, z] for x in (-0.1, 0.1) for z in (-0.1, 0.1)])
+    side = 256 * 0.2 / (2 * np.tan(np.radians(20.0)))
+    assert screen_diagonal(square, cam.view_proj, 256, 256) == pytest.approx(side * np.sqrt(2), rel=1e-9)
+    around = np.array([[x, y, z] for x in (-3, 3) for y in (-3, 3) for z in (-3, 3)], float)
+    assert screen_diagonal(around, cam.view_proj, 256, 256) == pytest.approx(2 * 256 * np.sqrt(2))
+
+
+def test_the_frame_k_follows_the_camera_and_the_largest_need():
+    """A 5 cm marble box: Auto asks for the same k as quality_auto at the same view (rounded up to a quarter
+    octave); nearer the camera it needs more samples, far away fewer (the pixel cap); the scene's k is the
+    largest any Auto object asks for and at least the manual value where a manual IMAGE_SPACE object is drawn
+    too; with no Auto object the manual settings come back unchanged; past k = 32 the light view gets 2048
+    texels a side."""
+    import dataclasses
+
+    from translucent_addon.render.methods import image_space_auto as isa
+    from translucent_addon.render.methods.image_space_data import SamplingSettings
+    from translucent_addon.render.scene_data import FrameInputs
+
+    manual = SamplingSettings(overlap=12.0, max_grid=1024)
+    box = _box_mesh("Box", 0.025, 0.05)
+
+    def k_at(distance, meshes=None):
+        frame = FrameInputs(meshes or [box], [], _camera(distance), np.zeros(3))
+        return isa.frame_sampling(frame, manual)
+
+    near, asked_near = k_at(0.3)
+    far, _ = k_at(30.0)
+    assert near.overlap > far.overlap and asked_near == {"Box": near.overlap}
+    v = isa.object_view(box, _camera(0.3))
+    assert v.diagonal_mm == pytest.approx(50.0 * np.sqrt(3), rel=1e-6) and v.area_mm2 == pytest.approx(6 * 50.0**2)
+    assert near.overlap == pytest.approx(isa.quantised(qa.splat_overlap_for(v, 0.05)[0]))
+    assert near.overlap >= qa.splat_overlap_for(v, 0.05)[0]
+    assert near.max_grid == (2048 if near.overlap > 32 else 1024)
+    loose = dataclasses.replace(box, name="Loose", auto_target=0.2)
+    both, asked = k_at(0.3, [box, loose])
+    assert asked["Loose"] < asked["Box"] and both.overlap == asked["Box"]
+    manual_mesh = dataclasses.replace(box, name="Manual", auto_target=None)
+    mixed, _ = k_at(30.0, [box, manual_mesh])
+    assert mixed.overlap == max(far.overlap, manual.overlap)
+    none, asked_none = k_at(0.3, [manual_mesh])
+    assert none is manual and asked_none == {}
+
+
 # Blender: the operator and the bake.
 
 def test_auto_quality_operator_and_bake(tr, scene):
     bpy = pytest.importorskip("bpy")
-    from blender_helpers import add_camera, add_cube
+    from blender_helpers import add_camera, add_cube, add_light, render
 
     cube = add_cube(scene, size=0.05)  # 5 cm of marble
     cube.translucent.preset = "marble"
     cube.translucent.mm_per_unit = 1000.0
     add_camera(scene, (0.2, -0.2, 0.15), (0, 0, 0.025))
+    add_light(scene, "SUN", (0.1, -0.1, 0.3), energy=3.0)
     scene.render.resolution_x = scene.render.resolution_y = 256
     bpy.context.view_layer.objects.active = cube
     cube.translucent.method = "IMAGE_SPACE"
     cube.translucent.quality = "AUTO"
     cube.translucent.target_error = 0.1
     assert bpy.ops.translucent.auto_quality() == {"FINISHED"}
-    k_loose = scene.translucent.splat_overlap
-    cube.translucent.target_error = 0.03
-    assert bpy.ops.translucent.auto_quality() == {"FINISHED"}
-    assert scene.translucent.splat_overlap > k_loose
-    assert "splat_overlap" in cube.translucent.auto_summary
+    assert "splat_overlap" in cube.translucent.auto_summary and "every frame" in cube.translucent.auto_summary
+    # IMAGE_SPACE's k is the engine's, per frame: tighter targets and a nearer camera ask for more samples,
+    # and the scene's manual value is left alone.
+    engine = __import__("conftest").ext_module(tr, "translucent_addon.render.engine")
+    manual_k = scene.translucent.splat_overlap
+    asked = {}
+    for target, distance in ((0.1, 1.0), (0.03, 1.0), (0.03, 0.3)):
+        cube.translucent.target_error = target
+        add_camera(scene, (0.2 * distance, -0.2 * distance, 0.15 * distance), (0, 0, 0.025))
+        image = render(scene, 192, 192)
+        assert np.isfinite(image).all() and image[..., :3].max() > 0
+        asked[(target, distance)] = engine.LAST_AUTO_OVERLAP["objects"][cube.name]
+        assert engine.LAST_AUTO_OVERLAP["overlap"] == asked[(target, distance)]
+    assert asked[(0.1, 1.0)] < asked[(0.03, 1.0)] <= asked[(0.03, 0.3)]
+    assert scene.translucent.splat_overlap == manual_k
+    cube.translucent.quality = "MANUAL"
+    render(scene, 32, 32)
+    assert engine.LAST_AUTO_OVERLAP == {}
+    cube.translucent.quality = "AUTO"
 
     cube.translucent.method = "TEXTURE_SPACE"
     cube.translucent.target_error = 0.1

@@ -7,8 +7,10 @@ from .bake.registry import BakeInputError
 
 
 def apply_auto(context, ob) -> quality_auto.Choice:
-    """AUTO quality on one object: choose its method's resolutions and write them, and the scene's splat
-    overlap, which every IMAGE_SPACE object shares: the largest any Auto IMAGE_SPACE object needs."""
+    """AUTO quality on one object: choose its method's resolutions and write them. IMAGE_SPACE's one
+    resolution, the scene's splat overlap, is not written: the engine chooses it again every frame from the
+    camera that draws it (``render.methods.image_space_auto``); the summary says what the scene camera
+    needs now."""
     s = ob.translucent
     view = object_view(ob.evaluated_get(context.evaluated_depsgraph_get()))
     tile_mm = s.grass_tile * s.mm_per_unit if s.grass else None
@@ -24,13 +26,7 @@ def apply_auto(context, ob) -> quality_auto.Choice:
             raise BakeInputError(f"'{ob.name}': {err}") from err
     for name, value in choice.settings.items():
         setattr(s, name, value)
-    if choice.scene_settings:  # IMAGE_SPACE's overlap is the scene's: the largest any Auto object needs
-        depsgraph = context.evaluated_depsgraph_get()
-        others = [quality_auto.choose("IMAGE_SPACE", object_view(o.evaluated_get(depsgraph)), o.translucent.target_error)
-                  for o in context.scene.objects if o is not ob and o.type == "MESH"
-                  and o.translucent.method == "IMAGE_SPACE" and o.translucent.quality == "AUTO"]
-        need = max([choice, *others], key=lambda c: c.scene_settings["splat_overlap"])
-        for name, value in need.scene_settings.items():
-            setattr(context.scene.translucent, name, value)
+    if choice.method == "IMAGE_SPACE":
+        choice.notes.append("at the scene camera; chosen again every frame from the camera that draws it")
     s.auto_summary = choice.summary()
     return choice

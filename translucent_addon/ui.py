@@ -59,6 +59,13 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
                 for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
                     box.label(text=line)
+                if s.method == "IMAGE_SPACE":
+                    from .render.engine import LAST_AUTO_OVERLAP
+
+                    k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
+                    if k is not None:
+                        box.label(text=f"Last frame: splat overlap {k:g} for this object, {LAST_AUTO_OVERLAP['overlap']:g} "
+                                       "in the scene", icon="CAMERA_DATA")
         if s.method == "IMAGE_SPACE":
             layout.prop(s, "profile")
             if s.profile == "MULTIPOLE":
@@ -232,6 +239,11 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.prop(s, "splat_threshold")
         col.prop(s, "splat_overlap")
         col.prop(s, "splat_max_grid")
+        from .render.engine import LAST_AUTO_OVERLAP
+
+        if LAST_AUTO_OVERLAP:
+            col.label(text=f"Last frame: overlap {LAST_AUTO_OVERLAP['overlap']:g}, {LAST_AUTO_OVERLAP['max_grid']} "
+                           "per side, chosen by Auto objects", icon="INFO")
         col.prop(s, "splat_world_layers")
         col.prop(s, "splat_world_overlap")
         col.prop(s, "temporal_coherence")

@@ -20,6 +20,27 @@ def relative_rmse(image, reference, mask) -> float:
     return float(np.sqrt(np.mean(diff**2)) / norm)
 
 
+def block_relative_rmse(image, reference, mask, block: int = 8) -> float:
+    """relative_rmse of the means over the masked pixels of each block x block tile (tiles with no masked
+    pixel skipped; a partial tile at the image's edge dropped): the error in what a texture of blades
+    looks like from further away, blind to where each blade lies within its tile."""
+    mask = np.asarray(mask, dtype=bool)
+    if block < 1:
+        raise ValueError("a block needs at least one pixel")
+    h, w = (mask.shape[0] // block) * block, (mask.shape[1] // block) * block
+    if h == 0 or w == 0:
+        raise ValueError(f"the image is smaller than one {block} x {block} block")
+
+    def tiles(x):
+        return x[:h, :w].reshape(h // block, block, w // block, block, *x.shape[2:]).sum(axis=(1, 3))
+
+    m = mask[:h, :w].astype(np.float64)
+    n = tiles(m)
+    keep = n > 0
+    means = [tiles(_rgb(x)[:h, :w] * m[..., None]) / np.maximum(n, 1)[..., None] for x in (image, reference)]
+    return relative_rmse(means[0], means[1], keep)
+
+
 def mean_noise(samples, mask) -> float:
     """The relative RMSE that the mean of n independent renders (n, h, w, c) keeps from their noise:
     sqrt(mean over the masked pixels and channels of s^2 / n) / sqrt(mean of the mean's square), s^2 the

@@ -168,8 +168,10 @@ def eevee_options(samples: int) -> dict:
 def scene_description(depsgraph, frame, objects) -> dict:
     """Everything of the scene that a render depends on, as hashable values."""
     h = hashlib.blake2b(digest_size=12)
-    for m in frame.meshes:
-        h.update(m.key.encode())
+    for m in frame.meshes:  # not m.key: that hashes the corners in Blender's order, which can change
+        h.update(m.name.encode())
+        h.update(cache.corner_digest(m.positions, m.colors).encode())
+        h.update(cache.normals_digest(m.positions, m.normals).encode())
         h.update(np.asarray(m.model, np.float64).tobytes())
     for e in frame.emitters:
         h.update(repr(e).encode())
@@ -286,9 +288,11 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     for spp in settings.cycles_brute_force_samples:
         img, sec, hit = yield from cached_cycles("brute_force", spp)
         add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
-    for spp in settings.eevee_samples:
+    for i, spp in enumerate(settings.eevee_samples):
         yield step(f"EEVEE {spp} samples ...")
         with twin_materials_applied(objects, "random_walk"), engine_setup(scene, "BLENDER_EEVEE", **eevee_options(spp)):
+            if i == 0:
+                warm_eevee(scene, width, height)
             img, sec = render_pixels(scene, width, height)
         add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
     methods = sorted({ob.translucent.method for ob in objects})
@@ -423,6 +427,19 @@ def warm_render(scene, width: int, height: int):
     with engine_setup(scene, "TRANSLUCENT_RT"):
         render_pixels(scene, width, height)
         return render_pixels(scene, width, height)
+
+
+def warm_eevee(scene, width: int, height: int) -> None:
+    """One untimed EEVEE frame at 1 sample and the size of the timed ones, so that those do not include
+    its shader compilation and buffer setup (the first frame of a session costs more: the glass sphere at
+    192x144 took 33 s at 4 samples cold against 19 s at 16 warm on this machine); our engine is timed
+    warm in the same way."""
+    saved = scene.eevee.taa_render_samples
+    try:
+        scene.eevee.taa_render_samples = 1
+        render_pixels(scene, width, height)
+    finally:
+        scene.eevee.taa_render_samples = saved
 
 
 def texture_space_setting(item) -> tuple[int, float]:

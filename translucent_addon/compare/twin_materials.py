@@ -5,7 +5,8 @@
   boundary is index-matched and has no surface shader: Cycles then samples the lights from inside the
   volume (next-event estimation), which a Glass boundary blocks, so the reference converges;
 * ``random_walk``: the Principled BSDF with random-walk subsurface, inputs converted by
-  ``compare.conversion.random_walk_inputs`` (also what EEVEE gets, as the real-time peer).
+  ``compare.conversion.random_walk_inputs`` (also what EEVEE gets, as the real-time peer);
+* ``leaf``: the grass blade of the BTF acquisition, for the blades drawn as geometry.
 """
 from __future__ import annotations
 
@@ -111,4 +112,34 @@ def random_walk(name, sigma_a, sigma_s_prime, eta, g, mm_per_unit):
     bsdf.inputs["IOR"].default_value = rw.ior
     bsdf.inputs["Roughness"].default_value = 0.0
     tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def leaf(name, specular: float, reflectance: str = "rho_r", transmittance: str = "rho_t"):
+    """The grass blade of the BTF acquisition (``bake/btf_acquire.py``) for Cycles and EEVEE: Lambert
+    reflection with the vertex attribute ``rho_r``, diffuse transmission through the blade with ``rho_t``
+    (Translucent BSDF), and the cuticle sheen as a GGX lobe of weight ``specular`` at roughness 0.5 (the
+    Beckmann slope sqrt(2 / (e + 2)) = 0.25 of the acquisition's Blinn-Phong exponent e = 30, squared
+    roughness as Blender takes it). Both sides of a blade shade alike, as in the acquisition."""
+    mat, tree, out = _new_material(name)
+    attr_r = tree.nodes.new("ShaderNodeAttribute")
+    attr_r.attribute_name = reflectance
+    attr_t = tree.nodes.new("ShaderNodeAttribute")
+    attr_t.attribute_name = transmittance
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    translucent = tree.nodes.new("ShaderNodeBsdfTranslucent")
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.distribution = "GGX"
+    glossy.inputs["Roughness"].default_value = 0.5
+    glossy.inputs["Color"].default_value = (specular, specular, specular, 1.0)
+    tree.links.new(attr_r.outputs["Color"], diffuse.inputs["Color"])
+    tree.links.new(attr_t.outputs["Color"], translucent.inputs["Color"])
+    add1 = tree.nodes.new("ShaderNodeAddShader")
+    add2 = tree.nodes.new("ShaderNodeAddShader")
+    tree.links.new(diffuse.outputs[0], add1.inputs[0])
+    tree.links.new(translucent.outputs[0], add1.inputs[1])
+    tree.links.new(add1.outputs[0], add2.inputs[0])
+    tree.links.new(glossy.outputs[0], add2.inputs[1])
+    tree.links.new(add2.outputs[0], out.inputs["Surface"])
+    mat.diffuse_color = (0.08, 0.2, 0.04, 1.0)
     return mat

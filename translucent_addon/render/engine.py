@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 
 from . import extract
+from .methods import image_space_auto
 from .methods.image_space_data import SamplingSettings
 from .pipeline import Pipeline, render_offscreen
 
@@ -14,6 +15,9 @@ from .pipeline import Pipeline, render_offscreen
 LAST_CAPTURE: dict = {}
 # Seconds per pass of the last frame drawn (F12 or viewport), for the sidebar and the timing overlay.
 LAST_TIMINGS: dict = {}
+# IMAGE_SPACE's splat overlap of the last frame drawn, where AUTO objects chose it: {objects: {name: k},
+# overlap, max_grid}; empty when none did.
+LAST_AUTO_OVERLAP: dict = {}
 
 
 def _keep_timings(pipeline, source: str) -> None:
@@ -22,10 +26,19 @@ def _keep_timings(pipeline, source: str) -> None:
     LAST_TIMINGS["source"] = source
 
 
-def sampling_settings(scene) -> SamplingSettings:
+def sampling_settings(scene, frame=None) -> SamplingSettings:
+    """The scene's IMAGE_SPACE sampling; with a frame, k as its AUTO objects need it seen by its camera
+    (``image_space_auto``), what they asked for kept in LAST_AUTO_OVERLAP for the panel."""
     s = scene.translucent
-    return SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid,
-                            world_layers=s.splat_world_layers, world_overlap=s.splat_world_overlap)
+    manual = SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid,
+                              world_layers=s.splat_world_layers, world_overlap=s.splat_world_overlap)
+    if frame is None:
+        return manual
+    sampling, asked = image_space_auto.frame_sampling(frame, manual)
+    LAST_AUTO_OVERLAP.clear()
+    if asked:
+        LAST_AUTO_OVERLAP.update(objects=asked, overlap=sampling.overlap, max_grid=sampling.max_grid)
+    return sampling
 
 
 class TranslucentRenderEngine(bpy.types.RenderEngine):
@@ -83,7 +96,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         frame = extract.frame_inputs(depsgraph, camera)
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
         pipeline = self._get_pipeline()
-        pipeline.sampling = sampling_settings(scene)
+        pipeline.sampling = sampling_settings(scene, frame)
         pipeline.texture_product = scene.translucent.texture_product
         pipeline.quadgraph_solver = (scene.translucent.quadgraph_tolerance, scene.translucent.quadgraph_iterations)
         pipeline.capture = {} if scene.translucent.capture_passes else None
@@ -121,7 +134,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         region, rv3d = context.region, context.region_data
         frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
         pipeline = self._get_pipeline()
-        pipeline.sampling = sampling_settings(depsgraph.scene)
+        pipeline.sampling = sampling_settings(depsgraph.scene, frame)
         pipeline.texture_product = depsgraph.scene.translucent.texture_product
         pipeline.quadgraph_solver = (depsgraph.scene.translucent.quadgraph_tolerance,
                                      depsgraph.scene.translucent.quadgraph_iterations)

@@ -338,6 +338,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             caster=caster_settings(original.translucent),
             grass=grass_layer(original, frame_warnings),
             relief=relief_surface(original, mesh, tri_loops, positions, frame_warnings),
+            auto_target=float(original.translucent.target_error) if original.translucent.quality == "AUTO" else None,
         )
     finally:
         ob.to_mesh_clear()

@@ -119,6 +119,7 @@ class MeshInstance:
     caster: Caster | None = None  # a caustics caster, else a receiver
     grass: GrassLayer | None = None  # a grass field grows on this mesh
     relief: ReliefSurface | None = None  # a height field displaces this mesh per pixel (drawn by its pass)
+    auto_target: float | None = None  # AUTO quality's target error (IMAGE_SPACE chooses k per frame); None: manual
 
     def __post_init__(self):
         n = len(self.positions)
