@@ -219,7 +219,7 @@ def test_auto_quality_operator_and_bake(tr, scene):
     bpy = pytest.importorskip("bpy")
     from blender_helpers import add_camera, add_cube, add_light, render
 
-    cube = add_cube(scene, size=0.05)  # 5 cm of marble
+    cube = add_cube(scene, size=0.05, location=(0, 0, 0.025))  # 5 cm of marble, in view
     cube.translucent.preset = "marble"
     cube.translucent.mm_per_unit = 1000.0
     add_camera(scene, (0.2, -0.2, 0.15), (0, 0, 0.025))
