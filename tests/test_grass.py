@@ -219,3 +219,39 @@ def test_grass_settings_errors():
     # The same proportions at another size, in single floats as Blender stores them: the same BTF.
     q = grass_btf.params_from_settings(float(np.float32(0.2)), float(np.float32(0.09)), 300, 3)
     assert grass_btf.settings_hash(q, 128, 0.5) == grass_btf.settings_hash(p, 128, 0.5)
+
+
+def test_the_cuticle_sheen_reflects_no_more_than_its_weight():
+    """bake.btf_acquire.sheen_brdf: seen along the normal, the sheen's directional albedo
+    int f cos(theta_l) d omega_l is its weight within 10 % (energy-normalised Blinn-Phong: 1.05); the NDF's
+    constant (e + 2) / (2 pi) used as the BRDF, as before, reflected 3.4 times the weight: the white haze
+    of the field against Cycles."""
+    from translucent_addon.bake.btf_acquire import SHEEN_EXPONENT, sheen_brdf
+
+    theta = np.linspace(0.0, np.pi / 2, 20001)
+    cos_h = np.cos(theta / 2)  # view along n: the half vector is halfway to the light
+    integrand = sheen_brdf(cos_h, 1.0) * np.cos(theta) * np.sin(theta) * 2 * np.pi
+    albedo = np.trapz(integrand, theta)
+    assert albedo == pytest.approx(1.0, abs=0.1)
+    e = SHEEN_EXPONENT
+    old = np.trapz((e + 2) / (2 * np.pi) * cos_h ** e * np.cos(theta) * np.sin(theta) * 2 * np.pi, theta)
+    assert old / albedo == pytest.approx(3.4, abs=0.1)
+
+
+def test_the_counts_fit_the_renderers_texture_width():
+    """btf_compress.choose_counts with a group budget (the basis texture is R x groups wide, at most
+    16,384 texels on an OpenGL 4.5 GPU): 400 eigen-textures a channel with slowly falling singular values
+    would need 301 groups; under a budget of 128 (R = 128) the counts stop within it, short of the target,
+    which their total error shows. Target 0.4 on the default patch needed 400 Y and 20+ chroma: a texture
+    wider than llvmpipe's limit, and a black frame."""
+    from types import SimpleNamespace
+
+    sing = 1.0 / np.sqrt(np.arange(1, 401))
+    spectra = [SimpleNamespace(singular=f * sing, U=np.zeros((1, 400)), norm=3.0) for f in (1.0, 0.5, 0.5)]
+    free = btf_compress.choose_counts(spectra, 0.01)
+    assert btf_compress.texture_groups(*free) * 128 > btf_compress.MAX_TEXTURE_TEXELS
+    n_y, n_c = btf_compress.choose_counts(spectra, 0.01, max_groups=btf_compress.MAX_TEXTURE_TEXELS // 128)
+    assert btf_compress.texture_groups(n_y, n_c) <= 128
+    curves = btf_compress.error_curve(spectra)
+    assert btf_compress.total_error(curves, n_y, n_c) > 0.01
+    assert btf_compress.texture_groups(n_y + 1, n_c) > 128 and btf_compress.texture_groups(n_y, n_c + 1) > 128

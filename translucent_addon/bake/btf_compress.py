@@ -122,17 +122,31 @@ def total_error(curves: np.ndarray, n_y: int, n_c: int) -> float:
     return float(np.sqrt(curves[0][min(n_y, K)] ** 2 + curves[1][min(n_c, K)] ** 2 + curves[2][min(n_c, K)] ** 2))
 
 
-def choose_counts(spectra: list, target_error: float) -> tuple[int, int]:
+MAX_TEXTURE_TEXELS = 16384  # OpenGL 4.5's least GL_MAX_TEXTURE_SIZE: the renderer's basis texture is R x groups wide
+
+
+def texture_groups(n_y: int, n_c: int) -> int:
+    """Groups of four eigen-textures the renderer packs side by side (``render.grass_data.packed_basis``):
+    each channel keeps its mean as basis 0."""
+    return -(-(n_y + 1) // 4) + 2 * -(-(n_c + 1) // 4)
+
+
+def choose_counts(spectra: list, target_error: float, max_groups: int | None = None) -> tuple[int, int]:
     """(n_Y, n_chroma) reaching a total relative error <= target_error at the least storage: eigen-
     textures are added greedily by error removed per texture stored (a chroma count adds one to Cb and
-    one to Cr). Chroma is more coherent than luminance, so it gets far fewer (Shah: 140 and 6)."""
+    one to Cr). Chroma is more coherent than luminance, so it gets far fewer (Shah: 140 and 6).
+    ``max_groups``: at most that many texture groups (``texture_groups``); the target may then be missed,
+    which ``total_error`` of the counts shows."""
     curves = error_curve(spectra)
     K = min(s.U.shape[1] for s in spectra)
     sq = [np.concatenate([s.singular ** 2, [0.0]]) for s in spectra]
+    limit = np.inf if max_groups is None else max_groups
     n_y = n_c = 0
-    while total_error(curves, n_y, n_c) > target_error and (n_y < K or n_c < K):
-        gain_y = sq[0][n_y] if n_y < K else -1.0
-        gain_c = 0.5 * (sq[1][n_c] + sq[2][n_c]) if n_c < K else -1.0
+    while total_error(curves, n_y, n_c) > target_error:
+        gain_y = sq[0][n_y] if n_y < K and texture_groups(n_y + 1, n_c) <= limit else -1.0
+        gain_c = 0.5 * (sq[1][n_c] + sq[2][n_c]) if n_c < K and texture_groups(n_y, n_c + 1) <= limit else -1.0
+        if gain_y < 0 and gain_c < 0:
+            break
         if gain_y >= gain_c:
             n_y += 1
         else:
@@ -145,8 +159,8 @@ def compress(btf: BTFImages, target_error: float = 0.05, counts: tuple | None = 
     """Truncate to the counts that reach ``target_error`` (or to explicit ``counts``) and add the sky."""
     F = btf_matrices(btf)
     spectra = spectra or [spectrum(F[c]) for c in range(3)]
-    n_y, n_c = counts if counts is not None else choose_counts(spectra, target_error)
     n_v, n_l, R = btf.images.shape[0], btf.images.shape[1], btf.images.shape[2]
+    n_y, n_c = counts if counts is not None else choose_counts(spectra, target_error, MAX_TEXTURE_TEXELS // R)
     sky_weights = hemisphere.sky_weights(btf.lights)
     basis, coeffs = [], []
     curves = error_curve(spectra)

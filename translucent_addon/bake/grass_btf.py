@@ -38,9 +38,12 @@ def params_from_settings(tile: float, blade_height: float, blades: int, seed: in
     return GrassParams(blades=int(blades), height=round(float(ratio), 4), seed=int(seed))
 
 
+SHADING_VERSION = 2  # 2: the sheen energy-normalised (btf_acquire.sheen_normalisation); BTFs before it are stale
+
+
 def settings_hash(params: GrassParams, resolution: int, target_error: float) -> str:
     return store.inputs_hash({}, {"grass": params.as_dict(), "resolution": int(resolution),
-                                  "target_error": round(float(target_error), 6)})
+                                  "target_error": round(float(target_error), 6), "shading": SHADING_VERSION})
 
 
 def bake(params: GrassParams = GrassParams(), resolution: int = DEFAULT_RESOLUTION,
