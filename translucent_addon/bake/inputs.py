@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.mesh_measures import stretch_of
 from . import store
 from .registry import BakeInputError, BakeInputs, needs_bake
 
@@ -108,12 +109,6 @@ def screen_pixels(ob_eval) -> float | None:
     pts = np.array([tuple(world_to_camera_view(scene, cam, m @ Vector(c)))[:2] for c in ob_eval.bound_box])
     pts = np.clip(pts, -0.5, 1.5) * size
     return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-
-
-def stretch_of(linear: np.ndarray) -> np.ndarray:
-    """The symmetric factor S of the polar decomposition L = R S: the object's scale, rotation removed."""
-    _, sing, vt = np.linalg.svd(np.asarray(linear, np.float64))
-    return vt.T @ np.diag(sing) @ vt
 
 
 def proxy_surface(vertices: np.ndarray, triangles: np.ndarray, target: int):

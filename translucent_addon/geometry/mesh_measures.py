@@ -1,9 +1,16 @@
-"""Per-vertex measures of a triangle mesh and a quadrature rule on triangles (pure)."""
+"""Per-vertex measures of a triangle mesh, the scale of its transform, and a quadrature rule on triangles
+(pure)."""
 from __future__ import annotations
 
 import numpy as np
 
 from .mesh_checks import triangle_areas
+
+
+def stretch_of(linear: np.ndarray) -> np.ndarray:
+    """The symmetric factor S of the polar decomposition L = R S: the object's scale, rotation removed."""
+    _, sing, vt = np.linalg.svd(np.asarray(linear, np.float64))
+    return vt.T @ np.diag(sing) @ vt
 
 
 def vertex_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -17,6 +17,8 @@ import math
 
 import numpy as np
 
+from ...geometry.mesh_checks import triangle_areas
+from ...geometry.mesh_measures import stretch_of
 from ...quality_auto import SPLAT_OVERLAP_RANGE, ObjectView, splat_overlap_for
 from ..scene_data import CameraView, FrameInputs, MeshInstance
 from .image_space_data import SamplingSettings
@@ -58,11 +60,8 @@ def _shape(mesh: MeshInstance) -> tuple[float, float, np.ndarray]:
         if len(_SHAPES) > 256:
             _SHAPES.clear()
         model = np.asarray(mesh.model, np.float64)
-        _, sing, vt = np.linalg.svd(model[:3, :3])
-        stretch = vt.T @ np.diag(sing) @ vt  # the scale of the polar decomposition: rotation removed
-        v_mm = np.asarray(mesh.positions, np.float64) @ stretch.T * mm
-        tri = v_mm.reshape(-1, 3, 3)
-        area = 0.5 * float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum())
+        v_mm = np.asarray(mesh.positions, np.float64) @ stretch_of(model[:3, :3]).T * mm
+        area = float(triangle_areas(v_mm, np.arange(len(v_mm)).reshape(-1, 3)).sum())
         lo, hi = mesh.positions.min(axis=0), mesh.positions.max(axis=0)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         world = corners @ model[:3, :3].T + model[:3, 3]
