@@ -1,15 +1,21 @@
-# Translucent: two commands for a fresh Linux machine with Python 3.11:
-#   make demo   renders the bundled back-lit marble bunny into out/
-#   make test   builds the extension zip and runs every test
-PYTHON ?= python3.11
+# Translucent: two commands for a fresh Linux machine with Python 3.13 (and 3.11 for Blender 4.5):
+#   make demo   renders the bundled back-lit marble bunny into out/ (Blender 5.2 LTS as a module)
+#   make test   builds the extension zips and runs every test on Blender 5.2 LTS, then the zip-only
+#               tests (install with only the zip's wheels, every operator) on 5.2.4, 5.3.0 and 4.5.15
+# `scripts/find_python.sh` finds each Python (PATH, then pyenv) or says how to get it.
+PYTHON ?= $(shell sh scripts/find_python.sh 3.13)
+PYTHON311 ?= $(shell sh scripts/find_python.sh 3.11)
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+PYTEST_PIN := pytest==8.3.5
+# The Blenders the zip-only tests install the zip into: version and the Python it needs.
+ZIP_BLENDERS := 5.2.4:$(PYTHON) 5.3.0:$(PYTHON) 4.5.15:$(PYTHON311)
 
-.PHONY: demo test extension wheels venv bench clean
+.PHONY: demo test test-dev test-zip lint extension wheels venv bench clean
 
 $(STAMP): requirements.txt
-	@command -v $(PYTHON) >/dev/null || { echo "make: $(PYTHON) not found: bpy 5.0.1 needs Python 3.11 (set PYTHON=...)"; exit 1; }
+	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt
@@ -20,14 +26,33 @@ venv: $(STAMP)
 wheels: $(STAMP)
 	$(PY) scripts/build_extension.py wheels
 
-extension: wheels
+extension: $(STAMP)
+	@$(PY) -c "import sys; sys.path.insert(0, 'scripts'); import build_extension as b; \
+	  sys.exit(0 if all(w.exists() for w in b.manifest_wheels()) else 1)" || $(PY) scripts/build_extension.py wheels
 	$(PY) scripts/build_extension.py build
+
+lint: $(STAMP)
+	$(PY) -m ruff check .
+
+# A venv holding only bpy and pytest per Blender: what the zip lacks cannot come from anywhere else.
+.venv-zip-%/.installed:
+	@py="$(filter $*:%,$(ZIP_BLENDERS))"; py="$${py#*:}"; \
+	case "$$py" in ""|*not-found) echo "make: no Python for bpy $*: pyenv install 3.11 / 3.13"; exit 1;; esac; \
+	$$py -m venv .venv-zip-$* && .venv-zip-$*/bin/python -m pip install --quiet --upgrade pip && \
+	.venv-zip-$*/bin/python -m pip install --quiet bpy==$* $(PYTEST_PIN)
+	touch $@
+
+test-dev: extension lint
+	$(PY) -m pytest tests --ignore=tests/zip_only
+
+test-zip: extension $(foreach b,$(ZIP_BLENDERS),.venv-zip-$(firstword $(subst :, ,$(b)))/.installed)
+	@for b in $(ZIP_BLENDERS); do v=$${b%%:*}; echo "== zip-only tests on bpy $$v"; \
+	  .venv-zip-$$v/bin/python -m pytest tests/zip_only -p no:cacheprovider || exit 1; done
+
+test: test-dev test-zip
 
 demo: $(STAMP)
 	$(PY) scripts/demo.py --output out
-
-test: extension
-	$(PY) -m pytest tests
 
 bench: $(STAMP)
 	$(PY) scripts/bench.py
@@ -41,4 +66,4 @@ bench: $(STAMP)
 	$(PY) scripts/look_world_light.py
 
 clean:
-	rm -rf dist wheels out .pytest_cache
+	rm -rf dist wheels out .pytest_cache .venv-zip-*

@@ -39,7 +39,8 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true", help="few samples: checks the pipeline, not the numbers")
     parser.add_argument("--discretisation-size", type=int, default=512,
                         help="square size of the IMAGE_SPACE-against-dipole-model phase (0: skip)")
-    parser.add_argument("--discretisation-scenes", nargs="*", default=["bunny_backlit", "bunny_frontlit", "cow_backlit"],
+    parser.add_argument("--discretisation-scenes", nargs="*",
+                        default=["bunny_backlit", "bunny_frontlit", "cow_backlit"],
                         help="scenes of that phase (the acceptance set of the IMAGE_SPACE issue)")
     parser.add_argument("--texture-space-atlas", nargs="*", type=_atlas_setting,
                         default=[256, 512, (512, 2.4)],
@@ -183,7 +184,8 @@ def summary_table(rows, machine) -> str:
         "# Benchmark: speed against accuracy",
         "",
         f"Machine: {machine['cpu']}, {machine['cores']} cores; Blender {machine['blender']}; "
-        f"{machine['size'][0]}x{machine['size'][1]} px; whole run {machine['total_seconds']} s. All renders of a scene in "
+        f"{machine['size'][0]}x{machine['size'][1]} px; whole run {machine['total_seconds']} s. "
+        "All renders of a scene in "
         "one run on this machine: compare times as ratios, not as absolute frame rates.",
         "",
         "Error: relative RMSE (and SSIM, and the firefly-robust median relative error) of linear radiance over the "
@@ -297,7 +299,6 @@ def bake_curve(demo, runner, bpy, resolutions, out: Path) -> None:
 
 def checker_occluder(bpy, scene, light, target, squares: int = 12, square_mm: float = 6.0):
     """A checkerboard of opaque squares across the light's beam, halfway to the target."""
-    import numpy as np
     from mathutils import Vector
 
     pos, aim = Vector(light.location), Vector(target)
@@ -335,9 +336,8 @@ def blending_phase(demo, runner, bpy, out: Path, cache, size: int = 256) -> None
     key.data.shadow_soft_size = 0.0
     checker_occluder(bpy, scene, key, Vector((0.0, 0.0, 0.06)))
     scene.render.resolution_x = scene.render.resolution_y = size
-    rows, images = [], []
+    rows = []
     out.mkdir(parents=True, exist_ok=True)
-    model = None
     for blend in (False, True):
         ob.translucent.texture_blending = blend
         got = runner.texture_space_discretisation(scene, [ob], out / "blending", (512,), cache_dir=cache,

@@ -36,7 +36,8 @@ DENSITY_CAMERA = (0.0, -4.5, 5.0)
 
 
 def compression_phase(mod, out: Path) -> tuple[dict, object, object]:
-    grass_patch, btf_acquire, btf_compress = mod("geometry.grass_patch"), mod("bake.btf_acquire"), mod("bake.btf_compress")
+    grass_patch, btf_acquire, btf_compress = (mod("geometry.grass_patch"), mod("bake.btf_acquire"),
+                                              mod("bake.btf_compress"))
     patch = grass_patch.build_patch()
     btf = btf_acquire.run(btf_acquire.acquire(patch, 128))
     print(f"[grass] acquisition {btf.seconds:.1f} s", flush=True)
@@ -62,7 +63,8 @@ def compression_phase(mod, out: Path) -> tuple[dict, object, object]:
         print(f"[grass] counts {n_y}/{n_c}: {rows[-1]}", flush=True)
     for target in (0.6, 0.5, 0.4, 0.3):
         n_y, n_c = btf_compress.choose_counts(spectra, target)
-        rows.append({"target": target, "Y": n_y, "chroma": n_c, "svd_error": btf_compress.total_error(curves, n_y, n_c)})
+        rows.append({"target": target, "Y": n_y, "chroma": n_c,
+                     "svd_error": btf_compress.total_error(curves, n_y, n_c)})
     # Shah Fig. 4.5: one image at 4, 40, 140 luminance eigen-textures and the original.
     import matplotlib
 
@@ -87,7 +89,8 @@ def compression_phase(mod, out: Path) -> tuple[dict, object, object]:
 
 def unsampled_phase(mod, btf, spectra) -> list[dict]:
     """Directly rendered unsampled pairs against the per-pixel reconstruction."""
-    grass_patch, btf_acquire, btf_compress = mod("geometry.grass_patch"), mod("bake.btf_acquire"), mod("bake.btf_compress")
+    grass_patch, btf_acquire, btf_compress = (mod("geometry.grass_patch"), mod("bake.btf_acquire"),
+                                              mod("bake.btf_compress"))
     grass_data = mod("render.grass_data")
     renderer = btf_acquire.PatchRenderer(grass_patch.build_patch(), 128)
     rng = np.random.default_rng(11)
@@ -132,7 +135,8 @@ def unsampled_phase(mod, btf, spectra) -> list[dict]:
             ok = nd & nr
             block_err = float(np.sqrt(((br[ok] - bd[ok]) ** 2).sum() / (bd[ok] ** 2).sum()))
             rows.append({"theta_v": float(np.degrees(np.arccos(wv[2]))), "theta_l": float(np.degrees(np.arccos(wl[2]))),
-                         "interpolation_error": err(interp), "compressed_error": err(rgb), "mean_error": mean_err, "blocks8_error": block_err,
+                         "interpolation_error": err(interp), "compressed_error": err(rgb), "mean_error": mean_err,
+                         "blocks8_error": block_err,
                          "gap_agreement": float(np.mean(hit_direct == (cov >= 0.5)))})
     finally:
         renderer.release()
@@ -432,16 +436,19 @@ def summary(comp, unsampled, scenes, reference, bake_meta, args) -> str:
              f"Acquisition {comp['acquisition_s']:.1f} s; SVD of the three channels {comp['svd_s']:.1f} s; "
              f"uncompressed {comp['uncompressed_MB']:.0f} MB (half floats).", "",
              "## Error against eigen-textures kept", "",
-             "| Y | chroma | SVD error (all pixels) | RGB error over blade pixels (60 images) | MB |", "|---|---|---|---|---|"]
+             "| Y | chroma | SVD error (all pixels) | RGB error over blade pixels (60 images) | MB |",
+             "|---|---|---|---|---|"]
     for r in comp["counts"]:
         if "rgb_error_blades" in r:
-            lines.append(f"| {r['Y']} | {r['chroma']} | {r['svd_error']:.3f} | {r['rgb_error_blades']:.3f} | {r['MB']:.1f} |")
+            lines.append(f"| {r['Y']} | {r['chroma']} | {r['svd_error']:.3f} | {r['rgb_error_blades']:.3f} | "
+                         f"{r['MB']:.1f} |")
     lines += ["", "Counts chosen for a target error (greedy, error removed per eigen-texture stored):", ""]
     for r in comp["counts"]:
         if "target" in r:
             lines.append(f"- target {r['target']}: {r['Y']} Y, {r['chroma']} chroma (error {r['svd_error']:.3f})")
     lines += ["", "## Unsampled view and light pairs (direct render vs per-pixel reconstruction)", "",
-              "| theta_v | theta_l | interpolation only | with default compression | 8x8 block means | mean brightness | gaps agree |",
+              "| theta_v | theta_l | interpolation only | with default compression | 8x8 block means | mean brightness "
+              "| gaps agree |",
               "|---|---|---|---|---|---|---|"]
     for r in unsampled:
         lines.append(f"| {r['theta_v']:.0f} | {r['theta_l']:.0f} | {r['interpolation_error']:.3f} | "
@@ -449,11 +456,13 @@ def summary(comp, unsampled, scenes, reference, bake_meta, args) -> str:
                      f"{r['gap_agreement']:.3f} |")
     med = lambda k: float(np.median([r[k] for r in unsampled]))  # noqa: E731
     lines += ["", f"Medians: interpolation {med('interpolation_error'):.3f}, with compression "
-                  f"{med('compressed_error'):.3f}, 8x8 block means {med('blocks8_error'):.3f}, mean brightness {med('mean_error'):.3f}, gaps agree "
+                  f"{med('compressed_error'):.3f}, 8x8 block means {med('blocks8_error'):.3f}, "
+                  f"mean brightness {med('mean_error'):.3f}, gaps agree "
                   f"{med('gap_agreement'):.3f}.", "", "## Frame time against blade density (256 x 256)", "",
               "| equivalent blades | tile | fewer eigen-textures far | s/frame |", "|---|---|---|---|"]
     for r in scenes.get("ours", []):
-        lines.append(f"| {r['blades']:.0e} | {r['tile_m']:.3f} m | {'yes' if r['lod'] else 'no'} | {r['seconds']:.2f} |")
+        lines.append(f"| {r['blades']:.0e} | {r['tile_m']:.3f} m | {'yes' if r['lod'] else 'no'} | "
+                     f"{r['seconds']:.2f} |")
     lines += ["", "| EEVEE 16, blades as geometry | triangles | s/frame |", "|---|---|---|"]
     for r in scenes.get("eevee_geometry", []):
         lines.append(f"| {r['blades']:.0e} | {r['triangles']:,} | {r['seconds']:.2f} |")
@@ -465,7 +474,8 @@ def summary(comp, unsampled, scenes, reference, bake_meta, args) -> str:
                   "bouncing between blades and their shadows on the soil). Errors over the pixels that see the field "
                   f"({100 * ref['field_pixels']:.0f} % of the image): per pixel, median, and of 8 x 8 block means; the "
                   "mean brightness against the reference.", "",
-                  "| renderer | s/frame | relative RMSE | 8x8 blocks | median | mean ratio | eigen-textures (Y, chroma) | MB |",
+                  "| renderer | s/frame | relative RMSE | 8x8 blocks | median | mean ratio "
+                  "| eigen-textures (Y, chroma) | MB |",
                   "|---|---|---|---|---|---|---|---|"]
         for r in reference:
             counts = f"{r['counts'][0]}, {r['counts'][1]}" if "counts" in r else ""
@@ -473,7 +483,8 @@ def summary(comp, unsampled, scenes, reference, bake_meta, args) -> str:
             lines.append(f"| {r['label']} | {r['seconds']:.2f} | {r['rel_rmse']:.3f} | {r['blocks8']:.3f} | "
                          f"{r['median']:.3f} | {r['mean_ratio']:.3f} | {counts} | {mb} |")
     lines += ["", f"Default bake (target error 0.5): {bake_meta['counts'][0]} Y + 2 x {bake_meta['counts'][1]} "
-                  f"chroma eigen-textures, {bake_meta['storage']['total'] / 2**20:.1f} MB, {bake_meta['bake_s']:.0f} s.",
+                  f"chroma eigen-textures, {bake_meta['storage']['total'] / 2**20:.1f} MB, "
+                  f"{bake_meta['bake_s']:.0f} s.",
               "", "Images: coefficients_fig4_5.png (4, 40, 140 Y and the render), sunk_ball.png, hill_crest.png, "
                   "field_*.png, eevee_geometry_*.png, reference_*.png (the field against Cycles, with error images)."]
     return "\n".join(lines) + "\n"

@@ -114,7 +114,8 @@ def main() -> int:
                     }
                 row["seconds"] = time.time() - t0
                 rows.append(row)
-                print(f"{fname:7s} {theta:4.0f} deg {steps:2d} steps: iterations interval {row['interval']['mean_iterations']:.2f}"
+                print(f"{fname:7s} {theta:4.0f} deg {steps:2d} steps: iterations interval "
+                      f"{row['interval']['mean_iterations']:.2f}"
                       f" relief {row['relief']['mean_iterations']:.2f}; err2 {row['interval']['err2_mean']:.4f} vs"
                       f" {row['relief']['err2_mean']:.4f} (reference {t_ref:.0f} s)", flush=True)
                 if steps == 5:
@@ -138,7 +139,8 @@ def main() -> int:
 
     write_chart(out / "chart.png", rows, args)
     meta = {"rays": f"{n}x{n}", "field_size": im.FIELD_SIZE, "depth_scale_uv": DEPTH_SCALE, "azimuth_deg": AZIMUTH,
-            "threshold": im.THRESHOLD, "max_iter": im.MAX_ITER, "reference": f"{args.reference_steps} steps + 40 bisections",
+            "threshold": im.THRESHOLD, "max_iter": im.MAX_ITER,
+            "reference": f"{args.reference_steps} steps + 40 bisections",
             "light": LIGHT.tolist(), "total_seconds": time.time() - t_start}
     (out / "results.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
     write_summary(out / "summary.md", rows, meta)
@@ -176,7 +178,8 @@ def write_summary(path: Path, rows, meta) -> None:
     lines = [
         "# Interval mapping vs relief mapping (Shah, thesis ch. 3)",
         "",
-        f"NumPy twin (`translucent_addon/geometry/interval_mapping.py`; the GLSL twin `gpu_shaders/interval_search.glsl`"
+        "NumPy twin (`translucent_addon/geometry/interval_mapping.py`; the GLSL twin"
+        " `gpu_shaders/interval_search.glsl`"
         f" matches it in the tests). {meta['rays']} rays on one tile of each {meta['field_size']}x{meta['field_size']}"
         f" field, layer {meta['depth_scale_uv']} uv thick, azimuth {meta['azimuth_deg']:.0f} deg. Converged when"
         f" |ray depth - surface depth| < {meta['threshold']} layer thicknesses at the new point, at most"
@@ -185,7 +188,8 @@ def write_summary(path: Path, rows, meta) -> None:
         " include the linear search's misses (the bracket does not hold the first hit: thin features stepped"
         " over), which are the same for both methods (column 'miss').",
         "",
-        "| field | view | linear steps | mean iter. interval | mean iter. relief | not conv. interval | not conv. relief"
+        "| field | view | linear steps | mean iter. interval | mean iter. relief | not conv. interval"
+        " | not conv. relief"
         " | err@2 mean interval | err@2 mean relief | err@2 p95 interval | err@2 p95 relief | miss |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -198,7 +202,8 @@ def write_summary(path: Path, rows, meta) -> None:
             f" {r['linear_search_misses_first_hit_pct']:.1f} % |")
     lines += [
         "",
-        "Images (5 linear steps; uv0 space, v up; 512x512 rays averaged to 256x256): `<field>_<angle>deg_iter_interval.png`,"
+        "Images (5 linear steps; uv0 space, v up; 512x512 rays averaged to 256x256):"
+        " `<field>_<angle>deg_iter_interval.png`,"
         " `..._iter_relief.png` (black = 1 iteration, white = 10, as the paper's Fig. 3.7), `..._shaded.png` (Lambert"
         " with self-shadowing from the interval-mapping hit, ambient 0.15); `figure_3_7.png` puts them side by side"
         " (rows: bumps, bricks, rocks from the top; columns: shaded, interval, relief) at the middle angle;"

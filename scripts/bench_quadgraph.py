@@ -484,7 +484,8 @@ def summary(rows, fig14, exact_rows, exact_samples, exact_seeds, ball_rows=()) -
              "Cycles' brute force converges (it samples the lights from inside the volume); the reference "
              f"averages {exact_seeds} seeds of {exact_samples} spp with the boundary black to light coming back from "
              "outside (no self-interreflection, which no method here models). 'noise' is the reference's own "
-             "RMSE (from the seeds' spread: the variance across them over their number); 'full' compares with the brute force that keeps "
+             "RMSE (from the seeds' spread: the variance across them over their number); 'full' compares with "
+             "the brute force that keeps "
              "self-interreflection. 192x144, relative RMSE and median relative error over the object's "
              "pixels.\n",
              "QUADGRAPH's RMSE includes its surface term (single scattering and the local multiple "
@@ -557,7 +558,8 @@ def summary(rows, fig14, exact_rows, exact_samples, exact_seeds, ball_rows=()) -
                          + " | ".join(cells) + " |")
             t = b["reference_truncation"]
             lines.append(f"| cap 512 to 1024 | {', '.join(f'{v:.3f}' for v in t['mean_change'])} | "
-                         + " | ".join(" / ".join(f"+{v:.2f}" for v in band["truncation"]) for band in b["bands"]) + " |")
+                         + " | ".join(" / ".join(f"+{v:.2f}" for v in band["truncation"])
+                                      for band in b["bands"]) + " |")
     return "\n".join(lines) + "\n"
 
 

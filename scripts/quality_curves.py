@@ -44,7 +44,8 @@ def scene_measures(name: str) -> dict:
     m = load_presets()[preset]
     sigma_tr = dipole_parameters(m.sigma_a, m.sigma_s_prime, m.eta)[1]
     return {"ell_min_mm": round(float(1.0 / sigma_tr.max()), 4),
-            "ell_max_mm": round(float(1.0 / sigma_tr.min()), 4), "diagonal_mm": round(float(np.linalg.norm(np.ptp(v, axis=0))), 2),
+            "ell_max_mm": round(float(1.0 / sigma_tr.min()), 4),
+            "diagonal_mm": round(float(np.linalg.norm(np.ptp(v, axis=0))), 2),
             "area_mm2": round(surface_area(v, t), 1), "triangles": int(len(t)), "preset": preset,
             "r_max_mm": round(float(np.max(r_max(np.asarray(m.sigma_a), np.asarray(m.sigma_s_prime), m.eta))), 3)}
 

@@ -53,7 +53,8 @@ def test_volume_inputs_reproduce_our_coefficients_per_blender_unit():
 def test_random_walk_inputs_match_diffuse_albedo_and_diffusion_length():
     m = load_presets()["skin1"]
     rw = conversion.random_walk_inputs(m.sigma_a, m.sigma_s_prime, m.eta, 0.0, 1000.0)
-    rho = total_diffuse_reflectance(np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta) * hemispherical_transmittance(m.eta)
+    rho = (total_diffuse_reflectance(np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta)
+           * hemispherical_transmittance(m.eta))
     np.testing.assert_allclose(rw.target_albedo, rho)
     # Cycles' medium has the same diffusion length 1/sigma_tr as ours.
     alpha_c = conversion.cycles_single_scattering_albedo(np.array(rw.base_color))

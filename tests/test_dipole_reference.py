@@ -9,6 +9,7 @@ import pytest
 from translucent_addon.physics.dipole import total_diffuse_reflectance
 from translucent_addon.physics.fresnel import fresnel_dielectric
 from translucent_addon.physics.fresnel import hemispherical_transmittance
+from translucent_addon.physics.quadrature import trapezoid
 from translucent_addon.reference.dipole_model import Medium, render_dipole
 from translucent_addon.render import blocks
 from translucent_addon.render.lights import emitters_from_light
@@ -41,7 +42,7 @@ def _half_plane_profile(R_d, delta_mm):
     """int R_d over the half-plane {x - x_o > delta} of a flat surface: (3,)."""
     r = 60.0 * np.linspace(0.0, 1.0, 400_001) ** 2  # dense near r = 0, where R_d peaks
     angle = 2.0 * np.arccos(np.clip(delta_mm / np.maximum(r, 1e-12), -1.0, 1.0))
-    return np.trapz(R_d(r[:, None]) * (r * angle)[:, None], r, axis=0)
+    return trapezoid(R_d(r[:, None]) * (r * angle)[:, None], r, axis=0)
 
 
 def test_a_shadow_edge_inside_the_near_disk_is_resolved():
@@ -88,7 +89,8 @@ def test_plate_under_a_sun_matches_the_closed_form():
     proj = blocks.orthographic(0.01, 0.01, 0.1, 10.0)  # 20 mm field at the centre
     frame = FrameInputs([_plate()], sun, CameraView(view, proj, 6, 6), np.zeros(3))
     img = render_dipole(frame, {"Plate": medium}, samples=300_000)
-    expected = ((1 - fresnel_dielectric(1.0, eta)) / math.pi * total_diffuse_reflectance(np.array(sa), np.array(ss), eta)
+    expected = ((1 - fresnel_dielectric(1.0, eta)) / math.pi
+                * total_diffuse_reflectance(np.array(sa), np.array(ss), eta)
                 * (1 - fresnel_dielectric(math.cos(theta), eta)) * 3.0 * math.cos(theta))
     got = img[..., :3].reshape(-1, 3)
     np.testing.assert_allclose(got, np.broadcast_to(expected, got.shape), rtol=0.01)
@@ -107,5 +109,5 @@ def test_surface_quadrature_covers_the_area_exactly():
 def test_uniform_world_enters_through_the_hemispherical_transmittance():
     t = hemispherical_transmittance(1.3)
     mu = np.linspace(0, 1, 100001)
-    assert t == pytest.approx(2 * np.trapz((1 - fresnel_dielectric(mu, 1.3)) * mu, mu), rel=1e-5)
+    assert t == pytest.approx(2 * trapezoid((1 - fresnel_dielectric(mu, 1.3)) * mu, mu), rel=1e-5)
     assert 0.85 < t < 0.95

@@ -70,7 +70,8 @@ def test_chain_layout(busy_chain):
 
 def test_constant_environment_stays_constant():
     c = np.array([0.3, 0.5, 0.7])
-    for source in (np.broadcast_to(c, (32, 64, 3)), np.broadcast_to(c, (6, 32, 32, 3)), lambda d: np.broadcast_to(c, d.shape)):
+    for source in (np.broadcast_to(c, (32, 64, 3)), np.broadcast_to(c, (6, 32, 32, 3)),
+                   lambda d: np.broadcast_to(c, d.shape)):
         ch = env.build_chain(np.asarray(source) if not callable(source) else source, 32)
         for lv in range(ch.levels):
             w = (32 >> lv) + 2

@@ -10,8 +10,12 @@ bpy = pytest.importorskip("bpy")
 from conftest import ext_module  # noqa: E402
 
 OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT_clear_bake",
-               "TRANSLUCENT_OT_add_demo_scene", "TRANSLUCENT_OT_compare_cycles", "TRANSLUCENT_OT_add_paint_layer", "TRANSLUCENT_OT_bake_grass_btf", "TRANSLUCENT_OT_add_grass_field", "TRANSLUCENT_OT_set_physical_size", "TRANSLUCENT_OT_apply_quality", "TRANSLUCENT_OT_auto_quality", "TRANSLUCENT_OT_save_preset", "TRANSLUCENT_OT_remove_preset", "TranslucentPreferences", "VIEW3D_PT_translucent_object", "VIEW3D_PT_translucent_scene",
-               "TranslucentObjectSettings", "TranslucentSceneSettings", "TranslucentLightSettings")
+               "TRANSLUCENT_OT_add_demo_scene", "TRANSLUCENT_OT_compare_cycles", "TRANSLUCENT_OT_add_paint_layer",
+               "TRANSLUCENT_OT_bake_grass_btf", "TRANSLUCENT_OT_add_grass_field", "TRANSLUCENT_OT_set_physical_size",
+               "TRANSLUCENT_OT_apply_quality", "TRANSLUCENT_OT_auto_quality", "TRANSLUCENT_OT_save_preset",
+               "TRANSLUCENT_OT_remove_preset", "TranslucentPreferences", "VIEW3D_PT_translucent_object",
+               "VIEW3D_PT_translucent_scene", "TranslucentObjectSettings", "TranslucentSceneSettings",
+               "TranslucentLightSettings")
 _CLASSES = ()
 
 
@@ -98,7 +102,8 @@ def _run_with_bundled_wheels(code: str) -> None:
     import subprocess
     import sys
 
-    sites = [p for p in sys.path if f"{os.sep}.local{os.sep}" in p and "extensions" in p and p.endswith("site-packages")]
+    sites = [p for p in sys.path
+             if f"{os.sep}.local{os.sep}" in p and "extensions" in p and p.endswith("site-packages")]
     assert sites, sys.path
     code = "import sys; sys.path.insert(0, sys.argv[1]); " + code
     out = subprocess.run([sys.executable, "-I", "-c", code, sites[0]], capture_output=True, text=True, timeout=120)

@@ -9,6 +9,7 @@ from translucent_addon.bake import btf_compress, grass_btf
 from translucent_addon.bake.btf_acquire import SENTINEL, BTFImages
 from translucent_addon.geometry import hemisphere
 from translucent_addon.geometry.grass_patch import GrassParams, GrassPatch, build_patch
+from translucent_addon.physics.quadrature import trapezoid
 from translucent_addon.render import grass_data
 
 
@@ -176,7 +177,8 @@ def test_svd_recovers_a_low_rank_btf_and_its_sky():
     # Counts for a target: the total error is met, and one eigen-texture fewer would not meet it.
     n_y, n_c = btf_compress.choose_counts(spectra, 0.01)
     assert btf_compress.total_error(curves, n_y, n_c) <= 0.01
-    assert btf_compress.total_error(curves, n_y - 1, n_c) > 0.01 or btf_compress.total_error(curves, n_y, n_c - 1) > 0.01
+    assert (btf_compress.total_error(curves, n_y - 1, n_c) > 0.01
+            or btf_compress.total_error(curves, n_y, n_c - 1) > 0.01)
 
 
 def test_reconstruction_twin_at_texel_centres_and_between():
@@ -231,10 +233,10 @@ def test_the_cuticle_sheen_reflects_no_more_than_its_weight():
     theta = np.linspace(0.0, np.pi / 2, 20001)
     cos_h = np.cos(theta / 2)  # view along n: the half vector is halfway to the light
     integrand = sheen_brdf(cos_h, 1.0) * np.cos(theta) * np.sin(theta) * 2 * np.pi
-    albedo = np.trapz(integrand, theta)
+    albedo = trapezoid(integrand, theta)
     assert albedo == pytest.approx(1.0, abs=0.1)
     e = SHEEN_EXPONENT
-    old = np.trapz((e + 2) / (2 * np.pi) * cos_h ** e * np.cos(theta) * np.sin(theta) * 2 * np.pi, theta)
+    old = trapezoid((e + 2) / (2 * np.pi) * cos_h ** e * np.cos(theta) * np.sin(theta) * 2 * np.pi, theta)
     assert old / albedo == pytest.approx(3.4, abs=0.1)
 
 

@@ -10,6 +10,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_helpers import add_camera, add_light, dipole_model_reference, render, set_world  # noqa: E402
 from conftest import ext_module  # noqa: E402
+from translucent_addon.physics.quadrature import trapezoid  # noqa: E402
 
 
 def _ball(scene, name="Ball", location=(0, 0, 0.05), radius=0.05, preset="skin1"):
@@ -71,7 +72,7 @@ def test_power_entering_the_samples_is_what_the_light_sends(tr, scene):
     alpha = np.linspace(0, math.asin(a / d), 200001)
     cos_i = np.sqrt(np.clip(1 - (d / a * np.sin(alpha)) ** 2, 0, 1))
     F_t = 1 - fresnel.fresnel_dielectric(cos_i, ob.translucent.eta)
-    expected = 20.0 / (4 * math.pi) * np.trapz(F_t * 2 * math.pi * np.sin(alpha), alpha) * 1000.0**2
+    expected = 20.0 / (4 * math.pi) * trapezoid(F_t * 2 * math.pi * np.sin(alpha), alpha) * 1000.0**2
     total = flux[pos_id[..., 3] > 0.5][:, :3].sum(axis=0)
     np.testing.assert_allclose(total, expected, rtol=0.01)
 
@@ -202,7 +203,8 @@ def test_painted_tint_changes_the_image_where_painted_and_nowhere_else(tr, scene
     on_ball = g[..., 3] > 0.5
     world_painted = verts[painted] @ np.array(ob.matrix_world)[:3, :3].T + np.array(ob.matrix_world)[:3, 3]
     lut = ext_module(tr, "translucent_addon.physics.lut")
-    reach = lut.TAIL_REACH * cap["plan"].tables[0].r_max / 1000.0 + 0.01  # the tail splats' radius (m) + a vertex spacing
+    # The tail splats' radius (m) + a vertex spacing.
+    reach = lut.TAIL_REACH * cap["plan"].tables[0].r_max / 1000.0 + 0.01
     from scipy.spatial import cKDTree
 
     dist, _ = cKDTree(world_painted).query(g[on_ball][:, :3])
@@ -377,7 +379,8 @@ def test_environment_lit_ball_matches_the_dipole_model_and_is_brighter_on_top(tr
     scene.translucent.splat_world_layers = 0
     flat = render(scene, w, h)
     err_flat = metrics.relative_rmse(flat, ref, mask)
-    print(f"environment ball: rel. RMSE {err:.4f} peeled, {err_flat:.4f} locally flat; top {top:.3f} bottom {bottom:.3f}")
+    print(f"environment ball: rel. RMSE {err:.4f} peeled, {err_flat:.4f} locally flat; "
+          f"top {top:.3f} bottom {bottom:.3f}")
     assert np.isfinite(img).all()
     assert err < 0.05 and err_flat < 0.05
     assert top > 2.0 * bottom

@@ -173,11 +173,13 @@ def test_self_shadow_pit_is_shadowed_plateau_is_lit():
     scale = 0.1
     for az in (0.0, 90.0, 200.0):
         a = np.radians(az)
-        grazing = np.array([np.sin(np.radians(80)) * np.cos(a), np.sin(np.radians(80)) * np.sin(a), np.cos(np.radians(80))])
+        grazing = np.array([np.sin(np.radians(80)) * np.cos(a), np.sin(np.radians(80)) * np.sin(a),
+                            np.cos(np.radians(80))])
         luv = im.light_dir_uv(grazing, scale)
         # find the points by shooting straight down, as a renderer would
         pts = im.intersect(h, [[0.25, 0.25], [0.75, 0.75]], [0.0, 0.0], 8)
-        assert pts.depth == pytest.approx([1.0 - im.sample_height(h, [0.25, 0.25]), 1.0 - im.sample_height(h, [0.75, 0.75])], abs=THR)
+        assert pts.depth == pytest.approx([1.0 - im.sample_height(h, [0.25, 0.25]),
+                                           1.0 - im.sample_height(h, [0.75, 0.75])], abs=THR)
         vis = im.self_shadow(h, pts.uv, pts.depth, luv, 16)
         assert vis.tolist() == [0.0, 1.0], az
     # overhead light: the pit bottom is lit
@@ -212,7 +214,8 @@ void main()
     float vis = hf_self_shadow(hmap, hit.xy, hit.z, light_uv, 16, 1e-3);
     int it2;
     vec3 h2 = hf_intersect(hmap, rays[i].xy, rays[i].zw, linear_steps, max_iter, threshold, mode, it2);
-    hits[i] = vec4(hit.z, float(iterations) + (converged ? 0.0 : 100.0), vis, (h2 == hit && it2 == iterations) ? 1.0 : 0.0);
+    hits[i] = vec4(hit.z, float(iterations) + (converged ? 0.0 : 100.0), vis,
+                   (h2 == hit && it2 == iterations) ? 1.0 : 0.0);
 }
 """
 
@@ -296,7 +299,8 @@ def test_glsl_twin_matches_numpy_twin(tmp_path_factory):
         pytest.importorskip("moderngl")
     tmp = tmp_path_factory.mktemp("glsl_twin")
     uv0 = _grid(64, jitter_seed=9)
-    rays = np.concatenate([np.concatenate([uv0, np.broadcast_to(_dir(th, 30.0 + th), uv0.shape)], 1) for th in GL_THETAS])
+    rays = np.concatenate([np.concatenate([uv0, np.broadcast_to(_dir(th, 30.0 + th), uv0.shape)], 1)
+                           for th in GL_THETAS])
     rays = rays.astype(np.float32).astype(np.float64)  # what the GPU sees
     light_uv = im.light_dir_uv(GL_LIGHT, 0.1).astype(np.float32).astype(np.float64)
     fields = {name: im.FIELDS[name]().astype(np.float32).astype(np.float64) for name in GL_FIELDS}

@@ -72,7 +72,8 @@ def test_light_units_match_cycles(tr, scene, kind, settings, location, rotation)
 
     bpy.context.view_layer.update()
     emitters = lights.emitters_from_light("L", kind, np.array(lo.matrix_world), light.color, light.energy,
-                                          spot_size=getattr(light, "spot_size", 0), spot_blend=getattr(light, "spot_blend", 0),
+                                          spot_size=getattr(light, "spot_size", 0),
+                                          spot_blend=getattr(light, "spot_blend", 0),
                                           area_shape=getattr(light, "shape", "SQUARE"), size=getattr(light, "size", 0),
                                           size_y=getattr(light, "size_y", 0), area_samples=1)
     c = (np.arange(SIZE) + 0.5) / SIZE * 2 * HALF - HALF

@@ -11,6 +11,7 @@ from translucent_addon.physics.dipole import A, R_d, dipole_parameters, total_di
 from translucent_addon.physics.fresnel import F_dr, fresnel_dielectric, fresnel_schlick
 from translucent_addon.physics import diffusion
 from translucent_addon.physics.presets import load_presets
+from translucent_addon.physics.quadrature import trapezoid
 
 
 @pytest.mark.parametrize("name", sorted(load_presets()))
@@ -40,7 +41,7 @@ def test_F_dr_uses_the_jensen_coefficient_not_shahs_typo():
     # The fit against the hemispherical average of the exact Fresnel reflectance
     # (2 int_0^1 F(cos) cos dcos for light leaving a medium of relative index 1/eta).
     mu = np.linspace(0, 1, 200001)
-    exact = 2.0 * np.trapz(fresnel_dielectric(mu, 1.0 / eta) * mu, mu)
+    exact = 2.0 * trapezoid(fresnel_dielectric(mu, 1.0 / eta) * mu, mu)
     assert float(F_dr(eta)) == pytest.approx(exact, abs=0.01)
     assert abs(float(F_dr(eta)) - exact) < abs(float(F_dr(eta)) - 0.0636 * eta + 0.0668 * eta - exact)
     assert float(A(1.0)) == pytest.approx((1 + F_dr(1.0)) / (1 - F_dr(1.0)))
@@ -130,7 +131,7 @@ def test_thin_slab_transmits_and_conserves_energy():
 
     def totals(d):
         R, T = slab_profiles(r, 0.01, 1.0, 1.3, d)
-        return [np.trapz(p * 2 * math.pi * r, r) for p in (R, T)]
+        return [trapezoid(p * 2 * math.pi * r, r) for p in (R, T)]
     R1, T1 = totals(1.0)
     R5, T5 = totals(5.0)
     assert 0 < R1 < R5 < float(total_diffuse_reflectance(0.01, 1.0, 1.3))
@@ -161,8 +162,8 @@ def test_slab_disk_integrals_are_the_integrals_of_the_profiles():
     r = np.concatenate([np.linspace(0, 2, 20001)[:-1], np.geomspace(2, 60, 20000)])
     R, T = slab_profiles(r, 0.05, 1.0, 1.3, 2.0, eta_bottom=1.0)
     R_int, T_int = slab_disk_integrals(60.0, 0.05, 1.0, 1.3, 2.0, eta_bottom=1.0)
-    assert np.trapz(R * 2 * math.pi * r, r) == pytest.approx(float(R_int), rel=1e-4)
-    assert np.trapz(T * 2 * math.pi * r, r) == pytest.approx(float(T_int), rel=1e-4)
+    assert trapezoid(R * 2 * math.pi * r, r) == pytest.approx(float(R_int), rel=1e-4)
+    assert trapezoid(T * 2 * math.pi * r, r) == pytest.approx(float(T_int), rel=1e-4)
 
 
 def test_layer_over_semi_infinite_base_reflects_between_the_two_materials():
@@ -212,7 +213,7 @@ def test_splats_and_their_tail_add_up_to_the_profile():
     assert crossover(0.5 * tables.r_max * 0.99, tables.r_max) == 0 and crossover(tables.r_max, tables.r_max) == 1
     # The share of the flat profile the tail adds: the red channel's epsilon (0.01) of its total, about.
     ring = 2 * np.pi * s * exact[:, 0]
-    beyond = np.trapz(np.where(s > tables.r_max, ring, 0.0), s) / tables.total[0]
+    beyond = trapezoid(np.where(s > tables.r_max, ring, 0.0), s) / tables.total[0]
     assert 0.005 < beyond < 0.011
 
 
@@ -226,7 +227,7 @@ def test_multipole_layer_over_base_lies_between_its_materials():
 
     def total(thickness):
         radii, R = multipole_profile(top_a, top_s, thickness, base_a, base_s, 1.3, extent_mm=20.0, h_mm=0.1)
-        return np.trapz(R[:, 0] * 2 * np.pi * radii, radii)
+        return trapezoid(R[:, 0] * 2 * np.pi * radii, radii)
 
     thin, thick = total(1.0), total(3.0)
     only_top = float(total_diffuse_reflectance(0.5, 1.0, 1.3))

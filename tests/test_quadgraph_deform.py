@@ -1,4 +1,5 @@
-"""QUADGRAPH, pure: the volume follows its surface. Poses move the nodes (folds refused); painted maps fill the volume."""
+"""QUADGRAPH, pure: the volume follows its surface. Poses move the nodes (folds refused); painted maps fill the
+volume."""
 from __future__ import annotations
 
 import numpy as np
@@ -64,7 +65,8 @@ def test_a_rigid_motion_moves_the_nodes_rigidly_and_keeps_the_graph(baked):
     R = _rotation((1, 2, 3), 0.7)
     t = np.array([30.0, -5.0, 12.0])
     for rest, embedding in zip(levels, embeddings):
-        still = embedding.deform(rest_v)  # the rest pose through the same path: equal to the bake but for float32 storage
+        # The rest pose through the same path: equal to the bake but for float32 storage.
+        still = embedding.deform(rest_v)
         assert np.allclose(still.weights, rest.weights, rtol=2e-3, atol=1e-6)
         moved = embedding.deform(rest_v @ R.T + t)
         assert np.abs(moved.positions_mm - (rest.positions_mm @ R.T + t)).max() < 1e-4  # mm
@@ -117,7 +119,8 @@ def test_a_pose_that_turns_the_volume_inside_out_is_refused(baked):
     _, embeddings, rest_v, _ = baked
     mirrored = rest_v * np.array([1.0, 1.0, -1.0])
     with pytest.raises(vd.DeformationError,
-                       match=r"'Ball': the deformation turns .* tetrahedra \(100% of the volume\) inside out; press Bake"):
+                       match=r"'Ball': the deformation turns .* tetrahedra \(100% of the volume\) inside out; "
+                             r"press Bake"):
         embeddings[-1].deform(mirrored, "'Ball': ")
     squashed = rest_v * np.array([1.0, 1.0, 1e-5])
     with pytest.raises(vd.DeformationError):

@@ -190,7 +190,8 @@ def test_a_pose_that_turns_the_volume_inside_out_is_refused_with_a_message(tr, s
     _shape_key(ob, "Mirror", lambda v: v * np.array([1.0, 1.0, -1.0]))
     image = render(scene, 64, 48)
     warnings = _capture(tr)["frame"].warnings
-    assert any("'Ball': the deformation turns" in w and "inside out; press Bake in this pose" in w for w in warnings), warnings
+    assert any("'Ball': the deformation turns" in w and "inside out; press Bake in this pose" in w
+               for w in warnings), warnings
     assert np.isfinite(image).all() and "quadgraph" not in _capture(tr)
     # Baking in this pose (the same topology, so the same bake hash) takes effect at once.
     assert bpy.ops.translucent.bake() == {"FINISHED"}

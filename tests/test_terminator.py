@@ -36,7 +36,8 @@ def test_the_ramp_response_equals_the_marginal_of_the_dipole_integrated_apart(si
 
     def marginal(x):
         f = lambda y: float(dipole.R_d(np.hypot(x, y), sigma_a, sigma_s_prime, eta))  # noqa: E731
-        return 2.0 * sum(integrate.quad(f, a, b, limit=200)[0] for a, b in ((0, z_r), (z_r, 10 * z_r), (10 * z_r, reach)))
+        return 2.0 * sum(integrate.quad(f, a, b, limit=200)[0]
+                         for a, b in ((0, z_r), (z_r, 10 * z_r), (10 * z_r, reach)))
 
     x = np.concatenate([np.geomspace(1e-3 * z_r, reach, 300)])
     x = np.concatenate([[0.0], x])
@@ -59,8 +60,10 @@ def test_the_effective_cosine_is_the_flat_faces_away_from_the_terminator():
     np.testing.assert_array_equal(terminator.effective_cosine(mu, 0.0, sigma_a, sigma_s_prime, 1.0),
                                   np.maximum(mu, 0.0))
     g = 0.02  # per mm: a 50 mm radius with the light along the surface
-    assert terminator.effective_cosine(50 * g * rho, g, sigma_a, sigma_s_prime, 1.0)[0] == pytest.approx(50 * g * rho, rel=1e-6)
-    assert terminator.effective_cosine(0.0, g, sigma_a, sigma_s_prime, 1.0)[0] == pytest.approx(g * rho / np.pi, rel=1e-9)
+    assert (terminator.effective_cosine(50 * g * rho, g, sigma_a, sigma_s_prime, 1.0)[0]
+            == pytest.approx(50 * g * rho, rel=1e-6))
+    assert (terminator.effective_cosine(0.0, g, sigma_a, sigma_s_prime, 1.0)[0]
+            == pytest.approx(g * rho / np.pi, rel=1e-9))
     past = terminator.effective_cosine(-g * rho * np.array([0.5, 1.0, 2.0]), g, sigma_a, sigma_s_prime, 1.0)
     assert (past > 0).all() and (np.diff(past) < 0).all()
     # a bend sharper than the kernel (g rho = 5): the ramp is held at g rho = 1, mu_eff at most 1 / pi
@@ -93,9 +96,11 @@ def test_the_share_beyond_a_line_is_the_slope_of_the_excess(sigma_a, sigma_s_pri
     assert beta[0] == pytest.approx(0.5, abs=1e-9)
     assert (np.diff(beta) < 0).all() and beta[-1] < 0.02
     h = 1e-4
-    slope = (terminator.excess(s, sigma_a, sigma_s_prime, 1.3) - terminator.excess(s + h, sigma_a, sigma_s_prime, 1.3)) / h
+    slope = (terminator.excess(s, sigma_a, sigma_s_prime, 1.3)
+             - terminator.excess(s + h, sigma_a, sigma_s_prime, 1.3)) / h
     np.testing.assert_allclose(beta, slope, atol=2e-3)
-    coarse = (terminator.excess(s, sigma_a, sigma_s_prime, 1.3) - terminator.excess(s + 0.02, sigma_a, sigma_s_prime, 1.3)) / 0.02
+    coarse = (terminator.excess(s, sigma_a, sigma_s_prime, 1.3)
+              - terminator.excess(s + 0.02, sigma_a, sigma_s_prime, 1.3)) / 0.02
     np.testing.assert_allclose(coarse, beta, atol=0.02)
 
 

@@ -1,8 +1,6 @@
 """TEXTURE_SPACE (Lensch 2002) on the GPU against its CPU twin and the dipole model reference."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 

@@ -215,7 +215,8 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         default=True,
     )
     veins_scale: bpy.props.FloatProperty(
-        name="Vein spacing (mm)", description="QUADGRAPH: distance between veins, in mm", min=0.1, default=20.0, unit="NONE",
+        name="Vein spacing (mm)", description="QUADGRAPH: distance between veins, in mm", min=0.1, default=20.0,
+        unit="NONE",
     )
     geocube_resolution: bpy.props.IntProperty(
         name="Cube texels",

@@ -337,7 +337,8 @@ def _quadgraph(view: ObjectView, target: float, curves: str) -> Choice:
         by_K.setdefault(r["K"], []).append(r["rel_rmse"])
     model = {K: max(v) for K, v in by_K.items()}
     K = 1.0
-    notes = [f"measured against exact transport: {', '.join(f'K {k:g} {100 * e:.1f} %' for k, e in sorted(model.items(), reverse=True))}"
+    notes = ["measured against exact transport: "
+             f"{', '.join(f'K {k:g} {100 * e:.1f} %' for k, e in sorted(model.items(), reverse=True))}"
              " (the model's error, which finer K does not reduce)"]
     if view.pixel_mm > 0 and quadgraph_surface_spacing_mm(view, 2.0) < view.pixel_mm:
         K = 2.0

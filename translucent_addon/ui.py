@@ -64,8 +64,8 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
 
                     k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
                     if k is not None:
-                        box.label(text=f"Last frame: splat overlap {k:g} for this object, {LAST_AUTO_OVERLAP['overlap']:g} "
-                                       "in the scene", icon="CAMERA_DATA")
+                        box.label(text=f"Last frame: splat overlap {k:g} for this object, "
+                                       f"{LAST_AUTO_OVERLAP['overlap']:g} in the scene", icon="CAMERA_DATA")
         if s.method == "IMAGE_SPACE":
             layout.prop(s, "profile")
             if s.profile == "MULTIPOLE":

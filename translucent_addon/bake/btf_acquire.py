@@ -23,7 +23,7 @@ import numpy as np
 
 from ..geometry import hemisphere
 from ..geometry.grass_patch import GrassPatch
-from .gl_context import preserve_current_context
+from .gl_context import preserve_current_context, standalone_backend
 
 SENTINEL = -1.0
 SHEEN_EXPONENT = 30.0  # the cuticle's Blinn-Phong exponent (the shader's SHEEN_EXPONENT)
@@ -152,7 +152,7 @@ class PatchRenderer:
         self.h = float(patch.params.height)
         self.R = int(resolution)
         self.ss = int(supersample)
-        self.ctx = moderngl.create_standalone_context(backend="egl")
+        self.ctx = moderngl.create_standalone_context(backend=standalone_backend())
         ctx = self.ctx
         vbo = np.concatenate([patch.positions, patch.normals, patch.rho_r, patch.rho_t], axis=1).astype("f4")
         self._vbo = ctx.buffer(vbo.tobytes())

@@ -251,7 +251,8 @@ def _gaussian_filter(src_dirs, src_vals, src_omega, out_dirs, sigma: float):
     theta = 2.0 * np.arcsin(np.minimum(0.5 * c, 1.0))
     w = np.exp(-0.5 * (theta / sigma) ** 2) * src_omega[j]
     wsum = np.bincount(i, w, n_out)
-    return np.stack([np.bincount(i, w * src_vals[j, k], n_out) for k in range(src_vals.shape[1])], axis=1) / wsum[:, None]
+    return np.stack([np.bincount(i, w * src_vals[j, k], n_out) for k in range(src_vals.shape[1])],
+                    axis=1) / wsum[:, None]
 
 
 def build_chain(source, res: int, omega: float = 0.02) -> EnvironmentChain:

@@ -15,6 +15,17 @@ import sys
 
 _apis: list | None = None
 
+# moderngl's standalone backend per platform (glcontext's module of that name): a headless EGL context on
+# Linux (X11/GLX needs a display, which background Blender has not), WGL on Windows, CGL on macOS (OpenGL
+# 4.1 core there: the bake shaders ask for GLSL 3.30).
+STANDALONE_BACKENDS = {"linux": "egl", "win32": "wgl", "darwin": "darwin"}
+
+
+def standalone_backend(platform: str = sys.platform) -> str | None:
+    """The ``backend`` argument of ``moderngl.create_standalone_context`` here: "egl" on Linux, else None
+    (moderngl's own choice: the platform's one backend)."""
+    return "egl" if platform.startswith("linux") else None
+
 
 class _EGL:
     def __init__(self):

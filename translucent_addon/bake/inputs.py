@@ -52,7 +52,8 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         from .quadgraph_bake import proxy_triangles
 
         inputs.proxy_levels = [proxy_surface(inputs.vertices, inputs.triangles, n)
-                               for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels, len(inputs.triangles))]
+                               for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels,
+                                                        len(inputs.triangles))]
     return inputs
 
 

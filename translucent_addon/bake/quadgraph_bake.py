@@ -9,10 +9,11 @@ keys) moves the nodes at run time.
 Density. The paper's K (Alliez et al. 2005) sets how much larger interior tetrahedra are than those
 at the surface. fTetWild (with its optimisation stopped early, ``tetra.OPTIMISE``) keeps tetrahedra
 about as fine as the surface's triangles near the surface and no larger than a fraction of the
-diagonal inside, which is the same kind of grading, so K is mapped onto the surface: over the paper's range (Fig. 11: K = 1,
-0.5, 0.3, 0.1 gave 141k, 246k, 468k, 973k nodes) N goes as K^-0.84, surface nodes as N^(2/3), so
-the finest proxy has 5000 K^-0.56 triangles (5k at K = 1, DESIGN.md's "what the scattering needs"),
-or n K^-0.56 for a mesh of n < 5000 triangles, subdivided where it has fewer than asked.
+diagonal inside, which is the same kind of grading, so K is mapped onto the surface: over the paper's
+range (Fig. 11: K = 1, 0.5, 0.3, 0.1 gave 141k, 246k, 468k, 973k nodes) N goes as K^-0.84, surface
+nodes as N^(2/3), so the finest proxy has 5000 K^-0.56 triangles (5k at K = 1, DESIGN.md's "what the
+scattering needs"), or n K^-0.56 for a mesh of n < 5000 triangles, subdivided where it has fewer than
+asked.
 Levels (Sec. 4.3): each coarser level tetrahedralises a proxy with a quarter of the triangles and
 twice the interior edge.
 """
@@ -136,8 +137,9 @@ def bake(inputs):
             idx, w = quadgraph.level_links(graph, graphs[h - 1])
             arrays[p + "up_index"] = idx.astype(np.int32)
             arrays[p + "up_weight"] = w.astype(np.float32)
-        meta_levels.append({"proxy_triangles": int(len(surface_t)), "tetrahedra": int(len(graph.tets)), "split": graph.split,
-                            "surface_nodes": int(graph.n_surface), "inner_nodes": int(graph.n_inner)})
+        meta_levels.append({"proxy_triangles": int(len(surface_t)), "tetrahedra": int(len(graph.tets)),
+                            "split": graph.split, "surface_nodes": int(graph.n_surface),
+                            "inner_nodes": int(graph.n_inner)})
     yield 0.88, "QUADGRAPH: the sky each surface node sees"
     occ = world_visibility.occupancy(*boundary_surface(graphs[-1].points, graphs[-1].tets))
     for h, graph in enumerate(graphs):

@@ -11,6 +11,7 @@ import functools
 import numpy as np
 
 from .dipole import R_d, r_max
+from .quadrature import trapezoid
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,7 +102,7 @@ def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) ->
 
     ring = np.linspace(rho_mm, 2 * rho_mm, 2049)[:, None]
     f = R_d(M * ring, sigma_a, sigma_s_prime, eta) * M * M * (1.0 - partition(ring, rho_mm)) * 2 * np.pi * ring
-    return R_d_disk(M * rho_mm, sigma_a, sigma_s_prime, eta) + np.trapz(f, ring, axis=0)
+    return R_d_disk(M * rho_mm, sigma_a, sigma_s_prime, eta) + trapezoid(f, ring, axis=0)
 
 
 def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
@@ -140,7 +141,7 @@ def profile_tables(radii, profile, rho_mm, epsilon=0.01, samples=256, near_sampl
     r = np.linspace(0.0, 2 * rho_mm, 4097)
     for k, M in enumerate(np.linspace(BLUR_MIN, 1.0, near_samples)):
         f = R(M * r) * (M * M * (1.0 - partition(r, rho_mm)) * 2 * np.pi * r)[:, None]
-        near[k] = np.trapz(f, r, axis=0)
+        near[k] = trapezoid(f, r, axis=0)
     tail = R(TAIL_REACH * radius * u**2)
     return ImageSpaceTables(far.astype(np.float32), tail.astype(np.float32), near.astype(np.float32), radius,
                             float(rho_mm), total)

@@ -11,11 +11,12 @@ part takes E as E(x_o) and integrates R_d (1 - w) radially (1-D quadrature, so t
 r = 0 costs nothing), and the samples inside 2 rho add R_d (1 - w) (E(x_i) - E(x_o)) dA, the part
 of a shadow edge crossing the disk that E(x_o) misses (nothing where E is uniform); the far part
 is a midpoint quadrature over the surface, each triangle cut into n x n equal sub-triangles no
-larger than the target sample area, gathered with a KD-tree up to r_max (99.9 % of the profile's energy). rho is two sample spacings, so the far integrand is smooth
-on the sample grid. The near part stands for x_o's tangent disk: points well off that plane (the far
-side of a thin part) keep their whole share in the far part (``partition_off_plane``), as in IMAGE_SPACE. This measures a GPU method's discretisation
-error apart from the dipole's own model error. Light crosses only within one mesh (no bleeding
-between objects), as in the GPU methods.
+larger than the target sample area, gathered with a KD-tree up to r_max (99.9 % of the profile's
+energy). rho is two sample spacings, so the far integrand is smooth on the sample grid. The near
+part stands for x_o's tangent disk: points well off that plane (the far side of a thin part) keep
+their whole share in the far part (``partition_off_plane``), as in IMAGE_SPACE. This measures a GPU
+method's discretisation error apart from the dipole's own model error. Light crosses only within
+one mesh (no bleeding between objects), as in the GPU methods.
 """
 from __future__ import annotations
 

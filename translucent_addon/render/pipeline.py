@@ -59,10 +59,10 @@ class Pipeline:
         self.coherence_key = None
         self.coherence_frame = 0
         self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
-        self.quadgraph_solver = (2e-5, 1000)
+        self.quadgraph_solver = (2e-5, 1000)  # QUADGRAPH: (relative change per step, iteration cap per level)
         self.quadgraph_mode = 0  # QUADGRAPH output: 0 colour; 1 diffusion; 2 single; 3 local multiple scattering
         self.relief_mode = 0  # height-field output: 0 colour; 1 hit uv, depth, refinements (tests)
-        self.geocube_mode = 0  # GEOCUBE output: 0 colour; 1-3 intermediate values for tests (gc_refract.glsl)  # QUADGRAPH: (relative change per step, iteration cap per level)
+        self.geocube_mode = 0  # GEOCUBE output: 0 colour; 1-3 intermediate values for tests (gc_refract.glsl)
 
     def free(self) -> None:
         self._batches.clear()

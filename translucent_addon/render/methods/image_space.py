@@ -6,8 +6,8 @@ light-view samples (pass 1, a 3x2 cube atlas for point emitters) and one camera-
 sample (pass 3) accumulating the far field into a scatter texture; world light the same way from
 depth-peeled samples along the three axes (Shah 6.4.2, ``_draw_world``); with temporal coherence on, the
 far field is blended with the previous frame's, reprojected through each object's motion
-(``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects. Blender-facing (``gpu``), the maths is in
-``image_space_data`` and the GLSL in ``gpu_shaders/is_*.glsl``.
+(``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects.
+Blender-facing (``gpu``), the maths is in ``image_space_data`` and the GLSL in ``gpu_shaders/is_*.glsl``.
 """
 from __future__ import annotations
 
@@ -48,7 +48,8 @@ def prepare(frame, settings: SamplingSettings) -> Prepared:
         empty = np.zeros((2, 2, 4), np.float32)
         return Prepared(None, gpu.types.GPUUniformBuf(materials_block(None)), texture_from_array(empty),
                         texture_from_array(empty))
-    return Prepared(p, gpu.types.GPUUniformBuf(materials_block(p)), texture_from_array(p.near_lut()), texture_from_array(p.far_lut()))
+    return Prepared(p, gpu.types.GPUUniformBuf(materials_block(p)), texture_from_array(p.near_lut()),
+                    texture_from_array(p.far_lut()))
 
 
 def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):

@@ -447,7 +447,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         if pipeline.capture is not None:
             size = finest.tables.layout.size
             # "q": the light entering each level's nodes before the painted factor (resources.q_factors).
-            record = {"name": a.mesh.name, "iterations": list(a.resources.iterations), "q": [], "resources": a.resources}
+            record = {"name": a.mesh.name, "iterations": list(a.resources.iterations), "q": [],
+                      "resources": a.resources}
             for lg in a.resources.levels:
                 with lg.incident[0].bind():
                     record["q"].append(lg.tables.from_image(read_pixels(lg.incident[0], *lg.tables.layout.size)))
@@ -470,7 +471,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
             shader.uniform_sampler("loss_scale", a.resources.loss_scale())
             term = a.mesh.medium.single_scattering
-            shader.uniform_sampler("world_law", a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
+            shader.uniform_sampler("world_law",
+                                   a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
             shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
