@@ -47,7 +47,7 @@ test-dev: extension lint
 
 test-zip: extension $(foreach b,$(ZIP_BLENDERS),.venv-zip-$(firstword $(subst :, ,$(b)))/.installed)
 	@for b in $(ZIP_BLENDERS); do v=$${b%%:*}; echo "== zip-only tests on bpy $$v"; \
-	  .venv-zip-$$v/bin/python -m pytest tests/zip_only -p no:cacheprovider || exit 1; done
+	  TRANSLUCENT_ZIP_ONLY=1 .venv-zip-$$v/bin/python -m pytest tests/zip_only -p no:cacheprovider || exit 1; done
 
 test: test-dev test-zip
 

@@ -34,11 +34,13 @@ PURE_MODULES = [
     "translucent_addon.physics.fresnel", "translucent_addon.physics.multipole", "translucent_addon.physics.lut",
     "translucent_addon.reference.dipole_model", "translucent_addon.compare.conversion",
     "translucent_addon.compare.metrics", "translucent_addon.compare.cache", "translucent_addon.compare.report",
+    "translucent_addon.compare.png", "translucent_addon.compare.colormaps", "translucent_addon.compare.raster_chart",
 ]
 
 
 def test_pure_modules_do_not_import_bpy():
-    code = "import sys; " + "; ".join(f"import {m}" for m in PURE_MODULES) + "; print('bpy' in sys.modules, 'gpu' in sys.modules)"
+    code = ("import sys; " + "; ".join(f"import {m}" for m in PURE_MODULES)
+            + "; print('bpy' in sys.modules, 'gpu' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False False"
 
@@ -355,7 +357,8 @@ def test_surface_samples_conserve_area_and_scale_to_mm():
         (dict(sigma_s_prime=(1.0, 0.0, 1.0)), r"sigma_s_prime\.G = 0\.0 mm\^-1, must be > 0"),
         (dict(sigma_a=(-1.0, 0.0, 0.0)), r"sigma_a\.R = -1\.0"),
         (dict(mm_per_unit=0.0), "mm per unit is 0.0"),
-        (dict(vertices=np.zeros((3, 3), np.float32), triangles=np.array([[0, 1, 2]], np.int32)), "every face has zero area"),
+        (dict(vertices=np.zeros((3, 3), np.float32), triangles=np.array([[0, 1, 2]], np.int32)),
+         "every face has zero area"),
     ],
 )
 def test_bake_refuses_bad_input_with_one_line(kw, message):
@@ -473,9 +476,11 @@ def test_pareto_front_keeps_exactly_the_points_nothing_beats_in_both_time_and_er
 
 def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
     """bench's pareto.png: drawn from report entries, not blank (the panels' lines differ from the page)."""
-    import matplotlib.pyplot as plt
-
+    from translucent_addon.compare.png import read_png
     from translucent_addon.compare.report import Entry, pareto_summary_chart, speed_accuracy_chart
+
+    def imread(path):  # as matplotlib's imread gave it: floats in [0, 1]
+        return read_png(path) / 255.0
 
     def entries(scale):
         return [Entry(series=s, engine="X", settings={"label": f"{n}"}, seconds=t, reference="ref",
@@ -485,11 +490,11 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
 
     path = tmp_path / "pareto.png"
     pareto_summary_chart({"a": entries(1.0), "b": entries(0.5), "c": entries(2.0)}, path, "test")
-    image = plt.imread(path)
+    image = imread(path)
     assert image.shape[0] > 400 and image.shape[1] > 1000
     assert image[..., :3].std() > 0.05  # lines and text on the white page
     speed_accuracy_chart(entries(1.0), tmp_path / "chart.png", "one scene")
-    assert plt.imread(tmp_path / "chart.png")[..., :3].std() > 0.05
+    assert imread(tmp_path / "chart.png")[..., :3].std() > 0.05
     with pytest.raises(ValueError, match="no scenes"):
         pareto_summary_chart({}, tmp_path / "none.png", "empty")
     # A panel with only the RMSE (the caustic ball's benchmark): drawn from that metric, under its own title.
@@ -503,7 +508,7 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
         pareto_summary_chart({"a": entries(1.0), "caustic": rmse_only}, tmp_path / "mixed.png", "t",
                              panel_metrics={"caustic": "rel_rmse"}, panel_titles={"caustic": "caustic ball"})
     assert [(len(c.args[1]), c.args[2]) for c in panel.call_args_list] == [(4, "median_rel_error"), (12, "rel_rmse")]
-    assert plt.imread(tmp_path / "mixed.png")[..., :3].std() > 0.05
+    assert imread(tmp_path / "mixed.png")[..., :3].std() > 0.05
     colours = report_module._series_colours(e.series for e in rmse_only)
     assert len({tuple(c) for c in colours.values()}) == 12
 
@@ -547,14 +552,16 @@ def test_sky_visibility_through_voxels_matches_ray_casting_against_the_triangles
 
 def test_the_noise_of_a_mean_of_renders_follows_their_spread():
     """compare.metrics.mean_noise: for two renders, half the RMSE between them relative to their mean
-    (the bench's old rule, which took it relative to the second); for n renders of a known noise sigma around a flat image, sigma / sqrt(n) relative to it
-    (within 3 % over 20k pixels), so four seeds keep half the noise of one."""
+    (the bench's old rule, which took it relative to the second); for n renders of a known noise sigma
+    around a flat image, sigma / sqrt(n) relative to it (within 3 % over 20k pixels), so four seeds keep half
+    the noise of one."""
     from translucent_addon.compare import metrics
 
     rng = np.random.default_rng(3)
     mask = np.ones((100, 200), bool)
     a, b = rng.random((2, 100, 200, 4))
-    half = 0.5 * metrics.relative_rmse(a, b, mask) * np.sqrt(np.mean(b[..., :3] ** 2) / np.mean(((a + b)[..., :3] / 2) ** 2))
+    half = 0.5 * metrics.relative_rmse(a, b, mask) * np.sqrt(np.mean(b[..., :3] ** 2)
+                                                              / np.mean(((a + b)[..., :3] / 2) ** 2))
     assert metrics.mean_noise(np.stack([a, b]), mask) == pytest.approx(half, rel=1e-12)
     sigma = 0.1
     for n in (2, 4, 8):
@@ -632,3 +639,202 @@ def test_the_cache_key_of_normals_survives_their_float_noise():
     face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     face /= np.linalg.norm(face, axis=1, keepdims=True)
     assert normals_digest(pos, np.repeat(face, 3, axis=0)) != d
+
+
+# -- the report's PNGs, colours and charts without matplotlib (compare/png.py, colormaps.py, raster_chart.py) --
+def test_the_shipped_extension_never_imports_matplotlib():
+    """matplotlib is not in the extension zip: the report (PNGs, error images, charts) must not need it."""
+    code = ("import sys, translucent_addon.compare.report, translucent_addon.compare.raster_chart; "
+            "print('matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+    import re
+
+    importing = [str(path.relative_to(ROOT)) for path in (ROOT / "translucent_addon").rglob("*.py")
+                 if re.search(r"^\s*(import|from)\s+matplotlib\b", path.read_text(encoding="utf-8"), re.M)]
+    assert importing == []
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_png_round_trip_is_bit_exact(tmp_path, channels):
+    """write_png and read_png: every filter type, odd sizes, one pixel; Pillow (where installed) reads the same."""
+    from translucent_addon.compare.png import read_png, write_png
+
+    rng = np.random.default_rng(channels)
+    for h, w in ((1, 1), (7, 13), (31, 5), (64, 3)):
+        image = rng.integers(0, 256, (h, w, channels), dtype=np.uint8)
+        image[: h // 2, : w // 2] = 255  # flat areas beside the noise
+        for filter_type in range(5):
+            path = tmp_path / f"{h}x{w}_{filter_type}.png"
+            write_png(path, image, filter_type=filter_type)
+            assert path.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+            got = read_png(path)
+            assert got.dtype == np.uint8 and got.shape == image.shape
+            np.testing.assert_array_equal(got, image)
+    try:
+        from PIL import Image
+    except ImportError:
+        return
+    np.testing.assert_array_equal(np.asarray(Image.open(path)), image)
+    Image.fromarray(image).save(tmp_path / "pillow.png", optimize=True)  # Pillow's own choice of filters
+    np.testing.assert_array_equal(read_png(tmp_path / "pillow.png"), image)
+
+
+def test_png_reader_and_writer_refuse_what_they_do_not_handle(tmp_path):
+    import struct
+    import zlib
+
+    from translucent_addon.compare.png import read_png, write_png
+
+    with pytest.raises(ValueError):
+        write_png(tmp_path / "f.png", np.zeros((4, 4, 3), np.float32))
+    with pytest.raises(ValueError):
+        write_png(tmp_path / "g.png", np.zeros((4, 4), np.uint8))
+    (tmp_path / "text.png").write_text("not a png")
+    with pytest.raises(ValueError, match="not a PNG"):
+        read_png(tmp_path / "text.png")
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    sixteen_bit = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 1, 1, 16, 2, 0, 0, 0))
+                   + chunk(b"IDAT", zlib.compress(bytes(7))) + chunk(b"IEND", b""))
+    (tmp_path / "16.png").write_bytes(sixteen_bit)
+    with pytest.raises(ValueError, match="8-bit"):
+        read_png(tmp_path / "16.png")
+    write_png(tmp_path / "ok.png", np.zeros((3, 3, 3), np.uint8))
+    (tmp_path / "cut.png").write_bytes((tmp_path / "ok.png").read_bytes()[:-20])
+    with pytest.raises(ValueError):
+        read_png(tmp_path / "cut.png")
+
+
+def test_error_png_is_inferno_grey_outside_the_object_and_upright(tmp_path):
+    """save_error_png: row 0 of the render is the bottom row of the file; no error is inferno's black end."""
+    from translucent_addon.compare.colormaps import inferno
+    from translucent_addon.compare.png import read_png
+    from translucent_addon.compare.report import save_error_png
+
+    ref = np.ones((6, 5, 3), np.float32)
+    mask = np.ones((6, 5), bool)
+    mask[0] = False  # the bottom row of the picture
+    save_error_png(tmp_path / "err.png", ref.copy(), ref, mask)
+    got = read_png(tmp_path / "err.png")
+    assert got.shape == (6, 5, 3)
+    assert (got[-1] == 63).all()  # 0.25 grey, at the bottom of the file
+    np.testing.assert_array_equal(got[:-1], np.broadcast_to((inferno(0.0) * 255).astype(np.uint8), (5, 5, 3)))
+
+
+def test_inferno_and_the_series_palettes_match_matplotlib():
+    """The embedded tables: inferno within 1/255 of matplotlib's at its 256 colours; tab10 and tab20 exact."""
+    matplotlib = pytest.importorskip("matplotlib")
+    from translucent_addon.compare.colormaps import inferno, series_colours
+
+    x = np.linspace(0.0, 1.0, 256)
+    assert np.abs(inferno(x) - matplotlib.colormaps["inferno"](x)[:, :3]).max() <= 1 / 255
+    assert inferno(np.zeros((2, 3))).shape == (2, 3, 3)
+    assert np.isfinite(inferno(np.array([np.nan, -1.0, 2.0]))).all()
+    few = series_colours(["b", "a", "c", "a"])
+    assert list(few) == ["a", "b", "c"]
+    for k, name in enumerate(few):
+        np.testing.assert_allclose(few[name], matplotlib.colormaps["tab10"](k)[:3], atol=1e-9)
+    many = series_colours(f"S{k:02d}" for k in range(12))
+    for k, name in enumerate(sorted(many)):
+        np.testing.assert_allclose(many[name], matplotlib.colormaps["tab20"](k)[:3], atol=1e-9)
+
+
+def _near(image, colour, tol=12):
+    """Pixels within tol levels of an (r, g, b) colour in [0, 1], in every channel."""
+    return (np.abs(image[..., :3].astype(int) - np.round(np.asarray(colour) * 255)) <= tol).all(axis=-1)
+
+
+def test_raster_chart_draws_series_front_labels_and_text_where_the_log_axes_say(tmp_path):
+    """A two-series panel as report.py draws it: each marker where Axes.to_pixel puts it (and to_pixel is
+    log10-linear between the frame's edges), the dashed Pareto staircase between its points, the point
+    labels, the title's text above the panels and the legend to their right, off the data."""
+    from translucent_addon.compare import raster_chart, report
+    from translucent_addon.compare.png import read_png
+
+    font = ROOT / "translucent_addon" / "compare" / "chart_font.npz"
+    assert font.stat().st_size < 60_000
+    assert (ROOT / "translucent_addon" / "compare" / "chart_font_LICENSE.txt").read_text().count("Bitstream") > 2
+    a = [(0.2, 0.3, "a1"), (0.5, 0.2, "a2"), (5.0, 0.02, "a3")]
+    b = [(1.0, 0.1, "16 spp"), (2.0, 0.08, "64 spp")]
+    entries = [report.Entry(series=name, engine="X", settings={"label": label}, seconds=t, reference="ref",
+                            rel_rmse=e) for name, points in (("A", a), ("B", b)) for t, e, label in points]
+    colours = report._series_colours(["A", "B"])
+
+    def draw(labels):
+        fig = raster_chart.Figure(900, 450, title="Speed against accuracy")
+        report._speed_accuracy_panel(fig.axes[0], entries, "rel_rmse", "relative RMSE", colours, labels=labels)
+        fig.legend("right", report._legend_items(colours))
+        return fig, fig.save(tmp_path / f"chart_{labels}.png")
+
+    fig, image = draw(True)
+    np.testing.assert_array_equal(read_png(tmp_path / "chart_True.png"), image)
+    ax = fig.axes[0]
+    x0, y0, x1, y1 = ax.rect
+    # to_pixel: the limits at the frame's edges, equal decades equally long.
+    (xl, xh), (yl, yh) = ax.xlim, ax.ylim
+    np.testing.assert_allclose(ax.to_pixel([10 ** xl, 10 ** xh], [10 ** yl, 10 ** yh]), [[x0, x1], [y1, y0]])
+    px, py = ax.to_pixel([0.1, 1.0, 10.0], [0.01, 0.1, 1.0])
+    np.testing.assert_allclose(np.diff(px), np.diff(px)[0])
+    np.testing.assert_allclose(np.diff(py), np.diff(py)[0])
+    assert (image[y0 + 5:y1 - 5, x0] < 90).all()  # the frame's left edge
+    yy, xx = np.mgrid[:image.shape[0], :image.shape[1]]
+    for name, points in (("A", a), ("B", b)):
+        for t, e, _ in points:
+            px, py = (float(v) for v in ax.to_pixel(t, e))
+            near = _near(image, colours[name]) & (np.hypot(xx + 0.5 - px, yy + 0.5 - py) <= 3.5)
+            assert near.sum() >= 12, (name, t, e)  # a marker, not a line's width
+            assert math.hypot(xx[near].mean() + 0.5 - px, yy[near].mean() + 0.5 - py) <= 2.0, (name, t, e)
+    # The front: 0.2 s at 0.3, 0.5 s at 0.2, 1 s at 0.1, 2 s at 0.08, 5 s at 0.02; dashed along each level.
+    front = [(0.2, 0.3), (0.5, 0.2), (1.0, 0.1), (2.0, 0.08), (5.0, 0.02)]
+    for (t0, e0), (t1, _) in zip(front[:-1], front[1:]):
+        (u0, u1), (v, _) = ax.to_pixel([t0, t1], [e0, e0])
+        row = image[int(v) - 1:int(v) + 2, int(u0) + 7:int(u1) - 7]
+        grey = (row.max(axis=-1).astype(int) - row.min(axis=-1) < 20) & (row.max(axis=-1) < 160)
+        dashed = grey.any(axis=0)
+        assert 0.35 < dashed.mean() < 0.95, (t0, dashed.mean())  # drawn, with gaps
+    # Text: the title above the panel, the labels beside their points (darker than without them).
+    assert (image[:y0 - 4] < 80).all(axis=-1).sum() > 40
+    plain = draw(False)[1]
+
+    def ink(im, u, v):  # darkness near a point, where its label goes (at one of its corners)
+        return (255 - im[max(int(v) - 20, 0):int(v) + 20, max(int(u) - 45, 0):int(u) + 45].astype(int)).sum() / 255
+
+    for t, e, label in a + b:
+        u, v = ax.to_pixel(t, e)
+        assert ink(image, u, v) > ink(plain, u, v) + 15 * len(label), label
+    # The legend: both series' colours right of the panel, where no data is.
+    for name in ("A", "B"):
+        assert _near(image[:, x1 + 5:], colours[name]).sum() > 20
+    assert image.std() > 20 and len(np.unique(image.reshape(-1, 3), axis=0)) > 50
+
+
+def test_charts_survive_degenerate_data_and_show_every_series(tmp_path):
+    """One point, equal values, zero, infinite and missing errors: no floating-point error on the way,
+    nothing non-finite drawn; speed_accuracy_chart shows each series' colour."""
+    from translucent_addon.compare import report
+    from translucent_addon.compare.png import read_png
+
+    def entry(series, t, e):
+        return report.Entry(series=series, engine="X", settings={"label": "x"}, seconds=t, reference="r",
+                            rel_rmse=e, median_rel_error=e)
+
+    cases = {"one": [entry("A", 1.0, 0.1)], "same": [entry("A", 1.0, 0.1), entry("B", 1.0, 0.1)],
+             "bad": [entry("A", 0.0, 0.1), entry("A", 1.0, float("inf")), entry("A", 2.0, float("nan")),
+                     entry("B", 1.0, None), entry("B", 3.0, 0.2), entry("C", 2.0, 0.0)],
+             "none": [entry("A", 1.0, None)]}
+    with np.errstate(all="raise"):
+        for name, entries in cases.items():
+            report.speed_accuracy_chart(entries, tmp_path / f"{name}.png", name)
+            image = read_png(tmp_path / f"{name}.png")
+            assert image.shape[1] > 1000 and image.std() > 10
+        report.pareto_summary_chart(cases, tmp_path / "all.png", "all")
+        report.error_against_samples_chart([dict(object_samples=n, rel_rmse_vs_model=0.3 / n ** 0.5, overlap=2.0,
+                                                  seconds=0.1) for n in (100, 1000, 10000)], tmp_path / "d.png", "d")
+    assert read_png(tmp_path / "d.png").std() > 10
+    colours = report._series_colours(["A", "B"])
+    image = read_png(tmp_path / "same.png")
+    for name in ("A", "B"):
+        assert _near(image, colours[name]).sum() > 30

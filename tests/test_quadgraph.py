@@ -108,6 +108,18 @@ def test_both_ftetwild_bindings_mesh_the_sphere_alike_and_diffuse_alike():
         tetra.tetrahedralize(v, f, binding="no_such_binding")
 
 
+def test_a_binding_that_cannot_load_is_named_with_the_reason(monkeypatch):
+    """wildmeshing's macOS wheels need macOS 14 (arm64): on an older system its library fails to load, and
+    the bake says so instead of "not installed"."""
+    def fail(name):
+        raise ImportError("dlopen: built for macOS 14.0", name=f"{name}.{name}")
+
+    monkeypatch.setattr(tetra.importlib, "import_module", fail)
+    v, f = icosphere(1, 20.0)
+    with pytest.raises(tetra.TetrahedraError, match=r"wildmeshing did not load \(dlopen: built for macOS 14.0\)"):
+        tetra.tetrahedralize(v, f, binding="wildmeshing")
+
+
 def test_split_leaves_no_tetrahedron_with_two_boundary_faces_and_keeps_the_volume(tmp_path, monkeypatch):
     v, f = box(40.0, 12.0)
     monkeypatch.chdir(tmp_path)

@@ -75,13 +75,20 @@ BINDINGS = ("pytetwild", "wildmeshing")
 
 
 def _binding(name: str | None):
-    """The function that runs fTetWild through the named binding, or through the first one installed."""
+    """The function that runs fTetWild through the named binding, or through the first one installed. A
+    binding that is there but cannot load (wildmeshing's macOS wheels need macOS 14 on Apple silicon, 13
+    on Intel) is named in the message with the loader's reason."""
+    failed = []
     for candidate in (name,) if name else BINDINGS:
         try:
             module = importlib.import_module(candidate)
-        except ImportError:
+        except ImportError as err:
+            if err.name != candidate:  # present, but its compiled part did not load
+                failed.append(f"{candidate} did not load ({err})")
             continue
         return functools.partial(_RUNNERS[candidate], module)
+    if failed:
+        raise TetrahedraError("; ".join(failed) + ": QUADGRAPH cannot bake on this system")
     raise TetrahedraError(f"{name or 'no fTetWild binding (pytetwild, wildmeshing)'} is not installed for this "
                           "platform: QUADGRAPH cannot bake here")
 

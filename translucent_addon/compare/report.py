@@ -1,4 +1,5 @@
-"""The comparison report (report.json), its images and the speed-vs-accuracy chart. Pure."""
+"""The comparison report (report.json), its images and the speed-vs-accuracy chart. Pure: NumPy only (PNGs,
+colours and charts by png.py, colormaps.py and raster_chart.py; the extension bundles no matplotlib)."""
 from __future__ import annotations
 
 import dataclasses
@@ -7,7 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from . import raster_chart
+from .colormaps import TAB10, hex_rgb, inferno, series_colours
 from .metrics import display, relative_error_image
+from .png import write_png
 
 
 @dataclasses.dataclass
@@ -30,24 +34,16 @@ class Entry:
 
 
 def save_png(path: Path, rgb8: np.ndarray) -> None:
-    """Write an 8-bit RGB image (row 0 at the bottom, as rendered) with matplotlib."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    plt.imsave(path, rgb8[::-1])
+    """Write an 8-bit RGB(A) image (row 0 at the bottom, as rendered) as a PNG (top row first)."""
+    write_png(path, np.asarray(rgb8, np.uint8)[::-1])
 
 
 def save_error_png(path: Path, image, reference, mask, vmax: float = 0.5) -> None:
-    """False-colour relative error |I - R| / mean(R) (0 to vmax), grey where the object is not."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+    """False-colour relative error |I - R| / mean(R) (0 to vmax, inferno), grey where the object is not."""
     err = relative_error_image(image, reference, mask)
-    rgba = matplotlib.colormaps["inferno"](np.clip(err / vmax, 0, 1))
-    rgba[~np.asarray(mask, bool)] = (0.25, 0.25, 0.25, 1.0)
-    save_png(path, (rgba[..., :3] * 255).astype(np.uint8))
+    rgb = inferno(np.clip(err / vmax, 0, 1))
+    rgb[~np.asarray(mask, bool)] = (0.25, 0.25, 0.25)
+    save_png(path, (rgb * 255).astype(np.uint8))
 
 
 def save_image_png(path: Path, image, exposure: float = 1.0) -> None:
@@ -86,61 +82,58 @@ def _measured(entries, metric: str):
 
 
 def _series_colours(names) -> dict:
-    """One colour per series, the same in every panel and chart (tab20 past ten series: no two alike)."""
-    names = sorted(set(names))
-    if len(names) <= 10:
-        return {name: f"C{k}" for k, name in enumerate(names)}
-    from matplotlib import colormaps
+    """One (r, g, b) colour per series, the same in every panel and chart (tab20 past ten series: no two
+    alike)."""
+    return series_colours(names)
 
-    palette = colormaps["tab20"]
-    return {name: palette(k % 20) for k, name in enumerate(names)}
+
+PARETO_COLOUR = (0.3, 0.3, 0.3)
 
 
 def _speed_accuracy_panel(ax, entries, metric: str, ylabel: str, colours: dict, labels: bool = True) -> None:
-    """One log-log panel: a line per series, setting labels, the Pareto front of all points dashed."""
-    markers = "osD^v<>px*h"
-    items = _measured(entries, metric)
+    """One log-log panel (a raster_chart.Axes): a line per series, setting labels, the Pareto front of all
+    points dashed."""
+    markers = raster_chart.MARKERS
+    items = [e for e in _measured(entries, metric) if np.isfinite(e.seconds) and e.seconds > 0
+             and np.isfinite(getattr(e, metric))]
     series = {}
     for e in items:
         series.setdefault(e.series, []).append(e)
     for name, group in sorted(series.items()):
         group.sort(key=lambda e: e.seconds)
         k = sorted(colours).index(name)
-        ax.plot([e.seconds for e in group], [getattr(e, metric) for e in group], marker=markers[k % len(markers)],
-                color=colours[name], label=name)
+        ax.plot([e.seconds for e in group], [getattr(e, metric) for e in group], colours[name],
+                marker=markers[k % len(markers)], label=name)
         for e in group if labels else ():
             label = e.settings.get("label")
             if label:
-                ax.annotate(label, (e.seconds, getattr(e, metric)), textcoords="offset points", xytext=(4, 4),
-                            fontsize=6)
+                ax.annotate(str(label), e.seconds, getattr(e, metric))
     if items:
         front = [items[i] for i in pareto_front([e.seconds for e in items], [getattr(e, metric) for e in items])]
-        ax.step([e.seconds for e in front], [getattr(e, metric) for e in front], where="post", color="grey",
-                linestyle="--", linewidth=1.0, label="Pareto front")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("seconds per frame (this machine, one run)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="both", alpha=0.3)
+        ax.plot([e.seconds for e in front], [getattr(e, metric) for e in front], PARETO_COLOUR, marker=None,
+                label="Pareto front", width=1.2, dashed=True, step=True)
+    ax.set(xlabel="seconds per frame (this machine, one run)", ylabel=ylabel)
+
+
+def _legend_items(colours: dict) -> list[dict]:
+    """Every series (the same marker as in the panels) and the Pareto front."""
+    markers = raster_chart.MARKERS
+    return ([dict(label=name, colour=colours[name], marker=markers[k % len(markers)])
+             for k, name in enumerate(sorted(colours))]
+            + [dict(label="Pareto front", colour=PARETO_COLOUR, marker=None, width=1.2, dashed=True)])
 
 
 def speed_accuracy_chart(entries: list[Entry], path: Path, title: str) -> None:
     """Error against seconds per frame (log-log), one line per series, labels with settings: the relative
-    RMSE (which a few fireflies in the reference can dominate) and the median relative error beside it."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(14, 5))
+    RMSE (which a few fireflies in the reference can dominate) and the median relative error beside it.
+    The legend sits to the right of the panels, off the data."""
     colours = _series_colours(e.series for e in entries)
-    for ax, (metric, ylabel) in zip(axes, CHART_METRICS):
+    legend_w = max([raster_chart.text_width(n, raster_chart.TICK_SIZE) for n in colours] + [80.0])
+    fig = raster_chart.Figure(int(1300 + legend_w), 560, rows=1, cols=2, title=title)
+    for ax, (metric, ylabel) in zip(fig.axes, CHART_METRICS):
         _speed_accuracy_panel(ax, entries, metric, ylabel, colours)
-    axes[1].legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    fig.legend("right", _legend_items(colours))
+    fig.save(path)
 
 
 def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "median_rel_error",
@@ -148,56 +141,31 @@ def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "me
     """Every scene's speed against accuracy in one figure (a panel per scene, the same colour per series
     in each), with each scene's Pareto front: which method and setting is worth its time where.
     ``panel_metrics`` and ``panel_titles`` override the metric and the title of named panels (a scene whose
-    benchmark measured only the RMSE, against its own reference)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    benchmark measured only the RMSE, against its own reference). The legend sits below the panels."""
     names = sorted(scenes)
     if not names:
         raise ValueError("no scenes to chart")
     cols = min(2, len(names))
     rows = (len(names) + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(7.5 * cols, 4.8 * rows), squeeze=False)
     colours = _series_colours(e.series for entries in scenes.values() for e in entries)
-    for ax, name in zip(axes.flat, names):
+    fig = raster_chart.Figure(750 * cols, rows=rows, cols=cols, title=title, panels=len(names), panel_height=460)
+    for ax, name in zip(fig.axes, names):
         m = (panel_metrics or {}).get(name, metric)
         _speed_accuracy_panel(ax, scenes[name], m, dict(CHART_METRICS)[m], colours, labels=False)
-        ax.set_title((panel_titles or {}).get(name, name), fontsize=9)
-    for ax in list(axes.flat)[len(names):]:
-        ax.axis("off")
-    handles = {}
-    for ax in axes.flat:
-        for h, label in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(label, h)
-    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize=8)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.06 + 0.02 * rows, 1, 0.97))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+        ax.title = (panel_titles or {}).get(name, name)
+    fig.legend("below", _legend_items(colours))
+    fig.save(path)
 
 
 def error_against_samples_chart(rows: list[dict], path: Path, title: str) -> None:
     """Relative RMSE against the dipole model over the number of light-view samples (Shah Fig. 6.10)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    xs = [r["object_samples"] for r in rows]
-    ax.plot(xs, [r["rel_rmse_vs_model"] for r in rows], marker="o")
+    fig = raster_chart.Figure(715, 462)
+    ax = fig.axes[0]
+    ax.plot([r["object_samples"] for r in rows], [r["rel_rmse_vs_model"] for r in rows], hex_rgb(TAB10[0]),
+            marker="o")
     for r in rows:
-        ax.annotate(f"k={r['overlap']:g}, {r['seconds']:.2f} s", (r["object_samples"], r["rel_rmse_vs_model"]),
-                    textcoords="offset points", xytext=(4, 4), fontsize=7)
-    ax.axhline(0.05, color="grey", linestyle="--", linewidth=0.8)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("light-view samples on the object (all lights)")
-    ax.set_ylabel("relative RMSE against the dipole model")
-    ax.set_title(title, fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        ax.annotate(f"k={r['overlap']:g}, {r['seconds']:.2f} s", r["object_samples"], r["rel_rmse_vs_model"])
+    ax.axhline(0.05, (0.5, 0.5, 0.5), width=1.0, dashed=True)
+    ax.set(title=title, xlabel="light-view samples on the object (all lights)",
+           ylabel="relative RMSE against the dipole model")
+    fig.save(path)
