@@ -5,6 +5,7 @@ import bpy
 
 from .bake.inputs import bake_status
 from .render.methods import METHOD_DESCRIPTIONS
+from .versions import EEVEE_IDS
 
 _STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
 _STATUS_TEXT = {
@@ -280,7 +281,7 @@ _patched: list = []
 def register_compat_panels() -> None:
     for panel in bpy.types.Panel.__subclasses__():
         engines = getattr(panel, "COMPAT_ENGINES", None)
-        if isinstance(engines, set) and "BLENDER_EEVEE" in engines and _ENGINE not in engines:
+        if isinstance(engines, set) and engines.intersection(EEVEE_IDS) and _ENGINE not in engines:
             engines.add(_ENGINE)
             _patched.append(panel)
 

@@ -75,6 +75,15 @@ def test_the_bundled_libraries_come_from_the_zip(installed):
         importlib.import_module("matplotlib")
 
 
+def test_blenders_light_world_and_material_panels_show_for_our_engine(installed):
+    """Blender's own panels show for the engines in their COMPAT_ENGINES, where EEVEE is BLENDER_EEVEE_NEXT
+    in 4.5 and BLENDER_EEVEE from 5.0: ours is added beside either."""
+    panels = [p.__name__ for p in bpy.types.Panel.__subclasses__()
+              if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set())]
+    assert len(panels) > 10, panels
+    assert any("light" in name.lower() for name in panels) and any("world" in name.lower() for name in panels)
+
+
 def test_presets_size_and_quality_operators(tr, scene):
     ball = _ball_scene(tr, scene, "IMAGE_SPACE")
     presets = ext_module(tr, "translucent_addon.physics.presets").load_presets()

@@ -29,6 +29,7 @@ from ..render import extract
 from . import cache, twin_materials
 from .bvh_tracer import BVHTracer
 from .metrics import median_relative_error, relative_rmse, ssim
+from ..versions import EEVEE_IDS, eevee_engine_id
 from .report import (Entry, error_against_samples_chart, save_error_png, save_image_png, speed_accuracy_chart,
                      write_report)
 
@@ -109,7 +110,7 @@ def engine_setup(scene, engine: str, **options):
     """Set the render engine and its options for the duration of a block, then restore."""
     saved_engine = scene.render.engine
     saved = {}
-    target = {"CYCLES": scene.cycles, "BLENDER_EEVEE": scene.eevee}.get(engine)
+    target = scene.cycles if engine == "CYCLES" else scene.eevee if engine in EEVEE_IDS else None
     try:
         scene.render.engine = engine
         for name, value in options.items():
@@ -290,7 +291,8 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
     for i, spp in enumerate(settings.eevee_samples):
         yield step(f"EEVEE {spp} samples ...")
-        with twin_materials_applied(objects, "random_walk"), engine_setup(scene, "BLENDER_EEVEE", **eevee_options(spp)):
+        with (twin_materials_applied(objects, "random_walk"),
+              engine_setup(scene, eevee_engine_id(), **eevee_options(spp))):
             if i == 0:
                 warm_eevee(scene, width, height)
             img, sec = render_pixels(scene, width, height)
