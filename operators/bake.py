@@ -1,6 +1,6 @@
 """translucent.bake and translucent.clear_bake.
 
-The bake is a generator of stages (``translucent_addon.bake.registry.run``). In
+The bake is a generator of stages (``translucent_addon.techniques.registry.run``). In
 the UI the operator is modal: a timer steps the generator, the status bar shows
 progress, Esc cancels. In background mode (batch, scripts) it runs blocking and
 prints one progress line per step. Nothing is written until the last step, so
@@ -11,10 +11,10 @@ import time
 
 import bpy
 
-from ..translucent_addon.bake import registry, store
-from ..translucent_addon.bake.inputs import gather
-from ..translucent_addon.render.methods import bake_cache
-
+from ..translucent_addon.blender.bake_inputs import gather
+from ..translucent_addon.core import bake_store as store
+from ..translucent_addon.gpu import bake_cache
+from ..translucent_addon.techniques import registry
 
 BAKED_AUTO = {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}  # methods whose Auto resolutions a bake uses
 
@@ -121,7 +121,7 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"ERROR"}, error)
             return None
         if ob.translucent.quality == "AUTO" and ob.translucent.method in BAKED_AUTO:
-            from ..translucent_addon.quality_apply import apply_auto
+            from ..translucent_addon.blender.quality_apply import apply_auto
 
             try:
                 choice = apply_auto(context, ob)

@@ -1,8 +1,8 @@
 """translucent.compare_cycles: our engine against Cycles and EEVEE, with report and chart."""
 import bpy
 
-from ..translucent_addon import preferences
-from ..translucent_addon.compare import runner
+from ..translucent_addon.blender import compare_runner as runner
+from ..translucent_addon.blender import preferences
 from .bake import ModalJob
 
 

@@ -2,7 +2,7 @@
 
 import bpy
 
-from ..translucent_addon.demo import build_caustics_scene, build_default_scene
+from ..translucent_addon.blender.demo import build_caustics_scene, build_default_scene
 
 
 class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):

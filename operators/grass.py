@@ -1,7 +1,7 @@
 """translucent.bake_grass_btf and translucent.add_grass_field (Shah ch. 4).
 
 The BTF bake renders the procedural patch under 81 views and 21 lights and compresses it; it is
-stored on the ground object (``bake/grass_btf.py``). Add Grass Field turns the field on for the
+stored on the ground object (``techniques/grass/bake.py``). Add Grass Field turns the field on for the
 selected mesh and bakes its BTF when there is no current one.
 """
 
@@ -9,8 +9,9 @@ import time
 
 import bpy
 
-from ..translucent_addon.bake import grass_btf, store
-from ..translucent_addon.render.extract import grass_status
+from ..translucent_addon.blender.extract import grass_status
+from ..translucent_addon.core import bake_store as store
+from ..translucent_addon.techniques.grass import bake as grass_btf
 from .bake import ModalJob, _active_mesh
 
 

@@ -7,7 +7,7 @@ QUADGRAPH, which carries them into its volume.
 """
 import bpy
 
-from ..translucent_addon.render.extract import BLUR_GROUP, GLOW_GROUP, MASK_GROUP, TINT_ATTRIBUTE
+from ..translucent_addon.blender.extract import BLUR_GROUP, GLOW_GROUP, MASK_GROUP, TINT_ATTRIBUTE
 
 LAYERS = (
     (BLUR_GROUP, "Blur", "Weight Paint: spread the scattering up to 4x where painted"),

@@ -2,10 +2,11 @@
 quality tiers and AUTO quality."""
 import bpy
 
-from ..translucent_addon import preferences, props, quality
-from ..translucent_addon.bake.registry import BakeInputError
-from ..translucent_addon.quality_apply import apply_auto
-from ..translucent_addon.physics import presets
+from ..translucent_addon.blender import preferences, props
+from ..translucent_addon.blender.quality_apply import apply_auto
+from ..translucent_addon.core import quality
+from ..translucent_addon.core.physics import presets
+from ..translucent_addon.techniques.registry import BakeInputError
 
 
 class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):

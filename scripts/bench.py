@@ -62,8 +62,8 @@ def main() -> int:
 
     import bpy
 
-    demo = importlib.import_module(f"{package}.translucent_addon.demo")
-    runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
+    demo = importlib.import_module(f"{package}.translucent_addon.blender.demo")
+    runner = importlib.import_module(f"{package}.translucent_addon.blender.compare_runner")
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     rows, disc_rows, ts_rows = [], [], []
@@ -120,7 +120,7 @@ def main() -> int:
 def draw_charts(out: Path) -> int:
     """Each scene's chart.png and the summary pareto.png, from the scenes' report.json (pure: no Blender)."""
     sys.path.insert(0, str(ROOT))
-    from translucent_addon.compare import report
+    from translucent_addon.core.report import report
 
     scenes, size = {}, None
     for path in sorted(out.glob("*/report.json")):
@@ -326,7 +326,6 @@ def checker_occluder(bpy, scene, light, target, squares: int = 12, square_mm: fl
 def blending_phase(demo, runner, bpy, out: Path, cache, size: int = 256) -> None:
     """Lensch Fig. 6: a checkerboard of light on the bunny, blending off and on, against the dipole model."""
     import numpy as np
-
     from mathutils import Vector
 
     bpy.ops.wm.read_homefile(use_empty=True)

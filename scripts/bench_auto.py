@@ -45,9 +45,9 @@ def main() -> int:
 
     import bpy
 
-    demo = importlib.import_module(f"{package}.translucent_addon.demo")
-    runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
-    engine = importlib.import_module(f"{package}.translucent_addon.render.engine")
+    demo = importlib.import_module(f"{package}.translucent_addon.blender.demo")
+    runner = importlib.import_module(f"{package}.translucent_addon.blender.compare_runner")
+    engine = importlib.import_module(f"{package}.translucent_addon.blender.engine")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     if args.cases and (out / "results.json").exists():

@@ -44,7 +44,7 @@ HEIGHT_FIELDS = {
 
 
 def estimate_phase(mod) -> list[dict]:
-    cm = mod("geometry.caustic_mapping")
+    cm = mod("techniques.caustics.model")
     rng = np.random.default_rng(5)
     n, texels = 4000, 512
     rows = []
@@ -99,9 +99,9 @@ def march(v, r, h):
 
 def floor_geometry(mod, bpy, w, h):
     """Per pixel: the floor point, whether the pixel sees the floor (not the ball), the floor area."""
-    extract = mod("render.extract")
+    extract = mod("blender.extract")
     camera = extract.render_camera(bpy.context.evaluated_depsgraph_get(), w, h)
-    o, d = mod("geometry.camera").pixel_rays(camera.view_proj, w, h)
+    o, d = mod("core.geometry.camera").pixel_rays(camera.view_proj, w, h)
     t = -o[..., 2] / d[..., 2]
     floor = o + t[..., None] * d
     oc = o - np.array([0.0, 0.0, 0.1])
@@ -118,8 +118,8 @@ def exact_caustic(mod, floor, sees_floor, photons: int, bins: int = 400, light_r
     of radius a facing the ball."""
     import dataclasses
 
-    cs = mod("reference.caustic_sphere")
-    lights = mod("render.lights")
+    cs = mod("core.reference.caustic_sphere")
+    lights = mod("core.lights")
     e = lights.emitters_from_light("Lamp", "POINT", _matrix(LAMP), (1, 1, 1), 10.0)[0]
     sphere = cs.GlassSphere((0, 0, 0.1), 0.05, 1.5)
     E = np.zeros((bins, bins, 3))
@@ -161,10 +161,10 @@ def centroid(image, floor, mask, area):
 
 
 def ball_phase(bpy, mod, args, out: Path) -> tuple[list[dict], dict]:
-    runner = mod("compare.runner")
-    metrics = mod("compare.metrics")
-    report = mod("compare.report")
-    demo = mod("demo")
+    runner = mod("blender.compare_runner")
+    metrics = mod("core.metrics")
+    report = mod("core.report.report")
+    demo = mod("blender.demo")
     w = h = args.size
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = demo.build_caustics_scene(bpy.context.scene)
@@ -283,9 +283,9 @@ def best_of(fn, n: int = 2):
 # -- 3. the bunny and the failure cases ---------------------------------------------------------------
 
 def scenes_phase(bpy, mod, args, out: Path) -> list[dict]:
-    runner = mod("compare.runner")
-    report = mod("compare.report")
-    demo = mod("demo")
+    runner = mod("blender.compare_runner")
+    report = mod("core.report.report")
+    demo = mod("blender.demo")
     w = h = args.size
     rows = []
     # Glass bunny: ours and Cycles MNEE, full images.

@@ -91,9 +91,9 @@ def main() -> int:
 
 
 def exit_accuracy(mod, args) -> list[dict]:
-    geocube = mod("bake.geocube")
-    gd = mod("render.methods.geocube_data")
-    mesh_io = mod("geometry.mesh_io")
+    geocube = mod("techniques.geocube.bake")
+    gd = mod("techniques.geocube.model")
+    mesh_io = mod("core.geometry.mesh_io")
     rows = []
     for name in args.meshes:
         v, t = mesh_io.load_npz(ROOT / "translucent_addon" / "data" / "meshes" / f"{name}.npz")
@@ -133,7 +133,7 @@ def exit_accuracy(mod, args) -> list[dict]:
 def build_scene(bpy, mod, case: str):
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
-    demo = mod("demo")
+    demo = mod("blender.demo")
     demo.environment_world(scene, environment_image(), "bench_environment")
     if case.startswith("sphere"):
         bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=0.05)
@@ -142,7 +142,7 @@ def build_scene(bpy, mod, case: str):
         sigma_s_prime = SPHERE_LEVELS[case.split("_")[1]]
         sigma_a = (0.0, 0.0, 0.0)
     else:
-        mesh_io = mod("geometry.mesh_io")
+        mesh_io = mod("core.geometry.mesh_io")
         v, t = mesh_io.load_npz(ROOT / "translucent_addon" / "data" / "meshes" / "bunny.npz")
         v = np.asarray(v, np.float64)
         v = (v - 0.5 * (v.max(0) + v.min(0))) * (0.12 / np.linalg.norm(v.max(0) - v.min(0)))
@@ -176,12 +176,12 @@ def build_scene(bpy, mod, case: str):
 
 
 def image_phase(bpy, mod, args, out: Path) -> list[dict]:
-    runner = mod("compare.runner")
-    cache = mod("compare.cache")
-    metrics = mod("compare.metrics")
-    report = mod("compare.report")
-    extract = mod("render.extract")
-    bvh = mod("compare.bvh_tracer")
+    runner = mod("blender.compare_runner")
+    cache = mod("core.reference.cache")
+    metrics = mod("core.metrics")
+    report = mod("core.report.report")
+    extract = mod("blender.extract")
+    bvh = mod("blender.bvh_tracer")
     w, h = args.width, args.height
     rows = []
     for case in args.cases:

@@ -36,8 +36,8 @@ DENSITY_CAMERA = (0.0, -4.5, 5.0)
 
 
 def compression_phase(mod, out: Path) -> tuple[dict, object, object]:
-    grass_patch, btf_acquire, btf_compress = (mod("geometry.grass_patch"), mod("bake.btf_acquire"),
-                                              mod("bake.btf_compress"))
+    grass_patch, btf_acquire, btf_compress = (mod("techniques.grass.patch"), mod("techniques.grass.acquire"),
+                                              mod("techniques.grass.compress"))
     patch = grass_patch.build_patch()
     btf = btf_acquire.run(btf_acquire.acquire(patch, 128))
     print(f"[grass] acquisition {btf.seconds:.1f} s", flush=True)
@@ -89,9 +89,9 @@ def compression_phase(mod, out: Path) -> tuple[dict, object, object]:
 
 def unsampled_phase(mod, btf, spectra) -> list[dict]:
     """Directly rendered unsampled pairs against the per-pixel reconstruction."""
-    grass_patch, btf_acquire, btf_compress = (mod("geometry.grass_patch"), mod("bake.btf_acquire"),
-                                              mod("bake.btf_compress"))
-    grass_data = mod("render.grass_data")
+    grass_patch, btf_acquire, btf_compress = (mod("techniques.grass.patch"), mod("techniques.grass.acquire"),
+                                              mod("techniques.grass.compress"))
+    grass_data = mod("techniques.grass.model")
     renderer = btf_acquire.PatchRenderer(grass_patch.build_patch(), 128)
     rng = np.random.default_rng(11)
     R = 128
@@ -144,7 +144,7 @@ def unsampled_phase(mod, btf, spectra) -> list[dict]:
 
 
 def _store_btf(mod, ob, arrays, meta, tile):
-    store, grass_btf, gp = mod("bake.store"), mod("bake.grass_btf"), mod("geometry.grass_patch")
+    store, grass_btf, gp = mod("core.bake_store"), mod("techniques.grass.bake"), mod("techniques.grass.patch")
     s = ob.translucent
     target = float(meta["target_error"])
     s.grass, s.grass_tile, s.grass_blade_height = True, tile, 0.45 * tile
@@ -152,7 +152,7 @@ def _store_btf(mod, ob, arrays, meta, tile):
     params = grass_btf.params_from_settings(s.grass_tile, s.grass_blade_height, 500, 7)
     assert params == gp.GrassParams(blades=500, height=0.45, seed=7)
     store.write(ob, "GRASS", grass_btf.settings_hash(params, 128, s.grass_target_error), arrays, meta)
-    status = mod("render.extract").grass_status(ob)[0]
+    status = mod("blender.extract").grass_status(ob)[0]
     if status != "OK":
         raise RuntimeError(f"the stored BTF does not match the settings of '{ob.name}' ({status})")
 
@@ -214,8 +214,8 @@ def blades_object(bpy, demo, patch, field, side, material, count=None):
 
 
 def scenes_phase(bpy, mod, arrays, meta, out: Path, size: int) -> dict:
-    runner, report, demo = mod("compare.runner"), mod("compare.report"), mod("demo")
-    twins = mod("compare.twin_materials")
+    runner, report, demo = mod("blender.compare_runner"), mod("core.report.report"), mod("blender.demo")
+    twins = mod("blender.twin_materials")
     results = {}
 
     # Ball half sunk in the field.
@@ -257,7 +257,7 @@ def scenes_phase(bpy, mod, arrays, meta, out: Path, size: int) -> dict:
             print(f"[grass] field {blades:.0e} blades, tile {tile:.3f} m, lod {lod}: {sec:.2f} s", flush=True)
     results["ours"] = timing
     # The same blades as geometry in EEVEE.
-    gp = mod("geometry.grass_patch")
+    gp = mod("techniques.grass.patch")
     patch = gp.build_patch()
     eevee = []
     for blades in (1e3, 1e4, 1e5):
@@ -293,9 +293,9 @@ def reference_phase(bpy, mod, btf, spectra, seconds, out: Path, size: int, args)
     compression targets, EEVEE with the blades as geometry, Cycles at fewer samples. Errors over the whole
     pixels that see the field (the rest is sky beyond its far edge): per pixel, the median, and over 8 x 8
     blocks (the texture's look without each blade's place)."""
-    runner, report, demo = mod("compare.runner"), mod("compare.report"), mod("demo")
-    twins, metrics, cache = mod("compare.twin_materials"), mod("compare.metrics"), mod("compare.cache")
-    grass_btf, gp = mod("bake.grass_btf"), mod("geometry.grass_patch")
+    runner, report, demo = mod("blender.compare_runner"), mod("core.report.report"), mod("blender.demo")
+    twins, metrics, cache = mod("blender.twin_materials"), mod("core.metrics"), mod("core.reference.cache")
+    grass_btf, gp = mod("techniques.grass.bake"), mod("techniques.grass.patch")
     patch = gp.build_patch()
     scene = new_scene(bpy, demo)
     g = ground(bpy, demo, scene, REF_FIELD)
@@ -305,7 +305,7 @@ def reference_phase(bpy, mod, btf, spectra, seconds, out: Path, size: int, args)
                    "camera": REF_CAMERA, "params": patch.params.as_dict(), "blender": bpy.app.version_string}
     # The pixels that see the field (its far edge is in view): the rays that meet the ground within it,
     # a blade's height in from its borders (no side wall there in either render).
-    extract, camera_rays = mod("render.extract"), mod("geometry.camera")
+    extract, camera_rays = mod("blender.extract"), mod("core.geometry.camera")
     cam = extract.render_camera(bpy.context.evaluated_depsgraph_get(), size, size)
     origins, dirs = camera_rays.pixel_rays(cam.view_proj, size, size)
     t = -origins[..., 2] / np.where(np.abs(dirs[..., 2]) > 1e-12, dirs[..., 2], -1e-12)
@@ -516,7 +516,7 @@ def main() -> int:
     t0 = time.perf_counter()
     comp, btf, spectra = compression_phase(mod, out)
     unsampled = previous.get("unsampled", []) if args.only_reference else unsampled_phase(mod, btf, spectra)
-    grass_btf, gp = mod("bake.grass_btf"), mod("geometry.grass_patch")
+    grass_btf, gp = mod("techniques.grass.bake"), mod("techniques.grass.patch")
     bake_s = comp["acquisition_s"] + comp["svd_s"]
     arrays, meta = grass_btf.package(btf, spectra, gp.GrassParams(), 128, 0.5, bake_s)
     reference = reference_phase(bpy, mod, btf, spectra, bake_s, out, args.size, args)

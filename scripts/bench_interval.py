@@ -31,7 +31,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from translucent_addon.geometry import interval_mapping as im  # noqa: E402
+from translucent_addon.techniques.relief import model as im  # noqa: E402
 
 DEPTH_SCALE = 0.1
 AZIMUTH = 30.0
@@ -178,7 +178,7 @@ def write_summary(path: Path, rows, meta) -> None:
     lines = [
         "# Interval mapping vs relief mapping (Shah, thesis ch. 3)",
         "",
-        "NumPy twin (`translucent_addon/geometry/interval_mapping.py`; the GLSL twin"
+        "NumPy twin (`translucent_addon/techniques/relief/model.py`; the GLSL twin"
         " `gpu_shaders/interval_search.glsl`"
         f" matches it in the tests). {meta['rays']} rays on one tile of each {meta['field_size']}x{meta['field_size']}"
         f" field, layer {meta['depth_scale_uv']} uv thick, azimuth {meta['azimuth_deg']:.0f} deg. Converged when"

@@ -60,16 +60,16 @@ def main() -> int:
 
     import bpy
 
-    demo = importlib.import_module(f"{package}.translucent_addon.demo")
-    runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
-    cache = importlib.import_module(f"{package}.translucent_addon.compare.cache")
-    metrics = importlib.import_module(f"{package}.translucent_addon.compare.metrics")
-    report = importlib.import_module(f"{package}.translucent_addon.compare.report")
-    extract = importlib.import_module(f"{package}.translucent_addon.render.extract")
-    engine = importlib.import_module(f"{package}.translucent_addon.render.engine")
-    qgd = importlib.import_module(f"{package}.translucent_addon.render.methods.quadgraph_data")
-    df = importlib.import_module(f"{package}.translucent_addon.physics.diffusion")
-    bvh = importlib.import_module(f"{package}.translucent_addon.compare.bvh_tracer")
+    demo = importlib.import_module(f"{package}.translucent_addon.blender.demo")
+    runner = importlib.import_module(f"{package}.translucent_addon.blender.compare_runner")
+    cache = importlib.import_module(f"{package}.translucent_addon.core.reference.cache")
+    metrics = importlib.import_module(f"{package}.translucent_addon.core.metrics")
+    report = importlib.import_module(f"{package}.translucent_addon.core.report.report")
+    extract = importlib.import_module(f"{package}.translucent_addon.blender.extract")
+    engine = importlib.import_module(f"{package}.translucent_addon.blender.engine")
+    qgd = importlib.import_module(f"{package}.translucent_addon.techniques.quadgraph.model")
+    df = importlib.import_module(f"{package}.translucent_addon.core.physics.diffusion")
+    bvh = importlib.import_module(f"{package}.translucent_addon.blender.bvh_tracer")
 
     modules = {"demo": demo, "runner": runner, "cache": cache, "metrics": metrics}
     out = Path(args.output)

@@ -23,9 +23,9 @@ ALBEDOS = np.round(np.concatenate([[0.02], np.linspace(0.05, 1.0, 20)]), 4)
 def measure(A: float, eta: float, samples: int = 1024) -> float:
     import bpy
 
-    from translucent_addon.compare import slab_scene
-    from translucent_addon.compare.runner import render_pixels
-    from translucent_addon.physics.fresnel import fresnel_dielectric
+    from translucent_addon.blender import slab_scene
+    from translucent_addon.blender.compare_runner import render_pixels
+    from translucent_addon.core.physics.fresnel import fresnel_dielectric
 
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene

@@ -28,7 +28,7 @@ def main() -> int:
 
     blender_env.start()
     import bpy
-    from bl_ext.checkout_repo.translucent.translucent_addon.demo import build_default_scene
+    from bl_ext.checkout_repo.translucent.translucent_addon.blender.demo import build_default_scene
 
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = build_default_scene(bpy.context.scene)

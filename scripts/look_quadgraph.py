@@ -47,9 +47,9 @@ def main() -> int:
 
     import bpy
 
-    demo = importlib.import_module(f"{package}.translucent_addon.demo")
-    runner = importlib.import_module(f"{package}.translucent_addon.compare.runner")
-    report = importlib.import_module(f"{package}.translucent_addon.compare.report")
+    demo = importlib.import_module(f"{package}.translucent_addon.blender.demo")
+    runner = importlib.import_module(f"{package}.translucent_addon.blender.compare_runner")
+    report = importlib.import_module(f"{package}.translucent_addon.core.report.report")
     out = ROOT / "bench" / "results" / "quadgraph" / "shapes"
     out.mkdir(parents=True, exist_ok=True)
     rows = []

@@ -1,4 +1,4 @@
-"""Render DejaVu Sans (matplotlib's copy) into translucent_addon/compare/chart_font.npz: the bitmap font that
+"""Render DejaVu Sans (matplotlib's copy) into translucent_addon/core/report/chart_font.npz: the bitmap font that
 raster_chart.py writes chart text with, so the extension needs no font library. Dev only; run once, commit
 the .npz. Needs matplotlib (for its fonts) and Pillow (which matplotlib installs)."""
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "translucent_addon" / "compare" / "chart_font.npz"
-LICENCE = ROOT / "translucent_addon" / "compare" / "chart_font_LICENSE.txt"
+OUT = ROOT / "translucent_addon" / "core" / "report" / "chart_font.npz"
+LICENCE = ROOT / "translucent_addon" / "core" / "report" / "chart_font_LICENSE.txt"
 # Pixels per em in the atlas: raster_chart draws at 2x and halves, so 24 px here is 12 px text on the chart.
 SIZE = 24
 CODES = range(32, 127)  # printable ASCII

@@ -10,8 +10,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from translucent_addon.geometry.mesh_io import load_obj, save_npz  # noqa: E402
-from translucent_addon.geometry.mesh_repair import boundary_loops, close_holes  # noqa: E402
+from translucent_addon.core.geometry.mesh_io import load_obj, save_npz  # noqa: E402
+from translucent_addon.core.geometry.mesh_repair import boundary_loops, close_holes  # noqa: E402
 
 src = Path(sys.argv[1] if len(sys.argv) > 1 else ROOT.parent / "shared" / "data" / "meshes")
 dst = ROOT / "translucent_addon" / "data" / "meshes"

@@ -25,10 +25,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from translucent_addon.bake.proxy import ATLAS_FILL, surface_area  # noqa: E402
-from translucent_addon.geometry.mesh_io import load_npz  # noqa: E402
-from translucent_addon.physics.dipole import dipole_parameters, r_max  # noqa: E402
-from translucent_addon.physics.presets import load_presets  # noqa: E402
+from translucent_addon.core.geometry.mesh_io import load_npz  # noqa: E402
+from translucent_addon.core.physics.dipole import dipole_parameters, r_max  # noqa: E402
+from translucent_addon.core.physics.presets import load_presets  # noqa: E402
+from translucent_addon.techniques.texture_space.proxy import ATLAS_FILL, surface_area  # noqa: E402
 
 RESULTS = ROOT / "bench" / "results"
 OUT = ROOT / "translucent_addon" / "data" / "quality_curves.json"

@@ -9,7 +9,7 @@ from mathutils import Vector
 
 
 def set_world(scene, color) -> None:
-    from translucent_addon.demo import uniform_world
+    from translucent_addon.blender.demo import uniform_world
 
     uniform_world(scene, tuple(color))
 
@@ -75,7 +75,7 @@ def add_camera(scene, location, target, lens=35.0):
 
 def render(scene, width=96, height=96) -> np.ndarray:
     """F12 through the scene's engine; linear RGBA (height, width, 4), row 0 at the bottom."""
-    from translucent_addon.compare.runner import render_pixels
+    from translucent_addon.blender.compare_runner import render_pixels
 
     return render_pixels(scene, width, height)[0]
 
@@ -97,11 +97,11 @@ def dipole_model_reference(tr, name: str, width: int, height: int, samples: int 
     that object's interior pixels: (image, mask)."""
     from conftest import ext_module
 
-    extract = ext_module(tr, "translucent_addon.render.extract")
-    model = ext_module(tr, "translucent_addon.reference.dipole_model")
-    runner = ext_module(tr, "translucent_addon.compare.runner")
-    lambert = ext_module(tr, "translucent_addon.reference.lambert")
-    tracer_mod = ext_module(tr, "translucent_addon.compare.bvh_tracer")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    model = ext_module(tr, "translucent_addon.core.reference.dipole_model")
+    runner = ext_module(tr, "translucent_addon.blender.compare_runner")
+    lambert = ext_module(tr, "translucent_addon.core.reference.lambert")
+    tracer_mod = ext_module(tr, "translucent_addon.blender.bvh_tracer")
     depsgraph = bpy.context.evaluated_depsgraph_get()
     frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
     tracer = tracer_mod.BVHTracer(lambert.scene_triangles(frame)[0])

@@ -18,7 +18,7 @@ def _select(ob):
 
 
 def _spot(tr, scene):
-    demo = ext_module(tr, "translucent_addon.demo")
+    demo = ext_module(tr, "translucent_addon.blender.demo")
     ob = bpy.data.objects.new("Spot", demo.bundled_mesh("spot"))
     scene.collection.objects.link(ob)
     _select(ob)
@@ -28,7 +28,7 @@ def _spot(tr, scene):
 
 
 def _status(tr, ob):
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
     return inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
 
 
@@ -37,7 +37,7 @@ def test_bake_survives_save_and_reload_and_edits_mark_it_stale(tr, scene, tmp_pa
     assert _status(tr, ob) == "MISSING"
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     assert _status(tr, ob) == "OK"
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     before = store.read(ob, "TEXTURE_SPACE")
     assert before.arrays["display_uv"].shape == (3 * 5856, 2)  # a corner per displayed triangle
     assert before.meta["proxy_vertices"] > 100 and before.arrays["lensch_kernels"].dtype == np.float16
@@ -69,7 +69,7 @@ def test_texture_space_bakes_the_shading_normals_and_goes_stale_when_they_change
     """The illumination map lights each texel with the normal the display shows: the bake takes the
     mesh's corner normals, and shading it flat (same vertices) needs a new bake."""
     ob = _spot(tr, scene)
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
     got = inputs.gather(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
     me = ob.data
     me.calc_loop_triangles()
@@ -145,9 +145,9 @@ def test_quadgraph_density_refines_a_mesh_with_fewer_triangles_than_it_asks_for(
     """The cow has 5,804 triangles. K = 1 asks for 5,000 (within 20 %: the mesh itself); K = 0.5 for
     7,370, which it lacks: its proxy is the mesh subdivided and decimated back to about that (it stayed
     at 5,804 for every K before), enclosing the same volume."""
-    demo = ext_module(tr, "translucent_addon.demo")
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
-    qb = ext_module(tr, "translucent_addon.bake.quadgraph_bake")
+    demo = ext_module(tr, "translucent_addon.blender.demo")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
+    qb = ext_module(tr, "translucent_addon.techniques.quadgraph.bake")
     ob = bpy.data.objects.new("Cow", demo.bundled_mesh("cow"))
     scene.collection.objects.link(ob)
     ob.translucent.method = "QUADGRAPH"

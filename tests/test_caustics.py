@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from translucent_addon.geometry import caustic_mapping as cm
-from translucent_addon.reference import caustic_sphere as cs
-from translucent_addon.render import blocks
-from translucent_addon.render.lights import DIRECTIONAL, POINT, Emitter
+from translucent_addon.core.lights import DIRECTIONAL, POINT, Emitter
+from translucent_addon.core.reference import caustic_sphere as cs
+from translucent_addon.gpu import blocks
+from translucent_addon.techniques.caustics import model as cm
 
 
 def test_refract_obeys_snell_and_flags_total_internal_reflection():

@@ -11,20 +11,20 @@ from conftest import ext_module  # noqa: E402
 
 
 def _scene(tr, scene, **kw):
-    ext_module(tr, "translucent_addon.demo").build_caustics_scene(scene, **kw)
+    ext_module(tr, "translucent_addon.blender.demo").build_caustics_scene(scene, **kw)
     scene.translucent.capture_passes = True
     return scene
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
 
 
 def _twin(tr, cap, caster_name="Glass ball"):
     """The NumPy twin over the captured maps of the first emitter and caster."""
-    cm = ext_module(tr, "translucent_addon.geometry.caustic_mapping")
-    blocks = ext_module(tr, "translucent_addon.render.blocks")
-    caustics = ext_module(tr, "translucent_addon.render.caustics")
+    cm = ext_module(tr, "translucent_addon.techniques.caustics.model")
+    blocks = ext_module(tr, "translucent_addon.gpu.blocks")
+    caustics = ext_module(tr, "translucent_addon.techniques.caustics.passes")
     frame = cap["frame"]
     e = frame.emitters[0]
     mesh = next(m for m in frame.meshes if m.name == caster_name)
@@ -40,7 +40,7 @@ def _twin(tr, cap, caster_name="Glass ball"):
 
 def _exact_on_floor(tr, scene):
     """Per channel, the flux the exact trace lands on the 40 cm floor, for the scene's lamp."""
-    cs = ext_module(tr, "translucent_addon.reference.caustic_sphere")
+    cs = ext_module(tr, "translucent_addon.core.reference.caustic_sphere")
     frame = _capture(tr)["frame"]
     e = frame.emitters[0]
     pts, flux, _ = cs.trace(e, cs.GlassSphere((0, 0, 0.1), 0.05, 1.5), 0.0, n=250_000)
@@ -98,9 +98,9 @@ def test_the_caustic_lights_the_shadow(tr, scene):
     caustic = (on - off).mean(-1)
     assert caustic.min() > -1e-5
     # Floor points of each pixel (the camera looks at the floor from (0, -0.3, 0.3)).
-    camera = ext_module(tr, "translucent_addon.render.extract").render_camera(
+    camera = ext_module(tr, "translucent_addon.blender.extract").render_camera(
         bpy.context.evaluated_depsgraph_get(), 96, 96)
-    o, d = ext_module(tr, "translucent_addon.geometry.camera").pixel_rays(camera.view_proj, 96, 96)
+    o, d = ext_module(tr, "translucent_addon.core.geometry.camera").pixel_rays(camera.view_proj, 96, 96)
     floor = o + (-o[..., 2] / d[..., 2])[..., None] * d
     rho = np.hypot(floor[..., 0], floor[..., 1])
     oc = o - np.array([0.0, 0.0, 0.1])

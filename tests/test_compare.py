@@ -28,7 +28,7 @@ def _scene(tr, scene):
 
 def test_compare_writes_report_images_chart_and_reproduces_from_cache(tr, scene, tmp_path):
     _scene(tr, scene)
-    runner = ext_module(tr, "translucent_addon.compare.runner")
+    runner = ext_module(tr, "translucent_addon.blender.compare_runner")
     settings = runner.CompareSettings(our_quality=({"label": "k=8", "splat_overlap": 8.0},),
                                       cycles_random_walk_samples=(4,),
                                       cycles_brute_force_samples=(8,), eevee_samples=(1,), reference_samples=64,
@@ -78,7 +78,7 @@ def test_compare_steps_report_progress_and_stop_cleanly(tr, scene, tmp_path):
     """The comparison as steps (what the modal operator drives): one step per render with rising
     fractions ending at 1; stopped after a step (Esc), the scene keeps its engine and materials."""
     ob = _scene(tr, scene)
-    runner = ext_module(tr, "translucent_addon.compare.runner")
+    runner = ext_module(tr, "translucent_addon.blender.compare_runner")
     settings = runner.CompareSettings(our_quality=({"label": "k=8", "splat_overlap": 8.0},),
                                       cycles_random_walk_samples=(2,), cycles_brute_force_samples=(),
                                       eevee_samples=(), reference_samples=4, brute_force_reference_samples=0,
@@ -104,7 +104,7 @@ def test_compare_quadgraph_and_auto_series_restore_the_object(tr, scene, tmp_pat
     ball = _scene(tr, scene)
     ball.translucent.atlas_resolution = 384
     overlap = scene.translucent.splat_overlap
-    runner = ext_module(tr, "translucent_addon.compare.runner")
+    runner = ext_module(tr, "translucent_addon.blender.compare_runner")
     settings = runner.CompareSettings(our_quality=(), cycles_random_walk_samples=(), cycles_brute_force_samples=(),
                                       eevee_samples=(), reference_samples=16, brute_force_reference_samples=0,
                                       model_reference_samples=0, texture_space_atlas=(), quadgraph_K=(2.0,),

@@ -1,8 +1,8 @@
-"""Cube-map directions and the bordered atlas (geometry/cubemap.py)."""
+"""Cube-map directions and the bordered atlas (core/geometry/cubemap.py)."""
 import numpy as np
 import pytest
 
-from translucent_addon.geometry import cubemap
+from translucent_addon.core.geometry import cubemap
 
 
 def test_direction_and_face_coordinates_round_trip():

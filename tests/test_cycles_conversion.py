@@ -11,15 +11,13 @@ Cycles' 1024 bounces and the brute force is biased low.
 """
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
-from translucent_addon.compare import conversion
-from translucent_addon.physics.dipole import total_diffuse_reflectance
-from translucent_addon.physics.fresnel import fresnel_dielectric
-from translucent_addon.physics.presets import load_presets
-from translucent_addon.physics.fresnel import hemispherical_transmittance
+from translucent_addon.core.physics import cycles_conversion as conversion
+from translucent_addon.core.physics.dipole import total_diffuse_reflectance
+from translucent_addon.core.physics.fresnel import fresnel_dielectric, hemispherical_transmittance
+from translucent_addon.core.physics.presets import load_presets
 
 
 def test_albedo_fit_inverse_round_trips():
@@ -74,7 +72,7 @@ MEDIA = {
 def _slab_radiance(bpy, scene, material, samples):
     from blender_helpers import render
 
-    from translucent_addon.compare import slab_scene
+    from translucent_addon.blender import slab_scene
 
     slab_scene.build(scene, material)
     slab_scene.configure_cycles(scene, samples)
@@ -84,7 +82,7 @@ def _slab_radiance(bpy, scene, material, samples):
 @pytest.mark.parametrize("name", sorted(MEDIA))
 def test_slab_closed_form_brute_force_and_random_walk_agree(scene, name):
     bpy = pytest.importorskip("bpy")
-    from translucent_addon.compare import twin_materials
+    from translucent_addon.blender import twin_materials
 
     m = MEDIA[name]
     sa, ss = np.array(m.sigma_a), np.array(m.sigma_s_prime)
@@ -121,7 +119,7 @@ def test_brute_force_without_surface_reflection_drops_exactly_the_reflected_worl
     """Under a white world at normal view the boundary reflects F0 of it; the translucency-only brute
     force (what QUADGRAPH's RMSE is measured against) renders the rest. Same seed, 512 spp: 2 %."""
     bpy = pytest.importorskip("bpy")
-    from translucent_addon.compare import twin_materials
+    from translucent_addon.blender import twin_materials
 
     m = MEDIA["skin1"]
     sa, ss = np.array(m.sigma_a), np.array(m.sigma_s_prime)
@@ -144,7 +142,7 @@ def test_brute_force_without_self_interreflection_keeps_light_from_entering_twic
     bpy = pytest.importorskip("bpy")
     from blender_helpers import add_cube, add_light, aim, render, set_world
 
-    from translucent_addon.compare import slab_scene, twin_materials
+    from translucent_addon.blender import slab_scene, twin_materials
 
     images = {}
     for inter in (True, False):

@@ -6,14 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from translucent_addon.physics.dipole import total_diffuse_reflectance
-from translucent_addon.physics.fresnel import fresnel_dielectric
-from translucent_addon.physics.fresnel import hemispherical_transmittance
-from translucent_addon.physics.quadrature import trapezoid
-from translucent_addon.reference.dipole_model import Medium, render_dipole
-from translucent_addon.render import blocks
-from translucent_addon.render.lights import emitters_from_light
-from translucent_addon.render.scene_data import CameraView, FrameInputs, MeshInstance
+from translucent_addon.core.frame import CameraView, FrameInputs, MeshInstance
+from translucent_addon.core.lights import emitters_from_light
+from translucent_addon.core.physics.dipole import total_diffuse_reflectance
+from translucent_addon.core.physics.fresnel import fresnel_dielectric, hemispherical_transmittance
+from translucent_addon.core.physics.quadrature import trapezoid
+from translucent_addon.core.reference.dipole_model import Medium, render_dipole
+from translucent_addon.gpu import blocks
 
 
 def _quads(corners, quads):
@@ -50,7 +49,7 @@ def test_a_shadow_edge_inside_the_near_disk_is_resolved():
     edge, L = F_t/pi E int_lit R_d: two half-plane integrals in closed form (1-D quadrature). The
     near disk alone (E taken as E(x_o) out to 2 rho, rho = 0.36 mm here) is off by up to 53 % within
     a millimetre of the edge; with the samples' correction the model holds to 2 %."""
-    from translucent_addon.physics.dipole import R_d
+    from translucent_addon.core.physics.dipole import R_d
 
     sa, ss, eta = (0.05, 0.2, 0.5), (1.0, 1.5, 2.0), 1.3
     medium = Medium(sa, ss, eta, mm_per_unit=1000.0)  # a 40 mm plate, 20 mm thick
@@ -97,7 +96,7 @@ def test_plate_under_a_sun_matches_the_closed_form():
 
 
 def test_surface_quadrature_covers_the_area_exactly():
-    from translucent_addon.reference.dipole_model import sample_surface
+    from translucent_addon.core.reference.dipole_model import sample_surface
 
     plate = _plate()
     points, normals, area, _ = sample_surface(plate, 5000)

@@ -21,9 +21,9 @@ _CLASSES = ()
 
 def _footprint():
     """Everything the extension adds to Blender that must disappear when it is disabled."""
-    import bpy.types as T
+    import bpy.types as T  # noqa: N812 - short for the many class lookups below
 
-    draw_handler = __import__("sys").modules.get(f"{_PKG}.translucent_addon.render.draw_handler")
+    draw_handler = __import__("sys").modules.get(f"{_PKG}.translucent_addon.blender.draw_handler")
     compat = [p.__name__ for p in T.Panel.__subclasses__()
               if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set())]
     return {
@@ -113,7 +113,7 @@ def _run_with_bundled_wheels(code: str) -> None:
 
 def test_render_engine_and_properties_are_there(tr, scene):
     assert scene.render.engine == "TRANSLUCENT_RT"
-    methods = ext_module(tr, "translucent_addon.render.methods")
+    methods = ext_module(tr, "translucent_addon.techniques")
     ob = bpy.data.objects.new("Empty", None)
     items = [i.identifier for i in ob.translucent.bl_rna.properties["method"].enum_items]
     assert tuple(items) == methods.METHOD_IDS

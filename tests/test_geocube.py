@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from test_quadgraph import icosphere
-from translucent_addon.bake import geocube
-from translucent_addon.geometry.raycast import BruteForceTracer
-from translucent_addon.render.methods import geocube_data as gd
+
+from translucent_addon.core.geometry.raycast import BruteForceTracer
+from translucent_addon.techniques.geocube import bake as geocube
+from translucent_addon.techniques.geocube import model as gd
 
 
 def voxel_mesh(cells):
@@ -126,7 +126,7 @@ def test_one_cube_covers_a_sphere_and_its_cones_follow_the_geometry(sphere_set):
     assert np.linalg.norm(g.centres[0]) < 1.0  # near the centre
 
     # Every texel's surface point lies on the polyhedron: between its inscribed and its circumscribed sphere.
-    from translucent_addon.geometry import cubemap
+    from translucent_addon.core.geometry import cubemap
 
     S = g.centres[0] + cubemap.texel_directions(16) * g.cones[0, ..., :1]
     r = np.linalg.norm(S, axis=-1)
@@ -219,7 +219,7 @@ def test_a_surface_with_no_inside_is_refused():
 
 
 def test_transfer_lookup_follows_the_table():
-    from translucent_addon.physics.slab_transfer import transfer_table
+    from translucent_addon.core.physics.slab_transfer import transfer_table
 
     table = transfer_table(0.9, n_photons=4000)
     image, log_max = gd.transfer_image(table)

@@ -15,7 +15,7 @@ def checker_world(tr, scene, w=128, h=64):
     u, v = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
     chk = (np.floor(u * 16) + np.floor(v * 8)) % 2
     img = np.stack([0.2 + 0.8 * chk, 0.2 + 0.5 * u, 0.2 + 0.8 * v], -1)
-    ext_module(tr, "translucent_addon.demo").environment_world(scene, img, "Checker")
+    ext_module(tr, "translucent_addon.blender.demo").environment_world(scene, img, "Checker")
 
 
 def glass(ob, sigma_a=(0.0, 0.0, 0.0), sigma_s_prime=1e-4, g=0.9, res=16):
@@ -34,7 +34,7 @@ def _u_object(tr, scene):
     from test_geocube import u_shape
 
     v, t = u_shape(scale=0.0125)
-    ob = bpy.data.objects.new("U", ext_module(tr, "translucent_addon.demo").mesh_from_arrays("U", v, t))
+    ob = bpy.data.objects.new("U", ext_module(tr, "translucent_addon.blender.demo").mesh_from_arrays("U", v, t))
     scene.collection.objects.link(ob)
     ob.location = (-0.019, 0, -0.025)
     return ob
@@ -55,9 +55,9 @@ def test_gpu_exit_search_matches_its_numpy_twin(tr, scene):
     p1, steps = outputs[1][..., :3], outputs[1][..., 3]
     p2, premature = outputs[2][..., :3], outputs[2][..., 3]
     r1, cube = outputs[3][..., :3], outputs[3][..., 3]
-    store = ext_module(tr, "translucent_addon.bake.store")
-    geocube = ext_module(tr, "translucent_addon.bake.geocube")
-    gd = ext_module(tr, "translucent_addon.render.methods.geocube_data")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
+    geocube = ext_module(tr, "translucent_addon.techniques.geocube.bake")
+    gd = ext_module(tr, "translucent_addon.techniques.geocube.model")
     g = geocube.from_arrays(store.read(ob, "GEOCUBE").arrays)
     assert g.count >= 2
     on = np.abs(np.linalg.norm(r1, axis=-1) - 1.0) < 1e-3  # the object's pixels hold unit directions
@@ -112,7 +112,7 @@ def test_geocube_bake_goes_stale_on_an_ior_edit_and_a_missing_bake_is_reported(t
     ob = bpy.context.active_object
     glass(ob)
     assert bpy.ops.translucent.bake() == {"FINISHED"}
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"
     ob.translucent.sigma_a = (0.1, 0.1, 0.1)  # absorption is applied per frame: still current
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"
@@ -126,14 +126,14 @@ def test_automatic_cube_resolution_follows_the_size_on_the_camera_image(tr, scen
     glass(ob, res=0)
     scene.render.resolution_x, scene.render.resolution_y = 200, 150
     add_camera(scene, (0.0, -0.4, 0.0), (0, 0, 0), lens=50)
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
-    geocube = ext_module(tr, "translucent_addon.bake.geocube")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
+    geocube = ext_module(tr, "translucent_addon.techniques.geocube.bake")
     px = inputs.screen_pixels(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
     # A 10 cm ball 40 cm from a 50 mm lens on a 36 mm sensor 200 px wide: its bounding box's diagonal
     # spans about sqrt(2) * 0.1 / 0.4 * 50 / 36 * 200 = 98 px (the box is nearer than the ball's centre).
     assert 90 < px < 130, px
     assert bpy.ops.translucent.bake() == {"FINISHED"}
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     assert store.read_meta(ob, "GEOCUBE")["geocube_res"] == geocube.resolution_for(px) == 64
     scene.camera.location.y = -2.0  # moving the camera later does not stale an automatic resolution
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"

@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from translucent_addon.bake import btf_compress, grass_btf
-from translucent_addon.bake.btf_acquire import SENTINEL, BTFImages
-from translucent_addon.geometry import hemisphere
-from translucent_addon.geometry.grass_patch import GrassParams, GrassPatch, build_patch
-from translucent_addon.physics.quadrature import trapezoid
-from translucent_addon.render import grass_data
+from translucent_addon.core.geometry import hemisphere
+from translucent_addon.core.physics.quadrature import trapezoid
+from translucent_addon.techniques.grass import bake as grass_btf
+from translucent_addon.techniques.grass import compress as btf_compress
+from translucent_addon.techniques.grass import model as grass_data
+from translucent_addon.techniques.grass.acquire import SENTINEL, BTFImages
+from translucent_addon.techniques.grass.patch import GrassParams, GrassPatch, build_patch
 
 
 def test_direction_sets_and_solid_angles():
@@ -63,7 +64,7 @@ def _merge(*patches: GrassPatch) -> GrassPatch:
 @pytest.fixture(scope="module")
 def renderer_of():
     pytest.importorskip("moderngl")
-    from translucent_addon.bake.btf_acquire import PatchRenderer
+    from translucent_addon.techniques.grass.acquire import PatchRenderer
 
     made = []
 
@@ -115,7 +116,7 @@ def test_bake_gpu_leaves_the_hosts_context_current(renderer_of):
     bake's context must leave the host's current (else Blender aborts when it next frees a shader)."""
     import moderngl
 
-    from translucent_addon.bake.gl_context import _EGL, preserve_current_context
+    from translucent_addon.gpu.gl_context import _EGL, preserve_current_context
 
     egl = _EGL()
     with preserve_current_context():  # this test's own stand-in must not leave pytest's host context off
@@ -228,7 +229,7 @@ def test_the_cuticle_sheen_reflects_no_more_than_its_weight():
     int f cos(theta_l) d omega_l is its weight within 10 % (energy-normalised Blinn-Phong: 1.05); the NDF's
     constant (e + 2) / (2 pi) used as the BRDF, as before, reflected 3.4 times the weight: the white haze
     of the field against Cycles."""
-    from translucent_addon.bake.btf_acquire import SHEEN_EXPONENT, sheen_brdf
+    from translucent_addon.techniques.grass.acquire import SHEEN_EXPONENT, sheen_brdf
 
     theta = np.linspace(0.0, np.pi / 2, 20001)
     cos_h = np.cos(theta / 2)  # view along n: the half vector is halfway to the light

@@ -36,7 +36,7 @@ def btf_record(installed):
     _grass_settings(ob)
     bpy.context.view_layer.objects.active = ob
     assert bpy.ops.translucent.add_grass_field() == {"FINISHED"}
-    store = __import__(f"{installed}.translucent_addon.bake.store", fromlist=["x"])
+    store = __import__(f"{installed}.translucent_addon.core.bake_store", fromlist=["x"])
     record = store.read(ob, "GRASS")
     assert ob.translucent.grass and record is not None
     return record
@@ -46,7 +46,8 @@ def _field(tr, scene, record, ob=None):
     ob = ob or _ground(scene)
     _grass_settings(ob)
     ob.translucent.grass = True
-    ext_module(tr, "translucent_addon.bake.store").write(ob, "GRASS", record.inputs_hash, record.arrays, record.meta)
+    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store.write(ob, "GRASS", record.inputs_hash, record.arrays, record.meta)
     return ob
 
 
@@ -69,11 +70,11 @@ def test_grass_pass_equals_its_numpy_twin(tr, scene, btf_record):
     add_camera(scene, (0.0, -0.45, 0.3), (0.0, 0.0, 0.0), lens=50.0)
     scene.translucent.capture_passes = True
     img = render(scene, 64, 64)
-    frame = ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE["frame"]
-    grass_btf = ext_module(tr, "translucent_addon.bake.grass_btf")
-    grass_data = ext_module(tr, "translucent_addon.render.grass_data")
+    frame = ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE["frame"]
+    grass_btf = ext_module(tr, "translucent_addon.techniques.grass.bake")
+    grass_data = ext_module(tr, "translucent_addon.techniques.grass.model")
     cb = grass_btf.from_arrays(btf_record.arrays, btf_record.meta)
-    camera = ext_module(tr, "translucent_addon.geometry.camera")
+    camera = ext_module(tr, "translucent_addon.core.geometry.camera")
     origin, d = camera.pixel_rays(frame.camera.view_proj, frame.camera.width, frame.camera.height)
     h = cb.height * TILE
     t = (h - origin[..., 2]) / d[..., 2]
@@ -161,7 +162,7 @@ def test_grass_without_a_current_btf_says_so(tr, scene):
     ob.translucent.grass = True
     add_light(scene, "SUN", (0.0, 0.0, 1.0), energy=1.0)
     add_camera(scene, (0.0, -1.0, 0.5), (0.0, 0.0, 0.0))
-    extract = ext_module(tr, "translucent_addon.render.extract")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
     warnings = []
     assert extract.grass_layer(ob, warnings) is None
     assert warnings == ["'Ground': grass BTF is missing; no grass drawn. Press Bake Grass BTF"]

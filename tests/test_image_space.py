@@ -10,7 +10,8 @@ bpy = pytest.importorskip("bpy")
 
 from blender_helpers import add_camera, add_light, dipole_model_reference, render, set_world  # noqa: E402
 from conftest import ext_module  # noqa: E402
-from translucent_addon.physics.quadrature import trapezoid  # noqa: E402
+
+from translucent_addon.core.physics.quadrature import trapezoid  # noqa: E402
 
 
 def _ball(scene, name="Ball", location=(0, 0, 0.05), radius=0.05, preset="skin1"):
@@ -33,7 +34,7 @@ def _back_lit_ball(scene):
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
 
 
 def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
@@ -42,7 +43,7 @@ def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
     _back_lit_ball(scene)
     render(scene, 64, 48)
     cap = _capture(tr)
-    data = ext_module(tr, "translucent_addon.render.methods.image_space_data")
+    data = ext_module(tr, "translucent_addon.techniques.image_space.model")
     (pos_id, flux), = cap["samples"]
     g, scatter = cap["gbuffer"], cap["scatter"]
     assert (pos_id[..., 3] > 0.5).sum() > 1000, "the light sees the ball"
@@ -67,7 +68,7 @@ def test_power_entering_the_samples_is_what_the_light_sends(tr, scene):
     (pos_id, flux), = _capture(tr)["samples"]
     light = bpy.data.objects["POINT light"]
     d, a = (light.location - ob.location).length, 0.05
-    fresnel = ext_module(tr, "translucent_addon.physics.fresnel")
+    fresnel = ext_module(tr, "translucent_addon.core.physics.fresnel")
     # A ray at angle alpha from the centre line meets the sphere at incidence theta, sin(theta) = d/a sin(alpha).
     alpha = np.linspace(0, math.asin(a / d), 200001)
     cos_i = np.sqrt(np.clip(1 - (d / a * np.sin(alpha)) ** 2, 0, 1))
@@ -137,7 +138,7 @@ def test_power_entering_a_coarse_smooth_mesh_follows_its_shading_normals(tr, sce
     scene.translucent.capture_passes = True
     render(scene, 32, 24)
     (pos_id, flux), = _capture(tr)["samples"]
-    fresnel = ext_module(tr, "translucent_addon.physics.fresnel")
+    fresnel = ext_module(tr, "translucent_addon.core.physics.fresnel")
     P, expected = _facet_power(ob, light.location, 20.0 / (4 * math.pi), ob.translucent.eta, fresnel)
     expected *= 1000.0**2
     lit = pos_id[..., 3] > 0.5
@@ -154,7 +155,7 @@ def test_discretisation_error_against_the_dipole_model_is_below_5_percent(tr, sc
     _back_lit_ball(scene)
     w, h = 96, 72
     img = render(scene, w, h)
-    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    metrics = ext_module(tr, "translucent_addon.core.metrics")
     ref, mask = dipole_model_reference(tr, "Ball", w, h)
     err = metrics.relative_rmse(img, ref, mask)
     print(f"IMAGE_SPACE vs dipole model: relative RMSE {err:.4f}")
@@ -202,7 +203,7 @@ def test_painted_tint_changes_the_image_where_painted_and_nowhere_else(tr, scene
     g = cap["gbuffer"]
     on_ball = g[..., 3] > 0.5
     world_painted = verts[painted] @ np.array(ob.matrix_world)[:3, :3].T + np.array(ob.matrix_world)[:3, 3]
-    lut = ext_module(tr, "translucent_addon.physics.lut")
+    lut = ext_module(tr, "translucent_addon.core.physics.lut")
     # The tail splats' radius (m) + a vertex spacing.
     reach = lut.TAIL_REACH * cap["plan"].tables[0].r_max / 1000.0 + 0.01
     from scipy.spatial import cKDTree
@@ -226,7 +227,7 @@ def test_painted_tint_changes_the_image_where_painted_and_nowhere_else(tr, scene
 
 def _turntable(tr, scene, frames: int, coherence: bool, size=(80, 60)):
     """Render the spot model turning 1 degree a frame; returns (images, object masks)."""
-    demo = ext_module(tr, "translucent_addon.demo")
+    demo = ext_module(tr, "translucent_addon.blender.demo")
     ob = bpy.data.objects.get("Spot") or bpy.data.objects.new("Spot", demo.bundled_mesh("spot"))
     if ob.name not in scene.collection.objects:
         scene.collection.objects.link(ob)
@@ -252,7 +253,7 @@ def _turntable(tr, scene, frames: int, coherence: bool, size=(80, 60)):
 
 def test_temporal_coherence_reduces_flicker(tr, scene):
     """Mean frame-to-frame change of a model turning 1 degree a frame, with and without Shah 6.5.2."""
-    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    metrics = ext_module(tr, "translucent_addon.core.metrics")
     off = metrics.flicker(*_turntable(tr, scene, 12, coherence=False))
     on = metrics.flicker(*_turntable(tr, scene, 12, coherence=True))
     print(f"flicker without coherence {off:.4f}, with {on:.4f}")
@@ -285,7 +286,7 @@ def test_multipole_layer_renders_and_differs_from_the_dipole(tr, scene):
     skin = render(scene, 64, 48)
     ob.translucent.profile = "MULTIPOLE"
     ob.translucent.layer_thickness = 2.0
-    marble = ext_module(tr, "translucent_addon.physics.presets").load_presets()["marble"]
+    marble = ext_module(tr, "translucent_addon.core.physics.presets").load_presets()["marble"]
     ob.translucent.base_sigma_a = marble.sigma_a
     ob.translucent.base_sigma_s_prime = marble.sigma_s_prime
     layered = render(scene, 64, 48)
@@ -326,7 +327,7 @@ def test_world_samples_carry_the_uniform_worlds_power_through_every_layer(tr, sc
     """Under a uniform world L (no lamp), the depth-peeled samples of a torus (four surfaces deep
     along two axes) carry pi L (1 - F_dr) times its area in mm^2 to 1 %: the peel finds every surface
     and the three axes' weights sum to one. With two layers it misses the inner surfaces (5 % here)."""
-    fresnel = ext_module(tr, "translucent_addon.physics.fresnel")
+    fresnel = ext_module(tr, "translucent_addon.core.physics.fresnel")
     set_world(scene, (0.4, 0.5, 0.6))
     bpy.ops.mesh.primitive_torus_add(major_radius=0.04, minor_radius=0.012, major_segments=64, minor_segments=24,
                                      location=(0, 0, 0.03), rotation=(0.3, 0.2, 0.0))
@@ -363,14 +364,14 @@ def test_environment_lit_ball_matches_the_dipole_model_and_is_brighter_on_top(tr
     same SH world irradiance, relative RMSE under 5 % (measured 0.8 %); the top, facing the sky, is
     brighter than the bottom. On a thick ball the locally flat closed form (0 layers) is as close
     (measured 0.15 %)."""
-    from translucent_addon.demo import environment_world
+    from translucent_addon.blender.demo import environment_world
 
     environment_world(scene, _sky_image())
     _ball(scene)
     add_camera(scene, (0.0, -0.35, 0.05), (0, 0, 0.05), lens=50)
     w, h = 96, 72
     img = render(scene, w, h)
-    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    metrics = ext_module(tr, "translucent_addon.core.metrics")
     ref, mask = dipole_model_reference(tr, "Ball", w, h)
     err = metrics.relative_rmse(img, ref, mask)
     rows = np.nonzero(mask.any(axis=1))[0]
@@ -390,7 +391,7 @@ def test_world_light_passes_through_a_thin_slab_only_when_peeled(tr, scene):
     """A 3 mm marble slab under a bright sky, seen from below: the sky's light diffuses through to the
     underside. The peeled world samples carry it (within 5 % of the dipole model, measured 3.4 %; 26 %
     with half the world samples); the locally flat closed form sees only the dark ground there (90 %)."""
-    from translucent_addon.demo import environment_world
+    from translucent_addon.blender.demo import environment_world
 
     environment_world(scene, _sky_image())
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 0, 0.05))
@@ -403,7 +404,7 @@ def test_world_light_passes_through_a_thin_slab_only_when_peeled(tr, scene):
     add_camera(scene, (0.0, -0.12, -0.05), (0, 0, 0.05), lens=50)
     w, h = 64, 48
     img = render(scene, w, h)
-    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    metrics = ext_module(tr, "translucent_addon.core.metrics")
     ref, mask = dipole_model_reference(tr, "Slab", w, h)
     err = metrics.relative_rmse(img, ref, mask)
     scene.translucent.splat_world_layers = 0
@@ -423,7 +424,7 @@ def test_world_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
     scene.translucent.capture_passes = True
     render(scene, 48, 36)
     cap = _capture(tr)
-    data = ext_module(tr, "translucent_addon.render.methods.image_space_data")
+    data = ext_module(tr, "translucent_addon.techniques.image_space.model")
     pos_id = np.concatenate([p.reshape(-1, 4) for p, _ in cap["world_samples"]])
     flux = np.concatenate([f.reshape(-1, 4) for _, f in cap["world_samples"]])
     g, scatter = cap["gbuffer"], cap["scatter"]

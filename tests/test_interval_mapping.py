@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from translucent_addon.geometry import interval_mapping as im  # noqa: E402
+from translucent_addon.techniques.relief import model as im  # noqa: E402
 
 THR = im.THRESHOLD
 

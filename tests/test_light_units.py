@@ -1,4 +1,4 @@
-"""Our light model (render/lights.py) against Cycles: the units the whole project relies on.
+"""Our light model (core/lights.py) against Cycles: the units the whole project relies on.
 
 A white diffuse plane, direct light only, orthographic camera from above. For each
 Blender light type, Cycles' pixels equal rho E / pi with E from
@@ -47,7 +47,7 @@ def _white_plane(scene):
     ],
 )
 def test_light_units_match_cycles(tr, scene, kind, settings, location, rotation):
-    lights = ext_module(tr, "translucent_addon.render.lights")
+    lights = ext_module(tr, "translucent_addon.core.lights")
     _white_plane(scene)
     light = bpy.data.lights.new("L", kind)
     for key, value in settings.items():

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from translucent_addon.physics.dipole import A, R_d, dipole_parameters, total_diffuse_reflectance
-from translucent_addon.physics.fresnel import F_dr, fresnel_dielectric, fresnel_schlick
-from translucent_addon.physics import diffusion
-from translucent_addon.physics.presets import load_presets
-from translucent_addon.physics.quadrature import trapezoid
+from translucent_addon.core.physics import diffusion
+from translucent_addon.core.physics.dipole import A, R_d, dipole_parameters, total_diffuse_reflectance
+from translucent_addon.core.physics.fresnel import F_dr, fresnel_dielectric, fresnel_schlick
+from translucent_addon.core.physics.presets import load_presets
+from translucent_addon.core.physics.quadrature import trapezoid
 
 
 @pytest.mark.parametrize("name", sorted(load_presets()))
@@ -71,9 +71,9 @@ def test_exact_fresnel_known_values():
 
 
 # -- splat size and count (Shah Eq. 6.16-6.18) ------------------------------------
-from translucent_addon.physics.dipole import R_d_disk, overlap_count, r_max, splat_grid  # noqa: E402
-from translucent_addon.physics.lut import dipole_lut  # noqa: E402
-from translucent_addon.physics.multipole import Grid, Layer, layered_profiles, slab_profiles  # noqa: E402
+from translucent_addon.core.physics.dipole import R_d_disk, overlap_count, r_max, splat_grid  # noqa: E402
+from translucent_addon.core.physics.lut import dipole_lut  # noqa: E402
+from translucent_addon.core.physics.multipole import Grid, Layer, layered_profiles, slab_profiles  # noqa: E402
 
 
 def test_disk_integral_closed_form_matches_quadrature_and_tends_to_the_total():
@@ -143,7 +143,7 @@ def test_layer_adding_obeys_the_scalar_adding_equation_for_totals():
     """At zero frequency the Fourier adding is the scalar Kubelka-Munk adding of plane totals:
     R12 = R1 + T1^2 R2 / (1 - R1 R2), T12 = T1 T2 / (1 - R1 R2) (Donner & Jensen Eq. 14-15), with each
     layer's totals in closed form (top: eta above, index-matched below; bottom: the reverse)."""
-    from translucent_addon.physics.multipole import slab_disk_integrals
+    from translucent_addon.core.physics.multipole import slab_disk_integrals
 
     grid = Grid(n=512, h=0.1)
     top, bottom = Layer(0.1, 1.0, 1.5), Layer(0.05, 2.0, 1.5)
@@ -157,7 +157,7 @@ def test_layer_adding_obeys_the_scalar_adding_equation_for_totals():
 
 
 def test_slab_disk_integrals_are_the_integrals_of_the_profiles():
-    from translucent_addon.physics.multipole import slab_disk_integrals
+    from translucent_addon.core.physics.multipole import slab_disk_integrals
 
     r = np.concatenate([np.linspace(0, 2, 20001)[:-1], np.geomspace(2, 60, 20000)])
     R, T = slab_profiles(r, 0.05, 1.0, 1.3, 2.0, eta_bottom=1.0)
@@ -179,7 +179,7 @@ def test_layer_over_semi_infinite_base_reflects_between_the_two_materials():
 
 def test_profile_tables_from_a_tabulated_dipole_match_the_closed_form_tables():
     """profile_tables (used for the multipole) on a tabulated dipole gives the dipole's own tables."""
-    from translucent_addon.physics.lut import image_space_tables, profile_tables
+    from translucent_addon.core.physics.lut import image_space_tables, profile_tables
 
     sa, ss, eta = np.array([0.032, 0.17, 0.48]), np.array([0.74, 0.88, 1.01]), 1.3
     radii = np.concatenate([np.linspace(0, 2, 4001), np.linspace(2.001, 120, 60000)])
@@ -199,8 +199,8 @@ def test_splats_and_their_tail_add_up_to_the_profile():
     start) to TAIL_REACH r_max, within the 256-entry tables' interpolation (5e-3; the main table alone is
     3.5e-3 off in blue), and past r_max only the tail is left; the flat integral beyond r_max is epsilon's
     share, now kept."""
-    from translucent_addon.physics.lut import TAIL_REACH, crossover, image_space_tables
-    from translucent_addon.render.methods.image_space_data import far_lookup
+    from translucent_addon.core.physics.lut import TAIL_REACH, crossover, image_space_tables
+    from translucent_addon.techniques.image_space.model import far_lookup
 
     sa, ss, eta = np.array([0.032, 0.17, 0.48]), np.array([0.74, 0.88, 1.01]), 1.3
     tables = image_space_tables(sa, ss, eta, rho_mm=0.8)
@@ -220,7 +220,7 @@ def test_splats_and_their_tail_add_up_to_the_profile():
 def test_multipole_layer_over_base_lies_between_its_materials():
     """A thin absorbing layer over a bright base: the total reflectance lies between the two thick media,
     and a thicker layer moves it toward the layer's own."""
-    from translucent_addon.physics.lut import multipole_profile
+    from translucent_addon.core.physics.lut import multipole_profile
 
     top_a, top_s = (0.5, 0.5, 0.5), (1.0, 1.0, 1.0)
     base_a, base_s = (0.01, 0.01, 0.01), (1.0, 1.0, 1.0)
@@ -238,8 +238,8 @@ def test_multipole_layer_over_base_lies_between_its_materials():
         multipole_profile(top_a, top_s, 0.3, base_a, base_s, 1.3)
 
 
-# -- single scattering (physics/single_scattering.py) ---------------------------------------------
-from translucent_addon.physics import single_scattering as ss  # noqa: E402
+# -- single scattering (core/physics/single_scattering.py) ---------------------------------------------
+from translucent_addon.core.physics import single_scattering as ss  # noqa: E402
 
 
 @pytest.mark.parametrize("g", [0.0, 0.4, -0.3])
@@ -339,7 +339,7 @@ def test_plane_albedo_less_single_scattering_is_what_a_random_walk_reflects_afte
     diffusion's own reflectance (diffusion.slab_reflectance, what the graph's slab follows) is 1.9 to
     2.5 times the multiple-scattered part, so it cannot stand for it where light enters: exitance_loss
     takes all of it, R, and the surface term draws the half-space's response instead."""
-    from translucent_addon.physics.diffusion import slab_reflectance
+    from translucent_addon.core.physics.diffusion import slab_reflectance
 
     sigma_a, sigma_s = 0.48, 1.01
     single, multiple = _half_space_walk(sigma_s, sigma_a, mu_0, 200000)
@@ -471,7 +471,7 @@ def test_the_chord_factor_keeps_a_flat_face_and_follows_the_eyes_chord():
     law stays exact), (1 - exp(-k H / mu_t)) for a slab that the eye's ray leaves after H / mu_t, above 1
     where the light's path to the ray is shorter than under a flat face (a ridge lit on its far side),
     and held at CHORD_FACTOR_MAX."""
-    from translucent_addon.physics import single_scattering as ss
+    from translucent_addon.core.physics import single_scattering as ss
 
     sigma_t, sigma_tr = np.array([0.77, 1.05, 1.49]), np.array([0.27, 0.69, 1.46])  # skin1, per mm
     mu_t, mu_i = 0.8, 0.5

@@ -12,30 +12,27 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from translucent_addon.bake import store
-from translucent_addon.bake.registry import BakeInputError, BakeInputs, validate
-from translucent_addon.bake.surface import surface_samples
-from translucent_addon.geometry.camera import pixel_rays
-from translucent_addon.geometry.mesh_checks import check_mesh
-from translucent_addon.geometry.mesh_io import load_npz, load_obj
-from translucent_addon.geometry.raycast import closest_hit
-from translucent_addon.physics.presets import CoefficientError, load_presets, validate_coefficients
-from translucent_addon.render import blocks
-from translucent_addon.render.lights import DIRECTIONAL, POINT, emitters_from_light, unshadowed_irradiance
+from translucent_addon.core import bake_store as store
+from translucent_addon.core.geometry.camera import pixel_rays
+from translucent_addon.core.geometry.mesh_checks import check_mesh
+from translucent_addon.core.geometry.mesh_io import load_npz, load_obj
+from translucent_addon.core.geometry.raycast import closest_hit
+from translucent_addon.core.geometry.surface import surface_samples
+from translucent_addon.core.lights import DIRECTIONAL, POINT, emitters_from_light, unshadowed_irradiance
+from translucent_addon.core.physics.presets import CoefficientError, load_presets, validate_coefficients
+from translucent_addon.gpu import blocks
+from translucent_addon.techniques.registry import BakeInputError, BakeInputs, validate
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = ROOT / "translucent_addon" / "data" / "meshes"
-PURE_MODULES = [
-    "translucent_addon.physics.presets", "translucent_addon.geometry.camera", "translucent_addon.geometry.raycast",
-    "translucent_addon.geometry.mesh_checks", "translucent_addon.geometry.mesh_io", "translucent_addon.render.lights",
-    "translucent_addon.render.blocks", "translucent_addon.render.scene_data", "translucent_addon.render.methods",
-    "translucent_addon.reference.lambert", "translucent_addon.bake.store", "translucent_addon.bake.registry",
-    "translucent_addon.bake.surface", "translucent_addon.render.shaders", "translucent_addon.physics.dipole",
-    "translucent_addon.physics.fresnel", "translucent_addon.physics.multipole", "translucent_addon.physics.lut",
-    "translucent_addon.reference.dipole_model", "translucent_addon.compare.conversion",
-    "translucent_addon.compare.metrics", "translucent_addon.compare.cache", "translucent_addon.compare.report",
-    "translucent_addon.compare.png", "translucent_addon.compare.colormaps", "translucent_addon.compare.raster_chart",
-]
+# Pure modules: all of core/ and every technique's model (the layers test checks that no module outside
+# blender/ imports bpy; this imports them and looks), and the pure helpers the tests below use.
+PURE_MODULES = sorted(
+    ".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
+    for p in [*(ROOT / "translucent_addon" / "core").rglob("*.py"),
+              *(ROOT / "translucent_addon" / "techniques").glob("*/model.py")]
+) + ["translucent_addon.gpu.blocks", "translucent_addon.gpu.shaders", "translucent_addon.techniques",
+     "translucent_addon.techniques.registry"]
 
 
 def test_pure_modules_do_not_import_bpy():
@@ -243,7 +240,7 @@ def _signed_volume(v, t):
 
 
 def test_close_holes_caps_a_cube_wound_like_the_mesh():
-    from translucent_addon.geometry.mesh_repair import boundary_loops, close_holes
+    from translucent_addon.core.geometry.mesh_repair import boundary_loops, close_holes
 
     v, t = _cube()  # below; its first face is triangles 0 and 6
     assert _signed_volume(v, t) == pytest.approx(1.0)
@@ -260,7 +257,7 @@ def test_close_holes_caps_a_cube_wound_like_the_mesh():
 def test_midpoint_subdivision_keeps_the_surface_closed_and_outward():
     """Each triangle into four: four times the triangles, one new vertex per edge (a cube's 18), the same
     area and volume (the surface unchanged), still closed and wound outward."""
-    from translucent_addon.geometry.mesh_subdivide import midpoint_subdivision
+    from translucent_addon.core.geometry.mesh_subdivide import midpoint_subdivision
 
     v, t = _cube()
     v2, t2 = midpoint_subdivision(v, t)
@@ -274,8 +271,8 @@ def test_midpoint_subdivision_keeps_the_surface_closed_and_outward():
 
 def test_close_holes_follows_a_curved_hole_without_cutting_the_surface():
     """A tube open at both ends, bent: ear clipping closes each rim with no triangle crossing the wall."""
-    from translucent_addon.geometry.mesh_checks import self_intersections
-    from translucent_addon.geometry.mesh_repair import close_holes
+    from translucent_addon.core.geometry.mesh_checks import self_intersections
+    from translucent_addon.core.geometry.mesh_repair import close_holes
 
     n, rings = 24, 6
     a = np.linspace(0, 2 * np.pi, n, endpoint=False)
@@ -294,7 +291,7 @@ def test_close_holes_follows_a_curved_hole_without_cutting_the_surface():
 
 
 def test_boundary_loops_refuse_holes_that_touch():
-    from translucent_addon.geometry.mesh_repair import boundary_loops
+    from translucent_addon.core.geometry.mesh_repair import boundary_loops
 
     # Two triangles sharing only vertex 0: vertex 0 starts two boundary edges.
     with pytest.raises(ValueError, match="touch"):
@@ -367,7 +364,7 @@ def test_bake_refuses_bad_input_with_one_line(kw, message):
 
 
 def test_bake_warns_on_open_mesh_and_zero_area_faces():
-    from translucent_addon.geometry.mesh_checks import check_mesh
+    from translucent_addon.core.geometry.mesh_checks import check_mesh
 
     v, t = load_npz(MESHES / "teapot.npz")
     warnings = validate(_inputs(vertices=v, triangles=t))
@@ -394,7 +391,7 @@ def test_bake_warns_on_non_manifold_edges_with_the_count():
 
 
 def test_self_intersections_are_found_and_touching_is_not():
-    from translucent_addon.geometry.mesh_checks import self_intersections
+    from translucent_addon.core.geometry.mesh_checks import self_intersections
 
     def two(offset):
         (v1, t1), (v2, t2) = _cube(), _cube(offset)
@@ -414,7 +411,7 @@ def test_self_intersections_are_found_and_touching_is_not():
 
 
 def test_bake_refuses_huge_meshes_and_names_the_count():
-    from translucent_addon.bake.registry import MAX_BAKE_TRIANGLES
+    from translucent_addon.techniques.registry import MAX_BAKE_TRIANGLES
 
     huge = np.zeros((MAX_BAKE_TRIANGLES + 1, 3), np.int32)
     with pytest.raises(BakeInputError, match=r"^'Spot': 2,000,001 triangles is more than a bake takes \(2,000,000\); "
@@ -424,7 +421,7 @@ def test_bake_refuses_huge_meshes_and_names_the_count():
 
 # -- comparison metrics ------------------------------------------------------------------
 def test_metrics_on_known_images():
-    from translucent_addon.compare.metrics import median_relative_error, relative_rmse, ssim
+    from translucent_addon.core.metrics import median_relative_error, relative_rmse, ssim
 
     rng = np.random.default_rng(0)
     ref = rng.uniform(0.2, 1.0, (32, 32, 4))
@@ -447,7 +444,7 @@ def test_metrics_on_known_images():
 
 
 def test_reference_cache_round_trip(tmp_path):
-    from translucent_addon.compare import cache
+    from translucent_addon.core.reference import cache
 
     desc = {"scene": "a", "samples": 64}
     assert cache.load(tmp_path, desc) is None
@@ -460,7 +457,7 @@ def test_reference_cache_round_trip(tmp_path):
 
 
 def test_pareto_front_keeps_exactly_the_points_nothing_beats_in_both_time_and_error():
-    from translucent_addon.compare.report import pareto_front
+    from translucent_addon.core.report.report import pareto_front
 
     seconds = [1.0, 2.0, 2.0, 3.0, 0.5, 4.0, 3.0]
     errors = [0.30, 0.20, 0.25, 0.20, 0.50, 0.05, 0.10]
@@ -476,8 +473,8 @@ def test_pareto_front_keeps_exactly_the_points_nothing_beats_in_both_time_and_er
 
 def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
     """bench's pareto.png: drawn from report entries, not blank (the panels' lines differ from the page)."""
-    from translucent_addon.compare.png import read_png
-    from translucent_addon.compare.report import Entry, pareto_summary_chart, speed_accuracy_chart
+    from translucent_addon.core.report.png import read_png
+    from translucent_addon.core.report.report import Entry, pareto_summary_chart, speed_accuracy_chart
 
     def imread(path):  # as matplotlib's imread gave it: floats in [0, 1]
         return read_png(path) / 255.0
@@ -500,7 +497,7 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
     # A panel with only the RMSE (the caustic ball's benchmark): drawn from that metric, under its own title.
     from unittest import mock
 
-    import translucent_addon.compare.report as report_module
+    import translucent_addon.core.report.report as report_module
 
     rmse_only = [Entry(series=f"S{k}", engine="X", settings={}, seconds=0.1 * (k + 1), reference="ref",
                        rel_rmse=0.5 / (k + 1)) for k in range(12)]  # 12 series: past ten colours
@@ -513,7 +510,7 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
     assert len({tuple(c) for c in colours.values()}) == 12
 
 
-# -- the sky a surface point sees (geometry/world_visibility.py) ------------------------------------
+# -- the sky a surface point sees (core/geometry/world_visibility.py) ------------------------------------
 def _box_mesh(lo, hi):
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -528,8 +525,8 @@ def test_sky_visibility_through_voxels_matches_ray_casting_against_the_triangles
     60 and 80 from the wall) and on the wall's top is what 1024 rays cast against the triangles see,
     within 0.04 (32 rays, a step of 1/32; measured up to 0.033); at the foot of the wall about half the
     sky is gone (the view factor of an infinite wall is 1/2), less the further from it."""
-    from translucent_addon.geometry import world_visibility as wv
-    from translucent_addon.geometry.raycast import occluded
+    from translucent_addon.core.geometry import world_visibility as wv
+    from translucent_addon.core.geometry.raycast import occluded
 
     floor_v, floor_f = _box_mesh((0, 0, 0), (200, 200, 20))
     wall_v, wall_f = _box_mesh((100, 0, 20), (200, 200, 200))
@@ -555,7 +552,7 @@ def test_the_noise_of_a_mean_of_renders_follows_their_spread():
     (the bench's old rule, which took it relative to the second); for n renders of a known noise sigma
     around a flat image, sigma / sqrt(n) relative to it (within 3 % over 20k pixels), so four seeds keep half
     the noise of one."""
-    from translucent_addon.compare import metrics
+    from translucent_addon.core import metrics
 
     rng = np.random.default_rng(3)
     mask = np.ones((100, 200), bool)
@@ -575,7 +572,7 @@ def test_block_error_sees_texture_level_differences_and_not_blade_positions():
     """compare.metrics.block_relative_rmse: a stripe pattern against its shifted copy is wrong at every pixel
     (relative RMSE sqrt(2)) but right in every 8 x 8 block (0); a 10 % brighter image is 10 % off in both;
     masked pixels count only where the mask is; an image smaller than a block is refused."""
-    from translucent_addon.compare import metrics
+    from translucent_addon.core import metrics
 
     h, w = 64, 96
     x = np.arange(w)[None, :, None] * np.ones((h, 1, 4))
@@ -600,7 +597,7 @@ def test_the_cache_key_of_a_mesh_ignores_the_order_blender_lists_its_corners_in(
     """compare.cache.corner_digest: the same triangles shuffled, each started at another corner, give the
     same digest (Blender lists a UV sphere's corners in another order from one session to the next); a
     corner moved by 1e-3, a colour changed, or the winding reversed give another."""
-    from translucent_addon.compare.cache import corner_digest
+    from translucent_addon.core.reference.cache import corner_digest
 
     rng = np.random.default_rng(2)
     T = 200
@@ -625,7 +622,7 @@ def test_the_cache_key_of_normals_survives_their_float_noise():
     """compare.cache.normals_digest: a unit sphere's smooth normals with 1e-7 of noise (Blender sums them in
     another order between sessions) keep the digest, and so does a moment that comes out -0 instead of 0;
     the sphere's flat (face) normals change it."""
-    from translucent_addon.compare.cache import normals_digest
+    from translucent_addon.core.reference.cache import normals_digest
 
     rng = np.random.default_rng(4)
     tri = rng.normal(size=(3000, 3, 3))
@@ -641,10 +638,10 @@ def test_the_cache_key_of_normals_survives_their_float_noise():
     assert normals_digest(pos, np.repeat(face, 3, axis=0)) != d
 
 
-# -- the report's PNGs, colours and charts without matplotlib (compare/png.py, colormaps.py, raster_chart.py) --
+# -- the report's PNGs, colours and charts without matplotlib (core/report/png.py, colormaps.py, raster_chart.py) --
 def test_the_shipped_extension_never_imports_matplotlib():
     """matplotlib is not in the extension zip: the report (PNGs, error images, charts) must not need it."""
-    code = ("import sys, translucent_addon.compare.report, translucent_addon.compare.raster_chart; "
+    code = ("import sys, translucent_addon.core.report.report, translucent_addon.core.report.raster_chart; "
             "print('matplotlib' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
@@ -658,7 +655,7 @@ def test_the_shipped_extension_never_imports_matplotlib():
 @pytest.mark.parametrize("channels", [3, 4])
 def test_png_round_trip_is_bit_exact(tmp_path, channels):
     """write_png and read_png: every filter type, odd sizes, one pixel; Pillow (where installed) reads the same."""
-    from translucent_addon.compare.png import read_png, write_png
+    from translucent_addon.core.report.png import read_png, write_png
 
     rng = np.random.default_rng(channels)
     for h, w in ((1, 1), (7, 13), (31, 5), (64, 3)):
@@ -684,7 +681,7 @@ def test_png_reader_and_writer_refuse_what_they_do_not_handle(tmp_path):
     import struct
     import zlib
 
-    from translucent_addon.compare.png import read_png, write_png
+    from translucent_addon.core.report.png import read_png, write_png
 
     with pytest.raises(ValueError):
         write_png(tmp_path / "f.png", np.zeros((4, 4, 3), np.float32))
@@ -710,9 +707,9 @@ def test_png_reader_and_writer_refuse_what_they_do_not_handle(tmp_path):
 
 def test_error_png_is_inferno_grey_outside_the_object_and_upright(tmp_path):
     """save_error_png: row 0 of the render is the bottom row of the file; no error is inferno's black end."""
-    from translucent_addon.compare.colormaps import inferno
-    from translucent_addon.compare.png import read_png
-    from translucent_addon.compare.report import save_error_png
+    from translucent_addon.core.report.colormaps import inferno
+    from translucent_addon.core.report.png import read_png
+    from translucent_addon.core.report.report import save_error_png
 
     ref = np.ones((6, 5, 3), np.float32)
     mask = np.ones((6, 5), bool)
@@ -727,7 +724,7 @@ def test_error_png_is_inferno_grey_outside_the_object_and_upright(tmp_path):
 def test_inferno_and_the_series_palettes_match_matplotlib():
     """The embedded tables: inferno within 1/255 of matplotlib's at its 256 colours; tab10 and tab20 exact."""
     matplotlib = pytest.importorskip("matplotlib")
-    from translucent_addon.compare.colormaps import inferno, series_colours
+    from translucent_addon.core.report.colormaps import inferno, series_colours
 
     x = np.linspace(0.0, 1.0, 256)
     assert np.abs(inferno(x) - matplotlib.colormaps["inferno"](x)[:, :3]).max() <= 1 / 255
@@ -751,12 +748,12 @@ def test_raster_chart_draws_series_front_labels_and_text_where_the_log_axes_say(
     """A two-series panel as report.py draws it: each marker where Axes.to_pixel puts it (and to_pixel is
     log10-linear between the frame's edges), the dashed Pareto staircase between its points, the point
     labels, the title's text above the panels and the legend to their right, off the data."""
-    from translucent_addon.compare import raster_chart, report
-    from translucent_addon.compare.png import read_png
+    from translucent_addon.core.report import raster_chart, report
+    from translucent_addon.core.report.png import read_png
 
-    font = ROOT / "translucent_addon" / "compare" / "chart_font.npz"
+    font = ROOT / "translucent_addon" / "core" / "report" / "chart_font.npz"
     assert font.stat().st_size < 60_000
-    assert (ROOT / "translucent_addon" / "compare" / "chart_font_LICENSE.txt").read_text().count("Bitstream") > 2
+    assert (ROOT / "translucent_addon" / "core" / "report" / "chart_font_LICENSE.txt").read_text().count("Bitstream") > 2
     a = [(0.2, 0.3, "a1"), (0.5, 0.2, "a2"), (5.0, 0.02, "a3")]
     b = [(1.0, 0.1, "16 spp"), (2.0, 0.08, "64 spp")]
     entries = [report.Entry(series=name, engine="X", settings={"label": label}, seconds=t, reference="ref",
@@ -814,8 +811,8 @@ def test_raster_chart_draws_series_front_labels_and_text_where_the_log_axes_say(
 def test_charts_survive_degenerate_data_and_show_every_series(tmp_path):
     """One point, equal values, zero, infinite and missing errors: no floating-point error on the way,
     nothing non-finite drawn; speed_accuracy_chart shows each series' colour."""
-    from translucent_addon.compare import report
-    from translucent_addon.compare.png import read_png
+    from translucent_addon.core.report import report
+    from translucent_addon.core.report.png import read_png
 
     def entry(series, t, e):
         return report.Entry(series=series, engine="X", settings={"label": "x"}, seconds=t, reference="r",

@@ -6,12 +6,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from translucent_addon.bake import quadgraph as qg
-from translucent_addon.bake import tetra
-from translucent_addon.bake.quadgraph_bake import display_links, proxy_triangles
-from translucent_addon.bake.registry import BakeInputError, BakeInputs, run
-from translucent_addon.physics import diffusion as df
-from translucent_addon.physics.dipole import total_diffuse_reflectance
+from translucent_addon.core.physics import diffusion as df
+from translucent_addon.core.physics.dipole import total_diffuse_reflectance
+from translucent_addon.techniques.quadgraph import graph as qg
+from translucent_addon.techniques.quadgraph import tetra
+from translucent_addon.techniques.quadgraph.bake import display_links, proxy_triangles
+from translucent_addon.techniques.registry import BakeInputError, BakeInputs, run
 
 pytest.importorskip("pytetwild")
 

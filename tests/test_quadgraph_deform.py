@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from translucent_addon.geometry import volume_deformation as vd
-from translucent_addon.physics import diffusion as df
-from translucent_addon.render.methods import quadgraph_data as qgd
-
 from test_quadgraph import _inputs, _run, icosphere
+
+from translucent_addon.core.physics import diffusion as df
+from translucent_addon.techniques.quadgraph import deformation as vd
+from translucent_addon.techniques.quadgraph import model as qgd
 
 pytest.importorskip("pytetwild")
 

@@ -30,7 +30,7 @@ def _baked_ball(scene, levels=2, preset="skin1", subdivisions=3):
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
 
 
 def test_gpu_relaxation_converges_to_the_direct_solution(tr, scene):
@@ -42,7 +42,7 @@ def test_gpu_relaxation_converges_to_the_direct_solution(tr, scene):
     image = render(scene, 64, 48)
     assert np.isfinite(image).all()
     (rec,) = _capture(tr)["quadgraph"]
-    df = ext_module(tr, "translucent_addon.physics.diffusion")
+    df = ext_module(tr, "translucent_addon.core.physics.diffusion")
     res = rec["resources"]
     t = res.levels_cpu[-1]
     kappa, mu = res.materials[-1]
@@ -84,9 +84,9 @@ def test_a_thick_slab_under_a_white_world_matches_what_cycles_brute_force_render
     white world): QUADGRAPH gives F0 + (1 - F0) R_d T_hemi, the closed form Cycles' brute force
     follows within 12 % and IMAGE_SPACE within 1 %, within 25 % (measured 1.02 to 1.09 times; 0.97 to 1.17
     over three bakes with Wang's source at the surface). Wang's Eq. 7 as printed gave 1.66 to 2.06."""
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    dipole = ext_module(tr, "translucent_addon.physics.dipole")
-    fresnel = ext_module(tr, "translucent_addon.physics.fresnel")
+    slab = ext_module(tr, "translucent_addon.blender.slab_scene")
+    dipole = ext_module(tr, "translucent_addon.core.physics.dipole")
+    fresnel = ext_module(tr, "translucent_addon.core.physics.fresnel")
     ob = slab.build(scene, bpy.data.materials.new("Slab"))
     ob.translucent.preset = "skin1"
     ob.translucent.method = "QUADGRAPH"
@@ -104,7 +104,7 @@ def test_a_thick_slab_under_a_white_world_matches_what_cycles_brute_force_render
 
 def test_material_edits_and_light_moves_re_render_without_a_new_bake(tr, scene):
     ob = _baked_ball(scene)
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     digest = store.stored_hash(ob, "QUADGRAPH")
     before = render(scene, 64, 48)
     ball = np.abs(before[..., :3] - np.array([0.02, 0.02, 0.025])).max(axis=2) > 1e-3  # not the world
@@ -150,7 +150,7 @@ def test_a_deformed_mesh_moves_the_nodes_and_re_solves_without_a_new_bake(tr, sc
     follow the mesh, the GPU relaxation equals the direct solution on the moved graph, and the image
     follows the new silhouette."""
     ob = _baked_ball(scene)
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     digest = store.stored_hash(ob, "QUADGRAPH")
     scene.translucent.quadgraph_tolerance = 1e-6  # diffusion.FLOAT32_TOLERANCE, the floor
     scene.translucent.quadgraph_iterations = 6000
@@ -158,7 +158,7 @@ def test_a_deformed_mesh_moves_the_nodes_and_re_solves_without_a_new_bake(tr, sc
     rest_nodes = _capture(tr)["quadgraph"][0]["resources"].levels_cpu[-1].positions_mm.copy()
     _shape_key(ob, "Squash", lambda v: v * np.array([1.25, 1.25, 0.64]))
     image = render(scene, 64, 48)
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "QUADGRAPH") == "OK"
     assert not _capture(tr)["frame"].warnings and store.stored_hash(ob, "QUADGRAPH") == digest
     (rec,) = _capture(tr)["quadgraph"]
@@ -170,7 +170,7 @@ def test_a_deformed_mesh_moves_the_nodes_and_re_solves_without_a_new_bake(tr, sc
     r = np.sqrt((p[:, 0] ** 2 + p[:, 1] ** 2) / 1.25**2 + (p[:, 2] / 0.64) ** 2)
     assert np.abs(r / 0.03 - 1.0).max() < 0.02  # the icosphere's facets: within 2 % of its radius
     assert np.abs(t.positions_mm - rest_nodes).max() > 0.2 * 0.03 * mm
-    df = ext_module(tr, "translucent_addon.physics.diffusion")
+    df = ext_module(tr, "translucent_addon.core.physics.diffusion")
     kappa, mu = rec["resources"].materials[-1]
     exact = df.solve_direct(t.neighbours, t.weights, t.d_surface, kappa, mu, rec["q"][-1][:S], 1.3)
     err = np.abs(rec["phi"] - exact).max(axis=0) / np.abs(exact).max(axis=0)
@@ -290,7 +290,7 @@ def test_painted_blur_and_tint_reach_the_gpu_solve(tr, scene):
     assert np.allclose(q_factor[:S][z > 0.018], [2.5, 1.25, 0.625])  # glow 1 + 3 x 0.5, tint
     assert np.allclose(q_factor[:S][z < -0.01], 1.0)
     kappa, mu = res.materials[-1]
-    df = ext_module(tr, "translucent_addon.physics.diffusion")
+    df = ext_module(tr, "translucent_addon.core.physics.diffusion")
     exact = df.solve_direct(t.neighbours, t.weights, t.d_surface, kappa, mu, rec["q"][-1][:S] * q_factor[:S], 1.3)
     err = np.abs(rec["phi"] - exact).max(axis=0) / np.abs(exact).max(axis=0)
     assert err.max() < 1e-3, err
@@ -306,7 +306,7 @@ def _sun_lit_slab(tr, scene, thickness_mm: float = 40.0, subdivide: int = 0, sun
     ``subdivide`` cuts every edge (smooth normals then equal the face's inside each face)."""
     import bmesh
 
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
+    slab = ext_module(tr, "translucent_addon.blender.slab_scene")
     ob = slab.build(scene, bpy.data.materials.new("Slab"))
     ob.scale.z = thickness_mm / (1000.0 * slab.SLAB_DEPTH)  # the top face stays at z = 0
     if subdivide:
@@ -348,15 +348,15 @@ def _slab_chord(ss, m, mu_t, mu_i, thickness):
 
 @pytest.mark.parametrize("thickness_mm", [40.0, 10.0])
 def test_the_surface_term_under_a_slab_lit_by_the_sun_equals_the_closed_form(tr, scene, thickness_mm):
-    """qg_single on the GPU against physics/single_scattering.py: a slab (eta = 1, g = 0.4, sigma_t about
+    """qg_single on the GPU against core/physics/single_scattering.py: a slab (eta = 1, g = 0.4, sigma_t about
     0.06-0.09 / mm) seen from straight above, a sun at 45 degrees. Single scattering alone (QUADGRAPH
     output 2) equals alpha p(cos theta) E mu_i / (mu_i + mu_o) (1 - exp(-sigma_t H (1/mu_o + 1/mu_i)))
     within 0.5 % (measured: 0.05 %): the light's path comes from the sun's distance map, the phase
     function is HG, and at 10 mm the view ray leaves through the bottom (the kept fraction is 0.77 there,
     0.997 at 40 mm). The local multiple scattering alone (output 3) equals E multiple_half_space(alpha',
     mu_i, mu_o) within 0.5 % (H read linearly from its table; measured 6e-5)."""
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
+    slab = ext_module(tr, "translucent_addon.blender.slab_scene")
+    ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
     m = _sun_lit_slab(tr, scene, thickness_mm=thickness_mm, sigma_a=(0.01, 0.02, 0.04),
                       sigma_s_prime=(0.03, 0.03, 0.03), g=0.4, eta=1.0).translucent
     E = SLAB_SUN
@@ -387,9 +387,9 @@ def test_the_surface_term_seen_at_an_angle_through_a_refracting_face_equals_the_
     refracted phase angle and the exit all in it; the local multiple scattering alone equals
     E multiple_half_space(alpha', mu_i, mu_o, eta): T_o T_i alpha' mu_i (H H - 1) / (4 pi (mu_i,t + mu_t)),
     H at the refracted cosines, the light entering per unit area T_i E mu_i (0.5 %)."""
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
-    fr = ext_module(tr, "translucent_addon.physics.fresnel")
+    slab = ext_module(tr, "translucent_addon.blender.slab_scene")
+    ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
+    fr = ext_module(tr, "translucent_addon.core.physics.fresnel")
     m = _sun_lit_slab(tr, scene, thickness_mm=10.0, sigma_a=(0.01, 0.02, 0.04), sigma_s_prime=(0.03, 0.03, 0.03),
                       g=0.4, eta=1.3).translucent
     view = math.radians(50.0)
@@ -429,8 +429,8 @@ def test_where_light_enters_the_surface_term_replaces_the_diffusion(tr, scene):
     it the diffusion keeps under 2 % of that (measured 0.04 %), and the whole image is Chandrasekhar's
     exact radiance of the lit half-space, E alpha' mu_i H(mu_i) H(1) / (4 pi (mu_i + 1)), within 2 %
     (measured 0.04 %), from which the diffusion alone departs by up to 18 % here (skin1's blue)."""
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
+    slab = ext_module(tr, "translucent_addon.blender.slab_scene")
+    ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
     m = _sun_lit_slab(tr, scene, subdivide=6, preset="skin1", eta=1.0).translucent
     assert m.g == 0.0
     E = SLAB_SUN
@@ -444,7 +444,7 @@ def test_where_light_enters_the_surface_term_replaces_the_diffusion(tr, scene):
     scene.translucent.quadgraph_output = 0
     mu_i = math.cos(math.radians(45.0))
     # The premise of the loss: the diffusion alone reflects R q, R its continuous model's reflectance.
-    df = ext_module(tr, "translucent_addon.physics.diffusion")
+    df = ext_module(tr, "translucent_addon.core.physics.diffusion")
     R = df.slab_reflectance(np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta)
     np.testing.assert_allclose(without, R * E * mu_i / math.pi, rtol=0.03)
     assert (np.abs(with_term) < 0.02 * without).all()
@@ -462,9 +462,9 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
     irradiance instead of R times it (the illumination pass once dropped the loss table for the world)
     drew all of B with w: 1.7-2.3 % off here. (At a sun of 20 x SLAB_SUN fTetWild's variance left blue
     under the 1.3 R premise in one run of six.)"""
-    slab = ext_module(tr, "translucent_addon.compare.slab_scene")
-    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
-    demo = ext_module(tr, "translucent_addon.demo")
+    slab = ext_module(tr, "translucent_addon.blender.slab_scene")
+    ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
+    demo = ext_module(tr, "translucent_addon.blender.demo")
     ob = _sun_lit_slab(tr, scene, thickness_mm=10.0, subdivide=6, sun_from=(0.3, 0.0, -0.3), preset="marble",
                        eta=1.0)
     L_w = 0.2
@@ -489,7 +489,7 @@ def test_the_worlds_flat_face_response_leaves_apart_from_the_light_that_crossed(
 
 
 def test_past_the_terminator_of_a_ball_the_light_entering_beside_it_still_leaves(tr, scene):
-    """qg_single's local multiple scattering on a curved surface against physics/terminator.py: a 10 mm
+    """qg_single's local multiple scattering on a curved surface against core/physics/terminator.py: a 10 mm
     skin1 ball (eta = 1) lit from the side by the sun and seen orthographically at 90 degrees to it, so
     the terminator crosses the middle of the image. Each pixel's closed form takes the sphere's own
     normal: mu_i = n . l, the cosine's surface gradient g = sqrt(1 - mu_i^2) / R, and
@@ -502,8 +502,8 @@ def test_past_the_terminator_of_a_ball_the_light_entering_beside_it_still_leaves
     terminator (-0.15 < mu_i < -0.03), where the flat face's law gives 0, the pixels hold the light that
     entered beside it (the test of its visibility, at the terminator along the light, passes there),
     within 5 % in the median (measured: 0.1 %, 380 pixels)."""
-    ss = ext_module(tr, "translucent_addon.physics.single_scattering")
-    term = ext_module(tr, "translucent_addon.physics.terminator")
+    ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
+    term = ext_module(tr, "translucent_addon.core.physics.terminator")
     set_world(scene, (0.0, 0.0, 0.0))
     R = 0.01
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=R, location=(0, 0, 0))

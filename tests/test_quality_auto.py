@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from translucent_addon import quality_auto as qa
-from translucent_addon.bake.geocube import resolution_for
-from translucent_addon.physics.presets import load_presets
+from translucent_addon.core.physics.presets import load_presets
+from translucent_addon.techniques import quality_auto as qa
+from translucent_addon.techniques.geocube.bake import resolution_for
 
 PRESETS = load_presets()
 
@@ -130,10 +130,10 @@ def test_auto_refuses_bad_input():
         qa.choose("OFF", view(), 0.05)
 
 
-# IMAGE_SPACE's k chosen every frame (render/methods/image_space_auto.py).
+# IMAGE_SPACE's k chosen every frame (techniques/image_space/quality.py).
 
 def _box_mesh(name, half, target, model=None, preset="marble"):
-    from translucent_addon.render.scene_data import Medium, MeshInstance
+    from translucent_addon.core.frame import Medium, MeshInstance
 
     c = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)], np.float32)
     faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
@@ -146,15 +146,15 @@ def _box_mesh(name, half, target, model=None, preset="marble"):
 
 
 def _camera(distance, width=256, height=256):
-    from translucent_addon.render import blocks
-    from translucent_addon.render.scene_data import CameraView
+    from translucent_addon.core.frame import CameraView
+    from translucent_addon.gpu import blocks
 
     view_m = blocks.look_at((0.0, -distance, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     return CameraView(view_m, blocks.perspective(np.radians(40.0), width / height, 0.01, 100.0), width, height)
 
 
 def test_k_is_rounded_up_to_quarter_octaves_within_its_range():
-    from translucent_addon.render.methods.image_space_auto import quantised
+    from translucent_addon.techniques.image_space.quality import quantised
 
     assert quantised(16.0) == pytest.approx(16.0)
     assert quantised(16.1) == pytest.approx(16.0 * 2 ** 0.25)
@@ -166,7 +166,7 @@ def test_screen_diagonal_matches_the_projection_and_clamps_like_the_scene_camera
     """A 0.2-unit box 1 unit in front of a 40-degree camera at 256 px spans 0.2 / (2 tan 20deg) of the
     image across (the face nearest the camera a little more); points behind the camera count as the far
     side of the half-image margin, so the box never looks larger than 2 x 2 images."""
-    from translucent_addon.render.methods.image_space_auto import screen_diagonal
+    from translucent_addon.techniques.image_space.quality import screen_diagonal
 
     cam = _camera(1.0)
     square = np.array([[x, 0.0, z] for x in (-0.1, 0.1) for z in (-0.1, 0.1)])
@@ -184,9 +184,9 @@ def test_the_frame_k_follows_the_camera_and_the_largest_need():
     texels a side."""
     import dataclasses
 
-    from translucent_addon.render.methods import image_space_auto as isa
-    from translucent_addon.render.methods.image_space_data import SamplingSettings
-    from translucent_addon.render.scene_data import FrameInputs
+    from translucent_addon.core.frame import FrameInputs
+    from translucent_addon.techniques.image_space import quality as isa
+    from translucent_addon.techniques.image_space.model import SamplingSettings
 
     manual = SamplingSettings(overlap=12.0, max_grid=1024)
     box = _box_mesh("Box", 0.025, 0.05)
@@ -233,7 +233,7 @@ def test_auto_quality_operator_and_bake(tr, scene):
     assert "splat_overlap" in cube.translucent.auto_summary and "every frame" in cube.translucent.auto_summary
     # IMAGE_SPACE's k is the engine's, per frame: tighter targets and a nearer camera ask for more samples,
     # and the scene's manual value is left alone.
-    engine = __import__("conftest").ext_module(tr, "translucent_addon.render.engine")
+    engine = __import__("conftest").ext_module(tr, "translucent_addon.blender.engine")
     manual_k = scene.translucent.splat_overlap
     asked = {}
     for target, distance in ((0.1, 1.0), (0.03, 1.0), (0.03, 0.3)):
@@ -256,7 +256,7 @@ def test_auto_quality_operator_and_bake(tr, scene):
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     assert cube.translucent.atlas_resolution in qa.ATLAS_CHOICES and cube.translucent.atlas_resolution < 1024
     assert "atlas_resolution" in cube.translucent.auto_summary
-    store = __import__("conftest").ext_module(tr, "translucent_addon.bake.store")
+    store = __import__("conftest").ext_module(tr, "translucent_addon.core.bake_store")
     assert store.read_meta(cube, "TEXTURE_SPACE")["proxy_vertices"] > 0
 
     cube.translucent.method = "OFF"

@@ -23,7 +23,7 @@ def _height_image(height: np.ndarray):
 
 
 def _relief_plane(tr, scene, mode="INTERVAL", field="bumps"):
-    im = ext_module(tr, "translucent_addon.geometry.interval_mapping")
+    im = ext_module(tr, "translucent_addon.techniques.relief.model")
     height = getattr(im, field)(64).astype(np.float32)
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0, 0, 0))
     ob = bpy.context.active_object
@@ -36,8 +36,8 @@ def _relief_plane(tr, scene, mode="INTERVAL", field="bumps"):
 
 def _rays(tr, w, h):
     """Each pixel centre's ray from the last F12's camera, and where it meets the plane z = 0."""
-    frame = ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE["frame"]
-    a, d = ext_module(tr, "translucent_addon.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
+    frame = ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE["frame"]
+    a, d = ext_module(tr, "translucent_addon.core.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
     t = -a[..., 2] / d[..., 2]
     return a + t[..., None] * d, d
 
@@ -106,7 +106,7 @@ def test_self_shadowing_and_displacement_change_the_image(tr, scene):
 
 
 def test_height_field_without_uvs_or_image_says_so(tr, scene):
-    extract = ext_module(tr, "translucent_addon.render.extract")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
     set_world(scene, (0.1, 0.1, 0.1))
     me = bpy.data.meshes.new("NoUV")
     me.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
@@ -126,7 +126,7 @@ def test_height_field_without_uvs_or_image_says_so(tr, scene):
 
 def test_height_map_is_read_once_until_it_changes(tr, scene):
     """The viewport does not re-read a large height map every frame; a changed (dirty) image is read again."""
-    extract = ext_module(tr, "translucent_addon.render.extract")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
     img = _height_image(np.full((8, 8), 0.25, np.float32))
     a, digest_a = extract.height_image(img)
     if not img.is_dirty:

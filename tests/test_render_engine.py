@@ -6,12 +6,12 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from conftest import ext_module  # noqa: E402
 from blender_helpers import add_camera, add_cube, add_light, diffuse_material, lit_cube_scene, render, set_world  # noqa: E402
+from conftest import ext_module  # noqa: E402
 
 
 def _frame_of(tr, scene, width, height):
-    extract = ext_module(tr, "translucent_addon.render.extract")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
     depsgraph = bpy.context.evaluated_depsgraph_get()
     return extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
 
@@ -37,7 +37,7 @@ def test_lit_cube_matches_cpu_lambert_reference(tr, scene):
     lit_cube_scene(scene)
     w = h = 96
     gpu_img = render(scene, w, h)
-    ref = ext_module(tr, "translucent_addon.reference.lambert").render_lambert(_frame_of(tr, scene, w, h))
+    ref = ext_module(tr, "translucent_addon.core.reference.lambert").render_lambert(_frame_of(tr, scene, w, h))
     assert np.isfinite(gpu_img).all()
     assert gpu_img[..., :3].max() > 0.05, "black image"
     edges = _discontinuity_mask(ref)
@@ -107,7 +107,7 @@ def test_modifiers_and_instances_are_drawn_evaluated(tr, scene):
 def test_demo_scene_renders_a_back_lit_bunny(tr, scene):
     """The bundled default scene: finite, the bunny above the background, and light through it: marble
     absorbs blue more than red, so the light that crosses the thin ears comes out warm."""
-    ext_module(tr, "translucent_addon.demo").build_default_scene(scene)
+    ext_module(tr, "translucent_addon.blender.demo").build_default_scene(scene)
     img = render(scene, 160, 120)
     assert np.isfinite(img).all()
     bg = img[-1, 0, :3]  # top-left corner: world
@@ -123,18 +123,19 @@ def test_lambert_objects_under_an_environment_image_match_the_cpu_reference(tr, 
     spherical harmonics. A cube's top is brighter than its sides, and the GPU equals the CPU reference
     (relative RMSE under 1 % away from silhouettes)."""
     from test_image_space import _sky_image
-    from translucent_addon.demo import environment_world
+
+    from translucent_addon.blender.demo import environment_world
 
     environment_world(scene, _sky_image())
     add_cube(scene, location=(0, 0, 0.0))
     add_camera(scene, (1.6, -2.1, 1.6), (0, 0, 0))
     w = h = 64
     gpu_img = render(scene, w, h)
-    ref = ext_module(tr, "translucent_addon.reference.lambert").render_lambert(_frame_of(tr, scene, w, h))
+    ref = ext_module(tr, "translucent_addon.core.reference.lambert").render_lambert(_frame_of(tr, scene, w, h))
     frame = _frame_of(tr, scene, w, h)
-    tris, _, _ = ext_module(tr, "translucent_addon.reference.lambert").scene_triangles(frame)
-    origins, dirs = ext_module(tr, "translucent_addon.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
-    tracer = ext_module(tr, "translucent_addon.geometry.raycast").BruteForceTracer(tris)
+    tris, _, _ = ext_module(tr, "translucent_addon.core.reference.lambert").scene_triangles(frame)
+    origins, dirs = ext_module(tr, "translucent_addon.core.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
+    tracer = ext_module(tr, "translucent_addon.core.geometry.raycast").BruteForceTracer(tris)
     on_cube = (tracer.closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3))[1] >= 0).reshape(h, w)
     keep = ~_discontinuity_mask(ref) & on_cube  # the background is the image itself, not the reference's mean
     diff = gpu_img[..., :3][keep] - ref[..., :3][keep]
@@ -152,7 +153,7 @@ sys.path.insert(0, sys.argv[1])
 import blender_env
 package = blender_env.start()
 import bpy
-engine = importlib.import_module(package + ".translucent_addon.render.engine")
+engine = importlib.import_module(package + ".translucent_addon.blender.engine")
 def fail(*args, **kwargs):
     raise RuntimeError("a pass failed on purpose")
 engine.render_offscreen = fail
@@ -201,17 +202,17 @@ def test_facet_facing_away_from_the_light_is_in_shadow(tr, scene):
     w = h = 96
     gpu_img = render(scene, w, h)
     frame = _frame_of(tr, scene, w, h)
-    lambert = ext_module(tr, "translucent_addon.reference.lambert")
+    lambert = ext_module(tr, "translucent_addon.core.reference.lambert")
     ref = lambert.render_lambert(frame)
     tris, nors, _ = lambert.scene_triangles(frame)
-    origins, dirs = ext_module(tr, "translucent_addon.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
-    tracer = ext_module(tr, "translucent_addon.geometry.raycast").BruteForceTracer(tris)
+    origins, dirs = ext_module(tr, "translucent_addon.core.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
+    tracer = ext_module(tr, "translucent_addon.core.geometry.raycast").BruteForceTracer(tris)
     _, tri, u, v = tracer.closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3))
     hit = tri >= 0
     to_sun = -np.asarray(frame.emitters[0].direction)
     ti, uu, vv = tri[hit], u[hit, None], v[hit, None]
     n = (1 - uu - vv) * nors[ti, 0] + uu * nors[ti, 1] + vv * nors[ti, 2]
-    facing_side = ext_module(tr, "translucent_addon.geometry.mesh_measures").facing_side
+    facing_side = ext_module(tr, "translucent_addon.core.geometry.mesh_measures").facing_side
     g = facing_side(np.cross(tris[ti, 1] - tris[ti, 0], tris[ti, 2] - tris[ti, 0]), n)
     g /= np.linalg.norm(g, axis=1, keepdims=True)
     n /= np.linalg.norm(n, axis=1, keepdims=True)

@@ -5,10 +5,16 @@ import math
 
 import numpy as np
 
-from translucent_addon.bake.environment import sample_equirect
-from translucent_addon.physics.fresnel import fresnel_dielectric, hemispherical_transmittance
-from translucent_addon.physics.sh_irradiance import (equirect_directions, irradiance, project, project_equirect,
-                                                     sh_basis, transmittance_kernel)
+from translucent_addon.core.physics.fresnel import fresnel_dielectric, hemispherical_transmittance
+from translucent_addon.core.physics.sh_irradiance import (
+    equirect_directions,
+    irradiance,
+    project,
+    project_equirect,
+    sh_basis,
+    transmittance_kernel,
+)
+from translucent_addon.techniques.geocube.environment import sample_equirect
 
 
 def _sphere(n: int = 400):

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from translucent_addon.physics.slab_transfer import (
+from translucent_addon.core.physics.slab_transfer import (
     DEFAULT_TAUS,
     fit_transmission,
     gaussian_lobe,

@@ -4,7 +4,7 @@ stability suite, extreme coefficients): every method's pure kernel, over the who
 physical bounds. sigma_a from 0 (no absorption) to 100 / mm, sigma_s' from 1e-3 / mm (a medium
 thinner in scattering than air in fog) to 1000 / mm, eta from index-matched to diamond-like.
 
-Found by this suite: QUADGRAPH's terminator table (``physics/terminator.py``) was NaN at sigma_a = 0,
+Found by this suite: QUADGRAPH's terminator table (``core/physics/terminator.py``) was NaN at sigma_a = 0,
 whose kernel has no finite mean radius (it is now taken at ``SIGMA_A_FLOOR``), and TEXTURE_SPACE's R_d
 table reached 40 / sigma_tr = infinity there, so its bake kept no form factor and drew a black object
 (the table now stops at ``lensch.TABLE_REACH_MAX_MM``, exact beyond)."""
@@ -15,10 +15,10 @@ import itertools
 import numpy as np
 import pytest
 
-from translucent_addon.bake import lensch
-from translucent_addon.physics import diffusion as df
-from translucent_addon.physics import dipole, lut, terminator
-from translucent_addon.physics import single_scattering as ss
+from translucent_addon.core.physics import diffusion as df
+from translucent_addon.core.physics import dipole, lut, terminator
+from translucent_addon.core.physics import single_scattering as ss
+from translucent_addon.techniques.texture_space import throughput as lensch
 
 SIGMA_A = (0.0, 1e-6, 1e-3, 1.0, 100.0)
 SIGMA_S_PRIME = (1e-3, 0.1, 1.0, 10.0, 1000.0)

@@ -1,11 +1,11 @@
-"""physics/terminator.py: the lateral spread of the light entering beside a curved surface's terminator."""
+"""core/physics/terminator.py: the lateral spread of the light entering beside a curved surface's terminator."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from scipy import integrate
 
-from translucent_addon.physics import dipole, terminator
+from translucent_addon.core.physics import dipole, terminator
 
 # (sigma_a, sigma_s') per mm: marble's red (albedo 0.999), skin1's red and blue (Jensen et al. 2001).
 MEDIA = [(0.0021, 2.19), (0.032, 0.74), (0.17, 0.88)]

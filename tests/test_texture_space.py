@@ -29,7 +29,7 @@ def _baked_ball(scene, tr, location=(0, 0, 0.05), preset="skin1", segments=32, r
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.render.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
 
 
 def _maps(tr):
@@ -43,7 +43,7 @@ def test_gpu_passes_equal_the_cpu_twin_of_the_same_irradiance(tr, scene):
     _baked_ball(scene, tr)
     render(scene, 64, 48)
     ts = _maps(tr)
-    data = ext_module(tr, "translucent_addon.render.methods.texture_space_data")
+    data = ext_module(tr, "translucent_addon.techniques.texture_space.model")
     atlas, _ = data.load(ts["arrays"])
     x, y = atlas.texel_xy[:, 0], atlas.texel_xy[:, 1]
     E = ts["irradiance"][y, x, :3]
@@ -64,7 +64,7 @@ def test_a_facet_turned_away_from_the_light_gets_only_the_world(tr, scene):
     ob = _baked_ball(scene, tr, segments=10, rings=6)
     render(scene, 64, 48)
     ts = _maps(tr)
-    data = ext_module(tr, "translucent_addon.render.methods.texture_space_data")
+    data = ext_module(tr, "translucent_addon.techniques.texture_space.model")
     t = data.gpu_tables(ts["arrays"], ob.translucent.mm_per_unit)
     M = np.array(ob.matrix_world)
     p = t.position @ M[:3, :3].T + M[:3, 3]
@@ -83,8 +83,8 @@ def test_a_facet_turned_away_from_the_light_gets_only_the_world(tr, scene):
 
 def test_cpu_product_draws_the_same_image_as_the_gpu_product(tr, scene):
     ob = _baked_ball(scene, tr)
-    meta = ext_module(tr, "translucent_addon.bake.store").read_meta(ob, "TEXTURE_SPACE")
-    split = ext_module(tr, "translucent_addon.render.methods.texture_space_data").ROW_SPLIT
+    meta = ext_module(tr, "translucent_addon.core.bake_store").read_meta(ob, "TEXTURE_SPACE")
+    split = ext_module(tr, "translucent_addon.techniques.texture_space.model").ROW_SPLIT
     assert meta["form_factors"] > 2 * split  # row starts with a high half: the shader joins both halves
     gpu_image = render(scene, 64, 48)
     scene.translucent.texture_product = "CPU"
@@ -95,7 +95,7 @@ def test_cpu_product_draws_the_same_image_as_the_gpu_product(tr, scene):
 
 def test_moving_the_light_re_renders_without_a_new_bake(tr, scene):
     ob = _baked_ball(scene, tr)
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     digest = store.stored_hash(ob, "TEXTURE_SPACE")
     before = render(scene, 64, 48)
     light = bpy.data.objects["POINT light"]
@@ -123,7 +123,7 @@ def test_discretisation_error_against_the_dipole_model(tr, scene):
     _baked_ball(scene, tr)
     w, h = 96, 72
     img = render(scene, w, h)
-    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    metrics = ext_module(tr, "translucent_addon.core.metrics")
     ref, mask = dipole_model_reference(tr, "Ball", w, h)
     err = metrics.relative_rmse(img, ref, mask)
     ratio = img[mask][:, :3].sum(0) / ref[mask][:, :3].sum(0)
@@ -138,7 +138,8 @@ def test_environment_light_follows_the_sky_and_matches_the_dipole_model(tr, scen
     spherical-harmonics irradiance per texel (Shah Eq. 6.19), so the top of the ball is brighter than its
     bottom, and the image is within 5 % of the CPU dipole model with the same world."""
     from test_image_space import _sky_image
-    from translucent_addon.demo import environment_world
+
+    from translucent_addon.blender.demo import environment_world
 
     ob = _baked_ball(scene, tr)
     for light in [o for o in scene.objects if o.type == "LIGHT"]:
@@ -147,7 +148,7 @@ def test_environment_light_follows_the_sky_and_matches_the_dipole_model(tr, scen
     bpy.data.objects["Camera"].location = (0.0, -0.35, 0.05)
     w, h = 96, 72
     img = render(scene, w, h)
-    metrics = ext_module(tr, "translucent_addon.compare.metrics")
+    metrics = ext_module(tr, "translucent_addon.core.metrics")
     ref, mask = dipole_model_reference(tr, ob.name, w, h)
     err = metrics.relative_rmse(img, ref, mask)
     rows = np.nonzero(mask.any(axis=1))[0]

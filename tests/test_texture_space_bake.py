@@ -6,12 +6,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-from translucent_addon.bake import lensch, proxy, registry, store
-from translucent_addon.bake.atlas import build_atlas, rasterize, texel_mm
-from translucent_addon.geometry.mesh_measures import vertex_areas
-from translucent_addon.physics.dipole import total_diffuse_reflectance
-from translucent_addon.physics.presets import load_presets
-from translucent_addon.render.methods import texture_space_data as tsd
+from translucent_addon.core import bake_store as store
+from translucent_addon.core.geometry.mesh_measures import vertex_areas
+from translucent_addon.core.physics.dipole import total_diffuse_reflectance
+from translucent_addon.core.physics.presets import load_presets
+from translucent_addon.techniques import registry
+from translucent_addon.techniques.texture_space import model as tsd
+from translucent_addon.techniques.texture_space import proxy
+from translucent_addon.techniques.texture_space import throughput as lensch
+from translucent_addon.techniques.texture_space.atlas import build_atlas, rasterize, texel_mm
 
 SKIN = load_presets()["skin1"]
 MATERIAL = lensch.Material(tuple(SKIN.sigma_a), tuple(SKIN.sigma_s_prime), SKIN.eta)

@@ -12,8 +12,8 @@ from conftest import ext_module  # noqa: E402
 
 
 def test_five_minute_tutorial(tr, scene, tmp_path):
-    presets = ext_module(tr, "translucent_addon.physics.presets")
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    presets = ext_module(tr, "translucent_addon.core.physics.presets")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
     # 1. Scene: Add Demo Scene.
     assert bpy.ops.translucent.add_demo_scene(kind="BUNNY") == {"FINISHED"}
     scene = bpy.context.scene

@@ -16,7 +16,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 import build_extension  # noqa: E402
 
-from translucent_addon.bake import gl_context, tetra  # noqa: E402
+from translucent_addon.gpu import gl_context  # noqa: E402
+from translucent_addon.techniques.quadgraph import tetra  # noqa: E402
 
 MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
 # Manifest platform -> sys.platform of Blender there.

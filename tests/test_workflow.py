@@ -27,7 +27,7 @@ def test_size_helper_sets_millimetres_per_unit(tr, scene):
 
 
 def test_quality_tiers_and_the_preferences_default(tr, scene):
-    quality = ext_module(tr, "translucent_addon.quality")
+    quality = ext_module(tr, "translucent_addon.core.quality")
     cube = add_cube(scene)
     _select(cube)
     assert bpy.ops.translucent.apply_quality(tier="DRAFT") == {"FINISHED"}
@@ -37,7 +37,7 @@ def test_quality_tiers_and_the_preferences_default(tr, scene):
     assert cube.translucent.proxy_spacing == pytest.approx(2.4)  # High refines TEXTURE_SPACE's proxy
     with pytest.raises(ValueError, match="unknown quality 'ULTRA'"):
         quality.apply(scene.translucent, quality.SCENE, "ULTRA")
-    prefs = ext_module(tr, "translucent_addon.preferences").get()
+    prefs = ext_module(tr, "translucent_addon.blender.preferences").get()
     assert prefs is not None and prefs.default_quality == "STANDARD"
     prefs.default_quality = "DRAFT"
     try:
@@ -56,8 +56,8 @@ def test_last_frame_timings_per_pass(tr, scene):
     add_light(scene, "SUN", (1, -1, 2), energy=2.0)
     add_camera(scene, (3, -3, 3), (0, 0, 0))
     render(scene, 32, 32)
-    engine = ext_module(tr, "translucent_addon.render.engine")
-    draw_handler = ext_module(tr, "translucent_addon.render.draw_handler")
+    engine = ext_module(tr, "translucent_addon.blender.engine")
+    draw_handler = ext_module(tr, "translucent_addon.blender.draw_handler")
     t = dict(engine.LAST_TIMINGS)
     assert t["source"] == "F12" and t["total"] > 0 and {"world", "lights", "shadow_maps"} <= set(t)
     lines = draw_handler.timing_lines(t)
@@ -68,7 +68,7 @@ def test_last_frame_timings_per_pass(tr, scene):
 def test_a_stage_failure_reports_one_line_and_changes_nothing(tr, scene):
     """A bake whose stage refuses the mesh (here: no volume for the tetrahedra) ends with one line and
     no bake stored; in batch mode the operator does not raise a traceback."""
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     sheet = add_mesh(scene, "Sheet", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2, 3)])
     _select(sheet)
     sheet.translucent.method = "QUADGRAPH"
@@ -92,7 +92,7 @@ def test_user_presets_are_saved_listed_applied_and_removed(tr, scene):
     assert other.translucent.eta == pytest.approx(1.4) and other.translucent.g == pytest.approx(0.1)
     _select(other)
     assert bpy.ops.translucent.remove_preset() == {"FINISHED"}
-    props = ext_module(tr, "translucent_addon.props")
+    props = ext_module(tr, "translucent_addon.blender.props")
     assert "USER:Wax test" not in [i[0] for i in props._preset_items(None, None)]
     with pytest.raises(RuntimeError, match="only user presets can be removed"):
         bpy.ops.translucent.remove_preset()
@@ -109,7 +109,7 @@ def test_user_presets_file_skips_entries_that_are_not_media(tmp_path):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from translucent_addon.physics import presets
+    from translucent_addon.core.physics import presets
 
     path = tmp_path / "presets.json"
     path.write_text(json.dumps({"good": {"sigma_a": [0, 0, 0], "sigma_s_prime": [1, 1, 1], "eta": 1.3},
@@ -134,7 +134,7 @@ def test_editing_a_coefficient_makes_the_preset_custom(tr, scene):
 
 def test_undo_after_bake_and_after_clear(tr, scene):
     """Ctrl+Z after Bake leaves the object unbaked; after Clear it has its bake back."""
-    store = ext_module(tr, "translucent_addon.bake.store")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
     cube = add_cube(scene, name="Undo cube")
     _select(cube)
     cube.translucent.method = "GEOCUBE"
@@ -159,7 +159,7 @@ def test_undo_after_bake_and_after_clear(tr, scene):
 def test_stale_bake_and_modifiers_are_said_in_full(tr, scene, capfd):
     """DESIGN.md section 6, exact messages: a bake made before the mesh changed is not drawn and the
     frame says so; baking an object with modifiers says that editing them stales the bake."""
-    extract = ext_module(tr, "translucent_addon.render.extract")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
     cube = add_cube(scene, name="Stale cube")
     _select(cube)
     cube.translucent.method = "GEOCUBE"

@@ -37,14 +37,14 @@ BAKED = ("TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
 
 
 def _render(tr, scene, width=W, height=H):
-    image, _ = ext_module(tr, "translucent_addon.compare.runner").render_pixels(scene, width, height)
+    image, _ = ext_module(tr, "translucent_addon.blender.compare_runner").render_pixels(scene, width, height)
     assert np.isfinite(image).all()
     return image
 
 
 def _ball_scene(tr, scene, method):
     """A 4 cm skin ball on a grey floor under a spot light, seen by a camera: (ball, image mask of the ball)."""
-    ext_module(tr, "translucent_addon.demo").uniform_world(scene, (0.03, 0.03, 0.04))
+    ext_module(tr, "translucent_addon.blender.demo").uniform_world(scene, (0.03, 0.03, 0.04))
     add_plane(scene, size=0.6)
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.02, location=(0, 0, 0.02))
     ball = bpy.context.active_object
@@ -86,7 +86,7 @@ def test_blenders_light_world_and_material_panels_show_for_our_engine(installed)
 
 def test_presets_size_and_quality_operators(tr, scene):
     ball = _ball_scene(tr, scene, "IMAGE_SPACE")
-    presets = ext_module(tr, "translucent_addon.physics.presets").load_presets()
+    presets = ext_module(tr, "translucent_addon.core.physics.presets").load_presets()
     assert len(presets) == 12
     ball.translucent.preset = "marble"
     assert tuple(ball.translucent.sigma_s_prime) == pytest.approx(presets["marble"].sigma_s_prime)
@@ -121,7 +121,7 @@ def test_each_baked_method_bakes_draws_and_clears(tr, scene, method):
         off = _ball_pixels(_render(tr, scene)).mean()
         ball.translucent.method = method
     assert bpy.ops.translucent.bake() == {"FINISHED"}
-    inputs = ext_module(tr, "translucent_addon.bake.inputs")
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
     assert inputs.bake_status(ball.evaluated_get(bpy.context.evaluated_depsgraph_get()), method) == "OK"
     image = _render(tr, scene)
     lit = _ball_pixels(image).mean()
@@ -142,7 +142,7 @@ def test_caustics_from_a_glass_ball_light_the_floor(tr, scene):
 
 def test_grass_bakes_its_btf_and_draws_the_field(tr, scene):
     """Grass acquisition on moderngl's standalone context (EGL here) from the zip's wheels."""
-    ext_module(tr, "translucent_addon.demo").uniform_world(scene, (0.3, 0.35, 0.45))
+    ext_module(tr, "translucent_addon.blender.demo").uniform_world(scene, (0.3, 0.35, 0.45))
     ground = add_mesh(scene, "Ground", [(-0.5, -0.5, 0), (0.5, -0.5, 0), (0.5, 0.5, 0), (-0.5, 0.5, 0)],
                       [(0, 1, 2, 3)], (0.3, 0.2, 0.1))
     s = ground.translucent
@@ -154,7 +154,7 @@ def test_grass_bakes_its_btf_and_draws_the_field(tr, scene):
     add_camera(scene, (0.0, -0.45, 0.3), (0.0, 0.0, 0.0), lens=50.0)
     ground_only = _render(tr, scene)
     assert bpy.ops.translucent.add_grass_field() == {"FINISHED"}
-    assert s.grass and ext_module(tr, "translucent_addon.bake.store").read(ground, "GRASS") is not None
+    assert s.grass and ext_module(tr, "translucent_addon.core.bake_store").read(ground, "GRASS") is not None
     field = _render(tr, scene)
     assert np.abs(field - ground_only)[..., :3].mean() > 0.01
 

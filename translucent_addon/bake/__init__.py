@@ -1,1 +1,0 @@
-"""Bakes: per-method precomputation stored on the object, with an inputs hash."""

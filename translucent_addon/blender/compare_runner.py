@@ -1,0 +1,600 @@
+"""Compare with Cycles: our engine, Cycles (random walk, brute force), EEVEE and the dipole model.
+
+Renders the scene camera's view at the scene resolution with every engine and quality setting,
+measures each against a reference over the pixels of the translucent objects, and writes
+report.json, the images, false-colour error images and the speed-vs-accuracy chart. The
+reference (Cycles random walk at many samples unless chosen otherwise) and the brute-force
+check are cached by a hash of everything that made them.
+Blender-facing: swaps twin materials onto the objects for the other engines and restores them.
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import os
+import platform
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ..core.geometry.camera import pixel_rays
+from ..core.metrics import median_relative_error, relative_rmse, ssim
+from ..core.reference import cache
+from ..core.reference.dipole_model import Medium, render_dipole
+from ..core.reference.lambert import scene_triangles
+from ..core.report.report import (
+    Entry,
+    error_against_samples_chart,
+    save_error_png,
+    save_image_png,
+    speed_accuracy_chart,
+    write_report,
+)
+from ..techniques.texture_space.proxy import SPACING_TEXELS
+from . import extract, twin_materials
+from .bvh_tracer import BVHTracer
+from .versions import EEVEE_IDS, eevee_engine_id
+
+
+class CompareError(RuntimeError):
+    """The comparison cannot run; the message says what and why."""
+
+
+OUR_QUALITY = (
+    {"label": "k=8", "splat_overlap": 8.0},
+    {"label": "k=16", "splat_overlap": 16.0},
+    {"label": "k=32", "splat_overlap": 32.0},
+    {"label": "k=48", "splat_overlap": 48.0, "splat_max_grid": 2048},
+)
+
+
+@dataclasses.dataclass
+class CompareSettings:
+    our_quality: tuple = OUR_QUALITY  # Scene.translucent overrides per setting, with a label
+    cycles_random_walk_samples: tuple = (4, 16, 64, 256)
+    cycles_brute_force_samples: tuple = (16, 64)
+    eevee_samples: tuple = (1, 4, 16, 64)
+    reference_samples: int = 1024  # Cycles random walk: the reference
+    brute_force_reference_samples: int = 256  # the brute-force check of the reference (0: off)
+    model_reference_samples: int = 200_000  # CPU dipole model (0: off)
+    cycles_bounces: int = 1024
+    cache_dir: str = ""  # default: <output_dir>/cache
+    # TEXTURE_SPACE series: atlas resolutions baked and drawn (the objects' method is restored after).
+    texture_space_atlas: tuple = (256, 512)
+    quadgraph_K: tuple = ()  # QUADGRAPH series: densities baked and drawn (the benchmark: 2, 1, 0.5)
+    # Quality = Auto at these target errors, for IMAGE_SPACE and TEXTURE_SPACE (the benchmark: 0.05)
+    auto_targets: tuple = ()
+
+    @classmethod
+    def quick(cls) -> "CompareSettings":
+        """Minutes-not-hours settings for tests and a first look."""
+        return cls(our_quality=OUR_QUALITY[:2], cycles_random_walk_samples=(4, 16),
+                   cycles_brute_force_samples=(16,), eevee_samples=(1, 4), reference_samples=64,
+                   brute_force_reference_samples=64, model_reference_samples=20_000, texture_space_atlas=())
+
+
+def translucent_objects(scene) -> list:
+    return [ob for ob in scene.objects if ob.type == "MESH" and ob.visible_get()
+            and ob.translucent.method != "OFF"]
+
+
+# -- rendering through an engine -------------------------------------------------------
+def render_pixels(scene, width: int, height: int) -> tuple[np.ndarray, float]:
+    """F12 with the scene's engine: linear RGBA (height, width, 4) and the seconds it took."""
+    r = scene.render
+    saved = (r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
+             r.image_settings.file_format, r.image_settings.color_depth)
+    fd, path = tempfile.mkstemp(suffix=".exr")
+    os.close(fd)
+    try:
+        r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
+        r.image_settings.file_format = "OPEN_EXR"
+        r.image_settings.color_depth = "32"
+        r.filepath = path
+        t0 = time.perf_counter()
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+        seconds = time.perf_counter() - t0
+        image = bpy.data.images.load(path)
+        try:
+            px = np.empty(len(image.pixels), np.float32)
+            image.pixels.foreach_get(px)
+        finally:
+            bpy.data.images.remove(image)
+        return px.reshape(height, width, 4), seconds
+    finally:
+        (r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
+         r.image_settings.file_format, r.image_settings.color_depth) = saved
+        os.remove(path)
+
+
+@contextlib.contextmanager
+def engine_setup(scene, engine: str, **options):
+    """Set the render engine and its options for the duration of a block, then restore."""
+    saved_engine = scene.render.engine
+    saved = {}
+    target = scene.cycles if engine == "CYCLES" else scene.eevee if engine in EEVEE_IDS else None
+    try:
+        scene.render.engine = engine
+        for name, value in options.items():
+            owner, attr = (scene.translucent, name[len("translucent_"):]) if name.startswith("translucent_") \
+                else (target, name)
+            saved[(id(owner), attr)] = (owner, attr, getattr(owner, attr))
+            setattr(owner, attr, value)
+        yield
+    finally:
+        for owner, attr, value in saved.values():
+            setattr(owner, attr, value)
+        scene.render.engine = saved_engine
+
+
+@contextlib.contextmanager
+def twin_materials_applied(objects, kind: str, **options):
+    """Give each translucent object the twin material of its medium, restore afterwards (``options`` go
+    to the material's factory in ``twin_materials``)."""
+    saved = []
+    made = []
+    try:
+        for ob in objects:
+            s = ob.translucent
+            mat = getattr(twin_materials, kind)(f"{ob.name} ({kind})", tuple(s.sigma_a), tuple(s.sigma_s_prime),
+                                                s.eta, s.g, s.mm_per_unit, **options)
+            made.append(mat)
+            saved.append((ob, [slot.material for slot in ob.material_slots]))
+            if not ob.material_slots:
+                ob.data.materials.append(None)
+            for slot in ob.material_slots:
+                slot.material = mat
+        yield
+    finally:
+        for ob, mats in saved:
+            if not mats:
+                ob.data.materials.clear()
+            for slot, mat in zip(ob.material_slots, mats):
+                slot.material = mat
+        for mat in made:
+            bpy.data.materials.remove(mat)
+
+
+def cycles_options(samples: int, bounces: int, seed: int = 1) -> dict:
+    return dict(device="CPU", samples=samples, use_adaptive_sampling=False, use_denoising=False, seed=seed,
+                max_bounces=bounces, volume_bounces=bounces, transmission_bounces=bounces, glossy_bounces=bounces,
+                diffuse_bounces=bounces, transparent_max_bounces=bounces, caustics_reflective=True,
+                caustics_refractive=True, blur_glossy=0.0, sample_clamp_direct=0.0, sample_clamp_indirect=0.0,
+                pixel_filter_type="BOX")
+
+
+def eevee_options(samples: int) -> dict:
+    return dict(taa_render_samples=samples)
+
+
+# -- what the renders depend on (cache keys) -----------------------------------------------
+def scene_description(depsgraph, frame, objects) -> dict:
+    """Everything of the scene that a render depends on, as hashable values."""
+    h = hashlib.blake2b(digest_size=12)
+    for m in frame.meshes:  # not m.key: that hashes the corners in Blender's order, which can change
+        h.update(m.name.encode())
+        h.update(cache.corner_digest(m.positions, m.colors).encode())
+        h.update(cache.normals_digest(m.positions, m.normals).encode())
+        h.update(np.asarray(m.model, np.float64).tobytes())
+    for e in frame.emitters:
+        h.update(repr(e).encode())
+    h.update(np.asarray(frame.camera.view_proj).tobytes())
+    media = {ob.name: [list(ob.translucent.sigma_a), list(ob.translucent.sigma_s_prime), ob.translucent.eta,
+                       ob.translucent.g, ob.translucent.mm_per_unit] for ob in objects}
+    return {"geometry_lights_camera": h.hexdigest(), "world": list(map(float, frame.world_color)), "media": media,
+            "size": [frame.camera.width, frame.camera.height], "blender": bpy.app.version_string}
+
+
+def interior(mask: np.ndarray) -> np.ndarray:
+    """The mask without its one-pixel border: silhouette pixels are anti-aliased by Cycles and EEVEE,
+    point-sampled by rasterisers and ray casts, so no renderer can agree on them."""
+    from scipy.ndimage import binary_erosion
+
+    return binary_erosion(mask, iterations=1)
+
+
+def _mask(frame, tracer, names: set[str]) -> np.ndarray:
+    cam = frame.camera
+    origins, dirs = pixel_rays(cam.view_proj, cam.width, cam.height)
+    _, tri, _, _ = tracer.closest_hit(origins.reshape(-1, 3), dirs.reshape(-1, 3))
+    owner = np.full(len(tri), -1)
+    offsets = np.cumsum([0] + [m.triangle_count for m in frame.meshes])
+    hit = tri >= 0
+    owner[hit] = np.searchsorted(offsets, tri[hit], side="right") - 1
+    wanted = np.array([m.name in names for m in frame.meshes] + [False])
+    return wanted[owner].reshape(cam.height, cam.width)
+
+
+def run(scene, output_dir, settings: CompareSettings | None = None, progress=print, objects=None):
+    """Run the whole comparison; returns (entries, meta) and writes everything into output_dir.
+
+    ``objects``: the objects whose medium is compared (default: every visible mesh with a method).
+    """
+    job = run_steps(scene, output_dir, settings, objects)
+    while True:
+        try:
+            _, text = next(job)
+        except StopIteration as done:
+            return done.value
+        progress(text)
+
+
+def run_steps(scene, output_dir, settings: CompareSettings | None = None, objects=None):
+    """The comparison as a generator of (fraction done, text), one step per render, so that an operator
+    can show progress and cancel between renders (no scene setting is left changed between steps);
+    returns (entries, meta)."""
+    settings = settings or CompareSettings()
+    out = Path(bpy.path.abspath(str(output_dir)))
+    out.mkdir(parents=True, exist_ok=True)
+    cache_dir = Path(settings.cache_dir) if settings.cache_dir else out / "cache"
+    if scene.camera is None:
+        raise CompareError("the scene has no active camera: the comparison renders the camera's view")
+    objects = list(objects) if objects is not None else translucent_objects(scene)
+    if not objects:
+        raise CompareError("no visible object has a translucency method (Object > Translucent > Method)")
+    scale = scene.render.resolution_percentage / 100
+    width, height = max(1, int(scene.render.resolution_x * scale)), max(1, int(scene.render.resolution_y * scale))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tris, _, _ = scene_triangles(frame)
+    tracer = BVHTracer(tris)
+    names = {ob.name for ob in objects}
+    mask = interior(_mask(frame, tracer, names))
+    if not mask.any():
+        raise CompareError("the translucent objects are not in the camera's view (or less than 3 pixels wide)")
+    description = scene_description(depsgraph, frame, objects)
+    images: dict[str, np.ndarray] = {}
+    entries: list[Entry] = []
+    total = (1 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
+             + len(settings.cycles_brute_force_samples) + len(settings.eevee_samples) + len(settings.our_quality)
+             + 2 * len(settings.texture_space_atlas) + len(settings.quadgraph_K) + 2 * len(settings.auto_targets)
+             + bool(settings.model_reference_samples) + 1)
+    steps = [0]
+
+    def step(text):
+        steps[0] += 1
+        return min(steps[0] / total, 0.99), text
+
+    def add(series, engine, label, seconds, image, cached=False, **extra):
+        key = f"{series} {label}".strip()
+        images[key] = image
+        entries.append(Entry(series=series, engine=engine, settings={"label": label, **extra}, seconds=seconds,
+                             reference="", cached=cached))
+
+    def cached_cycles(kind, samples):
+        desc = {**description, "engine": "CYCLES", "kind": kind, "samples": samples,
+                "bounces": settings.cycles_bounces}
+        hit = cache.load(cache_dir, desc)
+        if hit is not None:
+            yield step(f"Cycles {kind} {samples} spp: from the cache")
+            return hit[0], hit[1], True
+        yield step(f"Cycles {kind} {samples} spp ...")
+        with twin_materials_applied(objects, kind), \
+                engine_setup(scene, "CYCLES", **cycles_options(samples, settings.cycles_bounces)):
+            image, seconds = render_pixels(scene, width, height)
+        cache.store(cache_dir, desc, image, seconds)
+        return image, seconds, False
+
+    # The reference first, so that every other render is measured against it.
+    ref_name = f"Cycles random walk {settings.reference_samples} spp"
+    ref_image, ref_seconds, ref_cached = yield from cached_cycles("random_walk", settings.reference_samples)
+    add("Cycles random walk (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
+        ref_cached, samples=settings.reference_samples)
+    brute_image = None
+    if settings.brute_force_reference_samples:
+        brute_image, sec, hit = yield from cached_cycles("brute_force", settings.brute_force_reference_samples)
+        add("Cycles brute force (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp", sec, brute_image,
+            hit, samples=settings.brute_force_reference_samples)
+    for spp in settings.cycles_random_walk_samples:
+        img, sec, hit = yield from cached_cycles("random_walk", spp)
+        add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
+    for spp in settings.cycles_brute_force_samples:
+        img, sec, hit = yield from cached_cycles("brute_force", spp)
+        add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
+    for i, spp in enumerate(settings.eevee_samples):
+        yield step(f"EEVEE {spp} samples ...")
+        with (twin_materials_applied(objects, "random_walk"),
+              engine_setup(scene, eevee_engine_id(), **eevee_options(spp))):
+            if i == 0:
+                warm_eevee(scene, width, height)
+            img, sec = render_pixels(scene, width, height)
+        add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
+    methods = sorted({ob.translucent.method for ob in objects})
+    for quality in settings.our_quality:
+        options = {f"translucent_{k}": v for k, v in quality.items() if k != "label"}
+        yield step(f"Translucent ({', '.join(methods)}) {quality['label']} ...")
+        with engine_setup(scene, "TRANSLUCENT_RT", **options):
+            img, sec = render_pixels(scene, width, height)
+        add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
+            methods=methods, **{k: v for k, v in quality.items() if k != "label"})
+    for (res, spacing), product, bake_seconds, _, img, sec in texture_space_series(
+            scene, objects, settings.texture_space_atlas, width, height, lambda text: None):
+        label = f"{texture_space_label(res, spacing)}, {product} product"
+        yield step(f"Translucent (TEXTURE_SPACE) {label}: done")
+        add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", label, sec, img, methods=["TEXTURE_SPACE"],
+            atlas_resolution=res, proxy_spacing=spacing, product=product, bake_seconds=bake_seconds)
+    for K in settings.quadgraph_K:
+        yield step(f"Translucent (QUADGRAPH) K={K:g} ...")
+        with method_applied(objects, "QUADGRAPH", quadgraph_K=K):
+            bake_seconds, _ = bake_objects(objects, "QUADGRAPH", lambda text: None)
+            img, sec = warm_render(scene, width, height)
+        add("Translucent (QUADGRAPH)", "TRANSLUCENT_RT", f"K={K:g}", sec, img, methods=["QUADGRAPH"], quadgraph_K=K,
+            bake_seconds=bake_seconds)
+    for target in settings.auto_targets:
+        for method in ("IMAGE_SPACE", "TEXTURE_SPACE"):
+            yield step(f"Translucent Auto ({method}), target {target:g} ...")
+            with method_applied(objects, method, quality="AUTO", target_error=target), scene_kept(scene):
+                from .quality_apply import apply_auto
+
+                choices = [apply_auto(bpy.context, ob) for ob in objects]
+                bake_seconds = bake_objects(objects, method, lambda text: None)[0] if method != "IMAGE_SPACE" else 0.0
+                img, sec = warm_render(scene, width, height)
+            add(f"Translucent Auto ({method})", "TRANSLUCENT_RT", f"target {100 * target:g} %", sec, img,
+                methods=[method], target_error=target, bake_seconds=bake_seconds,
+                choice="; ".join(c.summary() for c in choices))
+    model_image = None
+    if settings.model_reference_samples:
+        yield step(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
+        model_image, sec, hit = model_reference(frame, objects, tracer, settings.model_reference_samples, description,
+                                                cache_dir, lambda text: None)
+        add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{settings.model_reference_samples // 1000}k samples", sec,
+            model_image, hit, samples=settings.model_reference_samples)
+
+    for e in entries:
+        key = f"{e.series} {e.settings['label']}".strip()
+        img = images[key]
+        slug = "".join(c if c.isalnum() else "_" for c in key).strip("_").lower()
+        e.image = f"{slug}.png"
+        save_image_png(out / e.image, img)
+        if e.series.endswith("(reference)"):
+            e.reference = "itself"
+            continue
+        e.reference = ref_name
+        e.rel_rmse = relative_rmse(img, ref_image, mask)
+        e.ssim = ssim(img, ref_image, mask)
+        e.median_rel_error = median_relative_error(img, ref_image, mask)
+        if model_image is not None and e.engine == "TRANSLUCENT_RT":
+            e.rel_rmse_model = relative_rmse(img, model_image, mask)
+        if brute_image is not None and not e.series.startswith("Cycles brute force"):
+            e.median_vs_brute_force = median_relative_error(img, brute_image, mask)
+        e.error_image = f"{slug}_error.png"
+        save_error_png(out / e.error_image, img, ref_image, mask)
+    meta = {
+        "scene": scene.name, "size": [width, height], "objects": sorted(names), "reference": ref_name,
+        "mask_pixels": int(mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
+        "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels "
+                 "(their silhouette pixels excluded)",
+    }
+    write_report(out / "report.json", entries, meta)
+    speed_accuracy_chart(entries, out / "chart.png", f"{scene.name}: speed against accuracy ({width}x{height}); "
+                                                      f"reference {ref_name}")
+    yield 1.0, f"wrote {out / 'report.json'} and {out / 'chart.png'}"
+    return entries, meta
+
+
+def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict]]:
+    """Bake each object with the given method (blocking, as in batch mode): (seconds, each bake's meta)."""
+    from ..core import bake_store as store
+    from ..techniques import registry
+    from .bake_inputs import gather
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    t0 = time.perf_counter()
+    metas = []
+    for ob in objects:
+        inputs = gather(ob.evaluated_get(depsgraph), method, for_bake=True)
+        registry.validate(inputs)
+        job = registry.run(inputs)
+        try:
+            while True:
+                next(job)
+        except StopIteration as done:
+            arrays, meta = done.value
+        store.write(ob, method, inputs.hash(), arrays, meta)
+        metas.append(meta)
+        progress(f"baked {ob.name} ({method}): {meta.get('proxy_vertices', '?')} proxy vertices, "
+                 f"{time.perf_counter() - t0:.1f} s")
+    return time.perf_counter() - t0, metas
+
+
+@contextlib.contextmanager
+def method_applied(objects, method: str, **props):
+    """The objects drawn with ``method`` and these Object.translucent values; every value restored after."""
+    names = ["method", *props, "atlas_resolution", "proxy_spacing", "quadgraph_K", "geocube_resolution",
+             "auto_summary"]
+    saved = [(ob, {n: getattr(ob.translucent, n) for n in dict.fromkeys(names)}) for ob in objects]
+    try:
+        for ob in objects:
+            ob.translucent.method = method
+            for name, value in props.items():
+                setattr(ob.translucent, name, value)
+        yield
+    finally:
+        for ob, values in saved:
+            for name, value in values.items():
+                setattr(ob.translucent, name, value)
+
+
+@contextlib.contextmanager
+def scene_kept(scene):
+    """Scene.translucent's sampling values (which Auto may set) restored after."""
+    names = ("splat_overlap", "splat_max_grid")
+    saved = {n: getattr(scene.translucent, n) for n in names}
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(scene.translucent, name, value)
+
+
+def warm_render(scene, width: int, height: int):
+    """Our engine's second frame (the first uploads a bake and starts a relaxation cold): (image, seconds)."""
+    with engine_setup(scene, "TRANSLUCENT_RT"):
+        render_pixels(scene, width, height)
+        return render_pixels(scene, width, height)
+
+
+def warm_eevee(scene, width: int, height: int) -> None:
+    """One untimed EEVEE frame at 1 sample and the size of the timed ones, so that those do not include
+    its shader compilation and buffer setup (the first frame of a session costs more: the glass sphere at
+    192x144 took 33 s at 4 samples cold against 19 s at 16 warm on this machine); our engine is timed
+    warm in the same way."""
+    saved = scene.eevee.taa_render_samples
+    try:
+        scene.eevee.taa_render_samples = 1
+        render_pixels(scene, width, height)
+    finally:
+        scene.eevee.taa_render_samples = saved
+
+
+def texture_space_setting(item) -> tuple[int, float]:
+    """(atlas texels, proxy spacing in texels) from an atlas resolution or such a pair."""
+    res, spacing = (item, SPACING_TEXELS) if np.ndim(item) == 0 else item
+    return int(res), float(spacing)
+
+
+def texture_space_label(res: int, spacing: float) -> str:
+    return f"{res} texels" + ("" if spacing == SPACING_TEXELS else f", spacing {spacing:g}")
+
+
+def texture_space_series(scene, objects, settings, width: int, height: int, progress=print):
+    """TEXTURE_SPACE at each setting (an atlas resolution, or a pair of it and the proxy spacing): yields
+    ((resolution, spacing), product, bake seconds, bake metas, image, seconds).
+
+    Every setting is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
+    The objects' method, resolution and spacing are restored afterwards.
+    """
+    for i, item in enumerate(settings):
+        res, spacing = texture_space_setting(item)
+        with method_applied(objects, "TEXTURE_SPACE", atlas_resolution=res, proxy_spacing=spacing):
+            bake_seconds, metas = bake_objects(objects, "TEXTURE_SPACE", progress)
+            for product in ("GPU", "CPU") if i == 0 else ("GPU",):
+                with engine_setup(scene, "TRANSLUCENT_RT", translucent_texture_product=product):
+                    progress(f"Translucent (TEXTURE_SPACE) {texture_space_label(res, spacing)}, {product} product ...")
+                    render_pixels(scene, width, height)  # first frame uploads the bake to the GPU
+                    img, sec = render_pixels(scene, width, height)
+                yield (res, spacing), product, bake_seconds, metas, img, sec
+
+
+def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
+    """The CPU dipole model of the translucent objects (cached): (image, seconds, from cache)."""
+    # model 4: visibility by facet; the far side of thin parts in the far field; SH environment light;
+    # the near disk corrected by the samples' irradiance where it differs from E(x_o)
+    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 4}
+    hit = cache.load(cache_dir, desc)
+    if hit is not None:
+        progress("dipole model reference: from the cache")
+        return hit[0], hit[1], True
+    media = {ob.name: Medium(tuple(ob.translucent.sigma_a), tuple(ob.translucent.sigma_s_prime), ob.translucent.eta,
+                             ob.translucent.mm_per_unit) for ob in objects}
+    progress(f"dipole model reference (CPU, {samples} samples) ...")
+    t0 = time.perf_counter()
+    image = render_dipole(frame, media, samples=samples, tracer=tracer)
+    seconds = time.perf_counter() - t0
+    cache.store(cache_dir, desc, image, seconds)
+    return image, seconds, False
+
+
+def _model_setup(scene, objects, samples: int, cache_dir, progress):
+    """The scene's size, the objects' interior mask and the CPU dipole model image (cached):
+    (width, height, mask, model image, model seconds)."""
+    scale = scene.render.resolution_percentage / 100
+    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
+    tracer = BVHTracer(scene_triangles(frame)[0])
+    mask = interior(_mask(frame, tracer, {ob.name for ob in objects}))
+    model_image, model_seconds, _ = model_reference(frame, objects, tracer, samples,
+                                                    scene_description(depsgraph, frame, objects), Path(cache_dir),
+                                                    progress)
+    return width, height, mask, model_image, model_seconds
+
+
+def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 48.0), samples: int = 200_000,
+                   cache_dir=None, progress=print):
+    """Our engine at several splat overlaps against the CPU dipole model: error against splat count.
+
+    Measures the discretisation error of the GPU method apart from the dipole's model error, at the
+    scene's resolution; returns rows (overlap, light-view samples, seconds, rel. RMSE) and writes
+    discretisation.json and discretisation.png into output_dir.
+    """
+    import json
+
+    from . import engine as engine_mod
+
+    out = Path(output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
+                                                                   progress)
+    rows = []
+    for k in overlaps:
+        grid = 2048 if k > 32 else 1024
+        with engine_setup(scene, "TRANSLUCENT_RT", translucent_splat_overlap=k, translucent_splat_max_grid=grid,
+                          translucent_capture_passes=True):
+            progress(f"IMAGE_SPACE k={k} ...")
+            img, sec = render_pixels(scene, width, height)
+        plan = engine_mod.LAST_CAPTURE.get("plan")
+        count = int(sum(s.sample_count for s in plan.samplings)) if plan else 0
+        lit = sum(int((pid[..., 3] > 0.5).sum()) for pid, _ in engine_mod.LAST_CAPTURE.get("samples", []))
+        rows.append({"overlap": k, "light_view_texels": count, "object_samples": lit, "seconds": sec,
+                     "rel_rmse_vs_model": relative_rmse(img, model_image, mask)})
+        save_error_png(out / f"image_space_k{int(k)}_vs_model_error.png", img, model_image, mask)
+        save_image_png(out / f"image_space_k{int(k)}.png", img)
+    save_image_png(out / "dipole_model.png", model_image)
+    engine_mod.LAST_CAPTURE.clear()
+    (out / "discretisation.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
+                                                          "model_seconds": model_seconds, "rows": rows}, indent=2))
+    error_against_samples_chart(rows, out / "discretisation.png", f"{scene.name}: IMAGE_SPACE against the "
+                                           f"dipole model ({width}x{height})")
+    return rows
+
+
+def texture_space_discretisation(scene, objects, output_dir, resolutions=(256, 512), samples: int = 200_000,
+                                 cache_dir=None, progress=print, name: str = "texture_space"):
+    """TEXTURE_SPACE at several atlas resolutions (or (resolution, proxy spacing) pairs) against the CPU
+    dipole model (its discretisation error).
+
+    Returns rows (atlas, spacing, proxy vertices, bake seconds, frame seconds, rel. RMSE, mean ratio) and
+    writes <name>.json and the images into output_dir.
+    """
+    import json
+
+    out = Path(output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
+                                                                   progress)
+    rows = []
+    for (res, spacing), product, bake_seconds, metas, img, sec in texture_space_series(scene, objects, resolutions,
+                                                                                         width, height, progress):
+        if product != "GPU":
+            continue
+        meta = metas[0]
+        ratio = img[mask][:, :3].sum(axis=0) / np.maximum(model_image[mask][:, :3].sum(axis=0), 1e-30)
+        rows.append({"atlas": res, "proxy_spacing": spacing, "proxy_vertices": meta.get("proxy_vertices"),
+                     "texel_mm": meta.get("texel_mm"),
+                     "form_factors": meta.get("form_factors"), "bake_seconds": round(bake_seconds, 2),
+                     "seconds": sec, "rel_rmse_vs_model": relative_rmse(img, model_image, mask),
+                     "mean_ratio_rgb": [round(float(x), 4) for x in ratio]})
+        tag = f"{res}" if spacing == SPACING_TEXELS else f"{res}_s{spacing:g}"
+        save_error_png(out / f"{name}_{tag}_vs_model_error.png", img, model_image, mask)
+        save_image_png(out / f"{name}_{tag}.png", img)
+        progress(f"TEXTURE_SPACE {texture_space_label(res, spacing)}: rel. RMSE against the dipole model "
+                 f"{rows[-1]['rel_rmse_vs_model']:.4f}")
+    save_image_png(out / "dipole_model.png", model_image)
+    (out / f"{name}.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
+                                                  "model_seconds": model_seconds, "rows": rows}, indent=2))
+    return rows
+
+
+def machine_description() -> dict:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), cpu)
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "system": platform.platform(), "python": platform.python_version()}

@@ -1,0 +1,94 @@
+"""SpaceView3D draw handler: our objects over the viewport of other engines.
+
+When the scene's engine is not TRANSLUCENT_RT (say EEVEE in Material Preview)
+and ``Scene.translucent.overlay_other_engines`` is on, objects with a
+translucency method are drawn by the same pipeline into the viewport's
+framebuffer, depth-tested against what the engine drew.
+"""
+from __future__ import annotations
+
+import bpy
+
+from ..pipeline import Pipeline
+from . import extract
+
+_handle = None
+_overlay = None
+_pipeline: Pipeline | None = None
+
+
+def _draw():
+    global _pipeline
+    context = bpy.context
+    scene = context.scene
+    if scene is None or scene.render.engine == "TRANSLUCENT_RT" or not scene.translucent.overlay_other_engines:
+        return
+    region, rv3d = context.region, context.region_data
+    if region is None or rv3d is None:
+        return
+    depsgraph = context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d), only_translucent=True)
+    if not frame.meshes:
+        return
+    if _pipeline is None:
+        _pipeline = Pipeline()
+    _pipeline.forget({m.key for m in frame.meshes})
+    _pipeline.draw(frame, clear=False)
+
+
+def timing_lines(timings: dict) -> list[str]:
+    """The overlay's text: total first, then the passes by time spent, in milliseconds."""
+    if not timings:
+        return []
+    passes = sorted(((k, v) for k, v in timings.items() if k not in {"total", "source"} and isinstance(v, float)),
+                    key=lambda kv: -kv[1])
+    lines = [f"Translucent ({timings.get('source', '')}): {1000 * timings.get('total', 0.0):.1f} ms"]
+    return lines + [f"  {name}: {1000 * sec:.1f} ms" for name, sec in passes]
+
+
+def _draw_overlay():
+    """Timing overlay (preferences): the last frame's milliseconds per pass, top left of the viewport."""
+    import blf
+
+    from . import preferences
+    from .engine import LAST_TIMINGS
+
+    prefs = preferences.get()
+    if prefs is None or not prefs.timing_overlay:
+        return
+    region = bpy.context.region
+    if region is None:
+        return
+    font = 0
+    blf.size(font, 12)
+    blf.color(font, 1.0, 1.0, 1.0, 0.9)
+    y = region.height - 60
+    for line in timing_lines(LAST_TIMINGS):
+        blf.position(font, 20, y, 0)
+        blf.draw(font, line)
+        y -= 16
+
+
+def register() -> None:
+    global _handle, _overlay
+    if _handle is None:
+        _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+    if _overlay is None:
+        _overlay = bpy.types.SpaceView3D.draw_handler_add(_draw_overlay, (), "WINDOW", "POST_PIXEL")
+
+
+def unregister() -> None:
+    global _handle, _overlay, _pipeline
+    if _handle is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
+        _handle = None
+    if _overlay is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_overlay, "WINDOW")
+        _overlay = None
+    if _pipeline is not None:
+        _pipeline.free()
+        _pipeline = None
+
+
+def is_registered() -> bool:
+    return _handle is not None or _overlay is not None

@@ -1,0 +1,158 @@
+"""The render engine TRANSLUCENT_RT: F12, batch and the viewport, one pipeline."""
+from __future__ import annotations
+
+import contextlib
+
+import bpy
+import numpy as np
+
+from ..pipeline import Pipeline, render_offscreen
+from ..techniques.image_space import quality as image_space_auto
+from ..techniques.image_space.model import SamplingSettings
+from . import extract
+
+# Read-backs of the last F12's intermediate passes when Scene.translucent.capture_passes is on.
+LAST_CAPTURE: dict = {}
+# Seconds per pass of the last frame drawn (F12 or viewport), for the sidebar and the timing overlay.
+LAST_TIMINGS: dict = {}
+# IMAGE_SPACE's splat overlap of the last frame drawn, where AUTO objects chose it: {objects: {name: k},
+# overlap, max_grid}; empty when none did.
+LAST_AUTO_OVERLAP: dict = {}
+
+
+def _keep_timings(pipeline, source: str) -> None:
+    LAST_TIMINGS.clear()
+    LAST_TIMINGS.update(pipeline.last_timings)
+    LAST_TIMINGS["source"] = source
+
+
+def sampling_settings(scene, frame=None) -> SamplingSettings:
+    """The scene's IMAGE_SPACE sampling; with a frame, k as its AUTO objects need it seen by its camera
+    (``image_space_auto``), what they asked for kept in LAST_AUTO_OVERLAP for the panel."""
+    s = scene.translucent
+    manual = SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid,
+                              world_layers=s.splat_world_layers, world_overlap=s.splat_world_overlap)
+    if frame is None:
+        return manual
+    sampling, asked = image_space_auto.frame_sampling(frame, manual)
+    LAST_AUTO_OVERLAP.clear()
+    if asked:
+        LAST_AUTO_OVERLAP.update(objects=asked, overlap=sampling.overlap, max_grid=sampling.max_grid)
+    return sampling
+
+
+class TranslucentRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "TRANSLUCENT_RT"
+    bl_label = "Translucent"
+    bl_use_gpu_context = True  # a GPU context in render(), also headless (-b)
+    bl_use_preview = False
+    bl_use_eevee_viewport = False
+    bl_use_shading_nodes_custom = False  # keep Blender's material nodes
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._pipeline = None
+        self._viewport_offscreen = None
+        self.last_frame = None
+
+    def __del__(self):
+        # GPU objects are freed by their own destructors; drop references only (Blender may have
+        # removed the engine's struct already, at exit).
+        with contextlib.suppress(ReferenceError):
+            self._pipeline = None
+            self._viewport_offscreen = None
+
+    def _get_pipeline(self) -> Pipeline:
+        if self._pipeline is None:
+            self._pipeline = Pipeline()
+        return self._pipeline
+
+    # -- F12 and batch -----------------------------------------------------
+    def render(self, depsgraph):
+        scene = depsgraph.scene
+        scale = scene.render.resolution_percentage / 100.0
+        width = max(1, int(scene.render.resolution_x * scale))
+        height = max(1, int(scene.render.resolution_y * scale))
+        try:
+            self._render_frame(depsgraph, width, height)
+        except BaseException:
+            # Blender 5.0.1 writes the frame after render() returns, and saving an OpenEXR frame that
+            # has no result crashes it (segmentation fault in BKE_image_render_write_exr): leave an
+            # empty frame, then let the error show as Blender reports it.
+            self._empty_frame(width, height)
+            raise
+
+    def _empty_frame(self, width: int, height: int) -> None:
+        self.end_result(self.begin_result(0, 0, width, height))
+
+    def _render_frame(self, depsgraph, width: int, height: int) -> None:
+        scene = depsgraph.scene
+        try:
+            camera = extract.render_camera(depsgraph, width, height)
+        except LookupError as err:
+            self.report({"ERROR"}, f"Translucent: {err}")
+            self._empty_frame(width, height)
+            return
+        frame = extract.frame_inputs(depsgraph, camera)
+        self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
+        pipeline = self._get_pipeline()
+        pipeline.sampling = sampling_settings(scene, frame)
+        pipeline.texture_product = scene.translucent.texture_product
+        pipeline.quadgraph_solver = (scene.translucent.quadgraph_tolerance, scene.translucent.quadgraph_iterations)
+        pipeline.capture = {} if scene.translucent.capture_passes else None
+        pipeline.geocube_mode = scene.translucent.geocube_output
+        pipeline.relief_mode = scene.translucent.relief_output
+        pipeline.quadgraph_mode = scene.translucent.quadgraph_output
+        # Coherent with the previous F12 only when it drew the previous frame of the same scene.
+        pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
+        pipeline.coherence_frame = scene.frame_current
+        pixels = render_offscreen(pipeline, frame)
+        _keep_timings(pipeline, "F12")
+        for message in frame.warnings:  # after drawing: the passes add their own
+            self.report({"WARNING"}, f"Translucent: {message}")
+        LAST_CAPTURE.clear()
+        if pipeline.capture is not None:
+            LAST_CAPTURE.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))
+        if not np.isfinite(pixels).all():
+            self.report({"ERROR"}, "Translucent: the frame has non-finite pixels (NaN or inf)")
+        result = self.begin_result(0, 0, width, height)
+        try:
+            result.layers[0].passes["Combined"].rect.foreach_set(pixels.reshape(-1))
+        finally:
+            self.end_result(result)
+        self.last_frame = frame
+
+    # -- viewport ------------------------------------------------------------
+    def view_update(self, context, depsgraph):
+        # Batches are keyed by a geometry hash, so edits rebuild only what changed.
+        pass
+
+    def view_draw(self, context, depsgraph):
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+
+        region, rv3d = context.region, context.region_data
+        frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
+        pipeline = self._get_pipeline()
+        pipeline.sampling = sampling_settings(depsgraph.scene, frame)
+        pipeline.texture_product = depsgraph.scene.translucent.texture_product
+        pipeline.quadgraph_solver = (depsgraph.scene.translucent.quadgraph_tolerance,
+                                     depsgraph.scene.translucent.quadgraph_iterations)
+        pipeline.coherence_key = "viewport" if depsgraph.scene.translucent.temporal_coherence else None
+        pipeline.coherence_frame += 1
+        pipeline.forget({m.key for m in frame.meshes})
+        size = (region.width, region.height)
+        off = self._viewport_offscreen
+        if off is None or (off.width, off.height) != size:
+            off = self._viewport_offscreen = gpu.types.GPUOffScreen(*size, format="RGBA16F")
+        with off.bind():
+            pipeline.draw(frame)
+        _keep_timings(pipeline, "viewport")
+        gpu.state.blend_set("ALPHA_PREMULT")
+        self.bind_display_space_shader(depsgraph.scene)
+        draw_texture_2d(off.texture_color, (0, 0), *size)
+        self.unbind_display_space_shader()
+        gpu.state.blend_set("NONE")
+
+
+classes = (TranslucentRenderEngine,)

@@ -1,0 +1,423 @@
+"""Blender scene -> FrameInputs: the one bpy-facing step of rendering.
+
+Bulk ``foreach_get`` into NumPy, no per-vertex Python loops. Meshes come from
+the evaluated depsgraph (modifiers applied), instances included.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+
+import numpy as np
+
+from ..core import bake_store
+from ..core.frame import (
+    BakeHandle,
+    CameraView,
+    Caster,
+    CausticSettings,
+    Environment,
+    FrameInputs,
+    GrassLayer,
+    Medium,
+    MeshInstance,
+    ReliefSurface,
+)
+from ..core.geometry.mesh_measures import uv_tangents
+from ..core.lights import emitters_from_light
+from ..core.physics.lut import BLUR_MIN
+from ..techniques import registry as bake_registry
+from .bake_inputs import bake_status
+
+# Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
+BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
+GLOW_GROUP = "translucent_glow"  # Weight Paint: irradiance modulation 1 + 3 w
+MASK_GROUP = "translucent_mask"  # Weight Paint: 1 translucent, 0 opaque (all translucent when absent)
+TINT_ATTRIBUTE = "translucent_tint"  # Vertex Paint (colour attribute): RGB irradiance modulation
+PAINT_GROUPS = (MASK_GROUP, BLUR_GROUP, GLOW_GROUP)
+
+DEFAULT_COLOR = (0.8, 0.8, 0.8)  # Blender's default surface colour
+
+
+def material_base_color(mat) -> tuple[float, float, float]:
+    """Linear base colour: the Principled/Diffuse node feeding the output, else the viewport colour."""
+    if mat is None:
+        return DEFAULT_COLOR
+    tree = getattr(mat, "node_tree", None)
+    if tree is not None:
+        out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
+        if out is not None and out.inputs["Surface"].is_linked:
+            node = out.inputs["Surface"].links[0].from_node
+            for name in ("Base Color", "Color"):
+                sock = node.inputs.get(name)
+                if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
+                    return tuple(float(c) for c in sock.default_value[:3])
+    return tuple(float(c) for c in mat.diffuse_color[:3])
+
+
+def world_color(scene, env: Environment | None = None) -> np.ndarray:
+    """The world's uniform radiance; for an environment image (``world_environment``), its average over
+    the sphere."""
+    world = scene.world
+    if world is None:
+        return np.zeros(3)
+    if env is not None:
+        return env.mean
+    tree = getattr(world, "node_tree", None)
+    if tree is not None:
+        bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
+        if bg is not None and not bg.inputs["Color"].is_linked:
+            return np.array(bg.inputs["Color"].default_value[:3]) * float(bg.inputs["Strength"].default_value)
+    return np.array(world.color[:3], dtype=np.float64)
+
+
+_environment_cache: dict = {}
+
+
+def world_environment(scene) -> Environment | None:
+    """The world's Environment Texture (equirectangular) feeding its Background, as linear radiance
+    times the strength; None for any other world. Read once per image and strength."""
+    world = scene.world
+    tree = getattr(world, "node_tree", None) if world is not None else None
+    if tree is None:
+        return None
+    bg = next((n for n in tree.nodes if n.type == "BACKGROUND"), None)
+    if bg is None or not bg.inputs["Color"].is_linked:
+        return None
+    node = bg.inputs["Color"].links[0].from_node
+    if node.type != "TEX_ENVIRONMENT" or node.image is None or node.projection != "EQUIRECTANGULAR":
+        return None
+    img = node.image
+    w, h = img.size
+    if w == 0 or h == 0:
+        return None
+    strength = float(bg.inputs["Strength"].default_value)
+    key = f"{img.name}|{img.filepath}|{w}x{h}|{strength}|{img.colorspace_settings.name}"
+    env = _environment_cache.get(key)
+    if env is None:
+        px = np.empty(w * h * img.channels, np.float32)
+        img.pixels.foreach_get(px)
+        rgb = px.reshape(h, w, img.channels)[..., :3].copy()
+        if not img.is_float and img.colorspace_settings.name == "sRGB":
+            rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+        _environment_cache.clear()
+        rgb *= strength
+        env = _environment_cache[key] = Environment(key=key, image=rgb, mean=equirect_mean(rgb))
+    return env
+
+
+def equirect_mean(image: np.ndarray) -> np.ndarray:
+    """Solid-angle-weighted mean of an equirectangular image (rows weighted by cos latitude)."""
+    h = image.shape[0]
+    lat = (np.arange(h) + 0.5) / h * np.pi - np.pi / 2
+    w = np.cos(lat)[:, None, None]
+    return (image * w).sum(axis=(0, 1)) / (w.sum() * image.shape[1])
+
+
+def mesh_corner_arrays(mesh):
+    """Positions, normals per triangle corner (object space), material index per triangle, and the
+    corner-to-loop and loop-to-vertex maps."""
+    mesh.calc_loop_triangles()
+    n_tri = len(mesh.loop_triangles)
+    tri_loops = np.empty(n_tri * 3, np.int32)
+    mesh.loop_triangles.foreach_get("loops", tri_loops)
+    mat_index = np.empty(n_tri, np.int32)
+    mesh.loop_triangles.foreach_get("material_index", mat_index)
+    loop_vert = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", loop_vert)
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    corner_normals = np.empty(len(mesh.loops) * 3, np.float32)
+    mesh.corner_normals.foreach_get("vector", corner_normals)
+    positions = co.reshape(-1, 3)[loop_vert[tri_loops]]
+    normals = corner_normals.reshape(-1, 3)[tri_loops]
+    return positions, normals, mat_index, tri_loops, loop_vert
+
+
+def vertex_group_weights(ob, mesh, names) -> dict[str, np.ndarray]:
+    """Weights (V,) of the named vertex groups that exist on the object.
+
+    Blender has no bulk access to deform weights, so this loops over vertices once, and only for
+    objects that have one of the groups.
+    """
+    index = {vg.index: vg.name for vg in ob.vertex_groups if vg.name in names}
+    if not index:
+        return {}
+    weights = {name: np.zeros(len(mesh.vertices), np.float32) for name in index.values()}
+    for v in mesh.vertices:
+        for g in v.groups:
+            name = index.get(g.group)
+            if name is not None:
+                weights[name][v.index] = g.weight
+    return weights
+
+
+def paint_arrays(ob, mesh, tri_loops, loop_vert):
+    """(paint (3T, 4), tint (3T, 3)) per corner from the painted layers, or (None, None) when unpainted."""
+    weights = vertex_group_weights(ob, mesh, PAINT_GROUPS)
+    tint_attr = mesh.color_attributes.get(TINT_ATTRIBUTE)
+    if not weights and tint_attr is None:
+        return None, None
+    corner_vert = loop_vert[tri_loops]
+    n = len(tri_loops)
+    paint = np.ones((n, 4), np.float32)
+    paint[:, 3] = 0.0
+    if MASK_GROUP in weights:
+        paint[:, 0] = weights[MASK_GROUP][corner_vert]
+    if BLUR_GROUP in weights:
+        paint[:, 1] = 1.0 / (1.0 + (1.0 / BLUR_MIN - 1.0) * weights[BLUR_GROUP][corner_vert])
+    if GLOW_GROUP in weights:
+        paint[:, 2] = 1.0 + 3.0 * weights[GLOW_GROUP][corner_vert]
+    tint = np.ones((n, 3), np.float32)
+    if tint_attr is not None:
+        rgba = np.empty(len(tint_attr.data) * 4, np.float32)
+        tint_attr.data.foreach_get("color", rgba)
+        rgba = rgba.reshape(-1, 4)
+        tint = rgba[corner_vert if tint_attr.domain == "POINT" else tri_loops, :3]
+    return paint, tint
+
+
+def caster_settings(s) -> Caster | None:
+    """The caustics caster of an object's settings (``Object.translucent``), or None."""
+    if s.caustics_caster == "NONE":
+        return None
+    color = np.clip(np.asarray(s.caustics_color, np.float64), 1e-6, 1.0)
+    if s.caustics_caster == "REFLECTIVE":
+        return Caster("REFLECTIVE", float(s.caustics_ior), 0, (0.0, 0.0, 0.0), 0.0, tuple(color))
+    # Absorption K_a per scene unit from the colour reached after caustics_distance mm (Eq. 5.7).
+    sigma_a = -np.log(color) / float(s.caustics_distance) * float(s.mm_per_unit)
+    return Caster("REFRACTIVE", float(s.caustics_ior), 1 if s.caustics_surfaces == "ONE" else 2,
+                  tuple(float(x) for x in sigma_a), float(s.caustics_dispersion))
+
+
+def grass_status(ob) -> tuple[str, str | None]:
+    """('OK' | 'STALE' | 'MISSING' | 'INVALID', hash or the settings' error) of an object's grass BTF."""
+    from ..techniques.grass import bake as grass_btf
+
+    s = ob.translucent
+    try:
+        params = grass_btf.params_from_settings(s.grass_tile, s.grass_blade_height, s.grass_blades, s.grass_seed)
+    except grass_btf.GrassSettingsError as err:
+        return "INVALID", str(err)
+    digest = grass_btf.settings_hash(params, int(s.grass_resolution), s.grass_target_error)
+    return bake_store.status(ob, grass_btf.BAKE_KEY, digest), digest
+
+
+def grass_layer(original, frame_warnings) -> GrassLayer | None:
+    """The grass field of an object, if it has one with a current BTF (else a warning says why not)."""
+    from ..techniques.grass import bake as grass_btf
+
+    s = original.translucent
+    if not s.grass:
+        return None
+    status, detail = grass_status(original)
+    if status != "OK":
+        why = detail if status == "INVALID" else f"grass BTF is {status.lower()}"
+        frame_warnings.append(f"'{original.name}': {why}; no grass drawn. Press Bake Grass BTF")
+        return None
+
+    def load(o=original):
+        record = bake_store.read(o, grass_btf.BAKE_KEY)
+        return record.arrays, record.meta
+
+    return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
+
+
+_height_cache: dict = {}
+
+
+def height_image(image) -> tuple[np.ndarray, str]:
+    """(heights, digest): (H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0
+    at the bottom (Blender's pixel order, so v = 0 is row 0), and a digest of them (the GPU texture's
+    cache key). Read once per image and kept while the image is unchanged (not dirty: a painted image is
+    read again every frame, so the relief follows the brush)."""
+    import os
+
+    path = image.filepath_from_user() if image.source == "FILE" else ""
+    stamp = os.path.getmtime(path) if path and os.path.isfile(path) else 0.0  # a file changed on disk
+    key = (image.name, image.as_pointer(), tuple(image.size), path, stamp)
+    cached = _height_cache.get(key)
+    if cached is not None and not image.is_dirty:
+        return cached
+    height = _read_height(image)
+    entry = (height, hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest())
+    if len(_height_cache) > 16:
+        _height_cache.clear()
+    _height_cache[key] = entry
+    return entry
+
+
+def _read_height(image) -> np.ndarray:
+    w, h = image.size
+    if w == 0 or h == 0:
+        raise ValueError(f"height map '{image.name}' has no pixels (is the file missing?)")
+    px = np.empty(w * h * image.channels, np.float32)
+    image.pixels.foreach_get(px)
+    px = px.reshape(h, w, image.channels)
+    rgb = px[..., :3] if image.channels >= 3 else px[..., :1]
+    return np.clip(rgb.mean(axis=-1), 0.0, 1.0).astype(np.float32)
+
+
+def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> ReliefSurface | None:
+    """The height field of an object (Shah ch. 3), or None (with a warning when it cannot be drawn)."""
+    s = original.translucent
+    if s.relief == "OFF":
+        return None
+    if s.relief_image is None:
+        frame_warnings.append(f"'{original.name}': height field has no height map; drawn flat")
+        return None
+    if mesh.uv_layers.active is None:
+        frame_warnings.append(f"'{original.name}': a height field needs a UV map; drawn flat")
+        return None
+    try:
+        height, digest = height_image(s.relief_image)
+    except ValueError as err:
+        frame_warnings.append(f"'{original.name}': {err}; drawn flat")
+        return None
+    uv_loops = np.empty(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", uv_loops)
+    uv = uv_loops.reshape(-1, 2)[tri_loops]
+    du, dv = uv_tangents(positions, uv)
+    key = f"{s.relief_image.name}:{digest}"
+    return ReliefSurface(key, height, float(s.relief_depth), 0 if s.relief == "INTERVAL" else 1,
+                         int(s.relief_linear_steps), int(s.relief_iterations), bool(s.relief_shadows), uv, du, dv)
+
+
+def caustic_settings(s) -> CausticSettings:
+    return CausticSettings(grid=int(s.caustics_grid), iterations=int(s.caustics_iterations),
+                           guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
+                           texels=int(s.caustics_map),
+                           splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
+
+
+def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
+    mesh = ob.to_mesh()
+    try:
+        if mesh is None or len(mesh.polygons) == 0:
+            return None
+        positions, normals, mat_index, tri_loops, loop_vert = mesh_corner_arrays(mesh)
+        palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
+                           dtype=np.float32)
+        colors = palette[np.clip(mat_index, 0, len(palette) - 1)].repeat(3, axis=0)
+        paint, tint = paint_arrays(ob, mesh, tri_loops, loop_vert)
+        digest = hashlib.blake2b(positions.tobytes(), digest_size=8)
+        for part in (normals, colors, paint, tint):
+            if part is not None:
+                digest.update(part.tobytes())
+        # Read settings from the original: editing a property does not re-evaluate the object.
+        original = ob.original
+        method = original.translucent.method
+        name = original.name
+        handle = None
+        if method != "OFF":
+            if bake_registry.needs_bake(method):
+                status = bake_status(ob, method)
+                if status != "OK":
+                    frame_warnings.append(
+                        f"'{name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake"
+                    )
+                else:
+                    handle = BakeHandle(f"{name}#{bake_store.stored_hash(original, method)}",
+                                        lambda o=original, m=method: bake_store.read(o, m).arrays)
+        medium = None
+        if method != "OFF":
+            s = original.translucent
+            layer = {}
+            if s.profile == "MULTIPOLE":
+                layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
+                             base_sigma_s_prime=tuple(s.base_sigma_s_prime))
+            if method == "QUADGRAPH":
+                layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
+                             single_scattering=bool(s.single_scattering))
+            if method == "GEOCUBE":
+                layer = dict(max_steps=int(s.geocube_steps))
+            medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
+                            **layer)
+        return MeshInstance(
+            key=f"{name}:{digest.hexdigest()}",
+            name=name,
+            positions=positions,
+            normals=normals,
+            colors=colors,
+            model=np.array(inst.matrix_world, dtype=np.float64),
+            method=method,
+            medium=medium,
+            paint=paint,
+            tint=tint,
+            bake=handle,
+            caster=caster_settings(original.translucent),
+            grass=grass_layer(original, frame_warnings),
+            relief=relief_surface(original, mesh, tri_loops, positions, frame_warnings),
+            auto_target=float(original.translucent.target_error) if original.translucent.quality == "AUTO" else None,
+        )
+    finally:
+        ob.to_mesh_clear()
+
+
+GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = False) -> FrameInputs:
+    """Everything of the evaluated scene that the pipeline draws."""
+    scene = depsgraph.scene
+    settings = scene.translucent
+    meshes, emitters, warnings = [], [], []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type in GEOMETRY_TYPES:
+            if only_translucent and ob.original.translucent.method == "OFF":
+                continue
+            m = _mesh_instance(inst, ob, warnings)
+            if m is not None:
+                meshes.append(m)
+        elif ob.type == "LIGHT":
+            light = ob.data
+            lit = emitters_from_light(
+                ob.original.name,
+                light.type,
+                np.array(inst.matrix_world),
+                light.color,
+                light.energy * (2.0 ** getattr(light, "exposure", 0.0)),
+                spot_size=getattr(light, "spot_size", 0.0),
+                spot_blend=getattr(light, "spot_blend", 0.0),
+                area_shape=getattr(light, "shape", "SQUARE"),
+                size=getattr(light, "size", 0.0),
+                size_y=getattr(light, "size_y", 0.0),
+                area_samples=settings.area_light_samples,
+            )
+            if not light.translucent.caustics:
+                lit = [dataclasses.replace(x, caustics=False) for x in lit]
+            emitters += lit
+    if not emitters and meshes:
+        warnings.append("the scene has no lights: objects are lit by the world only")
+    environment = world_environment(scene)
+    return FrameInputs(
+        meshes=meshes,
+        emitters=emitters,
+        camera=camera,
+        world_color=world_color(scene, environment),
+        environment=environment,
+        film_transparent=scene.render.film_transparent,
+        shadow_resolution=settings.shadow_resolution,
+        caustics=caustic_settings(settings),
+        warnings=warnings,
+    )
+
+
+def render_camera(depsgraph, width: int, height: int) -> CameraView:
+    """The scene camera as seen by F12 (pixel aspect included)."""
+    scene = depsgraph.scene
+    cam = scene.camera
+    if cam is None:
+        raise LookupError("the scene has no active camera: add one or set Scene > Camera")
+    cam_eval = cam.evaluated_get(depsgraph)
+    proj = cam_eval.calc_matrix_camera(
+        depsgraph, x=width, y=height, scale_x=scene.render.pixel_aspect_x, scale_y=scene.render.pixel_aspect_y
+    )
+    view = cam_eval.matrix_world.inverted()
+    return CameraView(np.array(view), np.array(proj), width, height)
+
+
+def viewport_camera(region, region_data) -> CameraView:
+    return CameraView(np.array(region_data.view_matrix), np.array(region_data.window_matrix),
+                      region.width, region.height)

@@ -1,0 +1,32 @@
+"""AUTO quality applied to a Blender object (thin: the choice is ``quality_auto``'s)."""
+from __future__ import annotations
+
+from ..techniques import quality_auto
+from ..techniques.registry import BakeInputError
+from .bake_inputs import object_view
+
+
+def apply_auto(context, ob) -> quality_auto.Choice:
+    """AUTO quality on one object: choose its method's resolutions and write them. IMAGE_SPACE's one
+    resolution, the scene's splat overlap, is not written: the engine chooses it again every frame from the
+    camera that draws it (``render.methods.image_space_auto``); the summary says what the scene camera
+    needs now."""
+    s = ob.translucent
+    view = object_view(ob.evaluated_get(context.evaluated_depsgraph_get()))
+    tile_mm = s.grass_tile * s.mm_per_unit if s.grass else None
+    if s.method == "OFF":
+        if tile_mm is None:
+            raise BakeInputError(f"'{ob.name}': no translucency method to choose resolutions for")
+        choice = quality_auto.Choice("OFF", {"grass_resolution": quality_auto.grass_resolution(view, tile_mm)}, {},
+                                     None, {}, [])
+    else:
+        try:
+            choice = quality_auto.choose(s.method, view, s.target_error, grass_tile_mm=tile_mm)
+        except ValueError as err:
+            raise BakeInputError(f"'{ob.name}': {err}") from err
+    for name, value in choice.settings.items():
+        setattr(s, name, value)
+    if choice.method == "IMAGE_SPACE":
+        choice.notes.append("at the scene camera; chosen again every frame from the camera that draws it")
+    s.auto_summary = choice.summary()
+    return choice

@@ -1,0 +1,293 @@
+"""The "Translucent" sidebar tab and our engine in Blender's own property panels."""
+from __future__ import annotations
+
+import bpy
+
+from ..techniques import METHOD_DESCRIPTIONS
+from .bake_inputs import bake_status
+from .versions import EEVEE_IDS
+
+_STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
+_STATUS_TEXT = {
+    "OK": "Bake up to date",
+    "STALE": "Bake is stale: the object changed since it was baked",
+    "MISSING": "Not baked yet",
+    "NONE": "This method needs no bake",
+}
+
+
+class VIEW3D_PT_translucent_object(bpy.types.Panel):
+    bl_label = "Translucent Object"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Translucent"
+
+    def draw(self, context):
+        layout = self.layout
+        ob = context.active_object
+        if ob is not None and ob.type == "LIGHT":
+            layout.prop(ob.data.translucent, "caustics")
+            return
+        if ob is None or ob.type != "MESH":
+            layout.label(text="Select a mesh object", icon="INFO")
+            return
+        s = ob.translucent
+        layout.prop(s, "method")
+        layout.label(text=METHOD_DESCRIPTIONS[s.method])
+        col = layout.column(align=True)
+        row = col.row(align=True)
+        row.prop(s, "preset")
+        row.operator("translucent.save_preset", text="", icon="ADD")
+        row.operator("translucent.remove_preset", text="", icon="REMOVE")
+        col.prop(s, "sigma_a")
+        col.prop(s, "sigma_s_prime")
+        col.prop(s, "eta")
+        col.prop(s, "g")
+        layout.prop(s, "mm_per_unit")
+        longest = max(ob.dimensions)
+        if longest > 0:  # the size helper: scattering depends on the real size
+            row = layout.row(align=True)
+            size_mm = [d * s.mm_per_unit for d in ob.dimensions]
+            row.label(text="Size: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
+            row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
+        if s.method != "OFF" or s.grass:
+            box = layout.box()
+            row = box.row(align=True)
+            row.prop(s, "quality", expand=True)
+            if s.quality == "AUTO":
+                row = box.row(align=True)
+                row.prop(s, "target_error")
+                row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
+                for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
+                    box.label(text=line)
+                if s.method == "IMAGE_SPACE":
+                    from .engine import LAST_AUTO_OVERLAP
+
+                    k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
+                    if k is not None:
+                        box.label(text=f"Last frame: splat overlap {k:g} for this object, "
+                                       f"{LAST_AUTO_OVERLAP['overlap']:g} in the scene", icon="CAMERA_DATA")
+        if s.method == "IMAGE_SPACE":
+            layout.prop(s, "profile")
+            if s.profile == "MULTIPOLE":
+                col = layout.column(align=True)
+                col.prop(s, "layer_thickness")
+                col.prop(s, "base_sigma_a")
+                col.prop(s, "base_sigma_s_prime")
+        if s.method == "TEXTURE_SPACE":
+            col = layout.column(align=True)
+            col.prop(s, "atlas_resolution")
+            col.prop(s, "proxy_spacing")
+            col.prop(s, "texture_blending")
+        if s.method == "QUADGRAPH":
+            col = layout.column(align=True)
+            col.prop(s, "quadgraph_K")
+            col.prop(s, "quadgraph_levels")
+            col.prop(s, "single_scattering")
+            col = layout.column(align=True)
+            col.prop(s, "veins")
+            col.prop(s, "veins_scale")
+        if s.method == "GEOCUBE":
+            col = layout.column(align=True)
+            col.prop(s, "geocube_resolution")
+            col.prop(s, "geocube_steps")
+        status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
+        layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
+        if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}:
+            _bake_statistics(layout, ob, s.method)
+        row = layout.row(align=True)
+        row.operator("translucent.bake", icon="RENDER_STILL")
+        row.operator("translucent.clear_bake", icon="TRASH")
+        layout.operator("translucent.compare_cycles", icon="IMAGE_REFERENCE")
+        box = layout.box()
+        box.prop(s, "caustics_caster")
+        if s.caustics_caster != "NONE":
+            col = box.column(align=True)
+            if s.caustics_caster == "REFRACTIVE":
+                col.prop(s, "caustics_ior")
+                col.prop(s, "caustics_surfaces")
+                col.prop(s, "caustics_dispersion")
+                col.prop(s, "caustics_color")
+                col.prop(s, "caustics_distance")
+            else:
+                col.prop(s, "caustics_color", text="Reflectance")
+        _grass_box(layout, ob)
+        box = layout.box()
+        box.prop(s, "relief")
+        if s.relief != "OFF":
+            col = box.column(align=True)
+            col.template_ID(s, "relief_image", open="image.open")
+            for name in ("relief_depth", "relief_linear_steps", "relief_iterations", "relief_shadows"):
+                col.prop(s, name)
+            if not ob.data.uv_layers:
+                box.label(text="Needs a UV map", icon="ERROR")
+        if s.method in {"IMAGE_SPACE", "QUADGRAPH"}:  # QUADGRAPH carries the paint into its volume
+            box = layout.box()
+            box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
+            grid = box.grid_flow(columns=2, align=True)
+            for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
+                                 ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
+                op = grid.operator("translucent.add_paint_layer", text=label)
+                op.layer = layer
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    """A long line in panel-sized pieces (a label does not wrap)."""
+    import textwrap
+
+    return textwrap.wrap(text, width) or [""]
+
+
+def _grass_box(layout, ob) -> None:
+    """Grass field: settings, BTF status and statistics, bake."""
+    from ..core import bake_store as store
+    from ..techniques.grass import bake as grass_btf
+    from .extract import grass_status
+
+    s = ob.translucent
+    box = layout.box()
+    box.prop(s, "grass")
+    if not s.grass:
+        box.operator("translucent.add_grass_field", icon="OUTLINER_OB_CURVES")
+        return
+    col = box.column(align=True)
+    for name in ("grass_tile", "grass_blade_height", "grass_blades", "grass_seed", "grass_resolution",
+                 "grass_target_error", "grass_lod"):
+        col.prop(s, name)
+    status, detail = grass_status(ob)
+    if status == "INVALID":
+        box.label(text=detail, icon="ERROR")
+    else:
+        box.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
+    meta = store.read_meta(ob, grass_btf.BAKE_KEY)
+    if meta is not None:
+        col = box.column(align=True)
+        col.scale_y = 0.8
+        col.label(text=f"Eigen-textures: {meta['counts'][0]} Y, {meta['counts'][1]} Cb/Cr "
+                       f"(error {meta.get('total_error', 0.0):.2f})")
+        col.label(text=f"Stored: {meta['storage']['total'] / 2**20:.1f} MB of "
+                       f"{meta['uncompressed_bytes'] / 2**20:.0f} MB; baked in {meta.get('seconds', 0.0):.0f} s")
+    box.operator("translucent.bake_grass_btf", icon="RENDER_STILL")
+
+
+def _length(mm: float) -> str:
+    """A length in the unit an artist would say it in."""
+    if mm >= 1000.0:
+        return f"{mm / 1000.0:.3g} m"
+    if mm >= 10.0:
+        return f"{mm / 10.0:.3g} cm"
+    return f"{mm:.3g} mm"
+
+
+def _bake_statistics(layout, ob, method) -> None:
+    """What the bake holds, from its metadata (read without loading the arrays)."""
+    from ..core import bake_store as store
+
+    meta = store.read_meta(ob, method)
+    if meta is None:
+        return
+    col = layout.column(align=True)
+    col.scale_y = 0.8
+    mb = meta.get("bytes", 0) / 2**20
+    if method == "QUADGRAPH":
+        col.label(text=f"Nodes: {meta.get('surface_nodes', 0):,} surface, {meta.get('inner_nodes', 0):,} inner "
+                       f"({len(meta.get('levels', []))} levels, link {meta.get('link_mm', 0.0):.1f} mm)")
+        col.label(text=f"Proxy: {meta.get('proxy_triangles', 0):,} triangles; {mb:.0f} MB; baked in "
+                       f"{meta.get('seconds', 0.0):.1f} s")
+        return
+    if method == "GEOCUBE":
+        col.label(text=f"Cubes: {meta.get('geocube_cubes', 0)} of {meta.get('geocube_res', 0)}^2 texels a face, "
+                       f"{100 * meta.get('geocube_coverage', 0.0):.1f} % of the surface seen")
+        col.label(text=f"Stored: {mb:.1f} MB, baked in {meta.get('seconds', meta.get('geocube_seconds', 0.0)):.1f} s")
+        return
+    col.label(text=f"Proxy: {meta.get('proxy_vertices', 0):,} vertices, atlas {meta.get('atlas', ['?', '?'])[0]}"
+                   f" x {meta.get('atlas', ['?', '?'])[1]}")
+    col.label(text=f"Texels: {meta.get('surface_texels', 0):,} ({meta.get('texel_mm', 0.0):.2f} mm), "
+                   f"form factors: {meta.get('form_factors', 0):,}")
+    col.label(text=f"Stored: {mb:.0f} MB, baked in {meta.get('seconds', 0.0):.1f} s")
+
+
+def _last_frame(layout) -> None:
+    """The last frame's milliseconds per pass (F12 or viewport)."""
+    from .draw_handler import timing_lines
+    from .engine import LAST_TIMINGS
+
+    lines = timing_lines(LAST_TIMINGS)
+    box = layout.box()
+    if not lines:
+        box.label(text="Last frame: none drawn yet", icon="TIME")
+        return
+    box.label(text=lines[0].strip(), icon="TIME")
+    col = box.column(align=True)
+    col.scale_y = 0.75
+    for line in lines[1:9]:
+        col.label(text=line.strip())
+
+
+class VIEW3D_PT_translucent_scene(bpy.types.Panel):
+    bl_label = "Translucent Scene"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Translucent"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        s = context.scene.translucent
+        layout = self.layout
+        layout.prop(s, "shadow_resolution")
+        layout.prop(s, "area_light_samples")
+        col = layout.column(align=True)
+        col.label(text="Image-space splatting")
+        col.prop(s, "splat_threshold")
+        col.prop(s, "splat_overlap")
+        col.prop(s, "splat_max_grid")
+        from .engine import LAST_AUTO_OVERLAP
+
+        if LAST_AUTO_OVERLAP:
+            col.label(text=f"Last frame: overlap {LAST_AUTO_OVERLAP['overlap']:g}, {LAST_AUTO_OVERLAP['max_grid']} "
+                           "per side, chosen by Auto objects", icon="INFO")
+        col.prop(s, "splat_world_layers")
+        col.prop(s, "splat_world_overlap")
+        col.prop(s, "temporal_coherence")
+        layout.prop(s, "texture_product")
+        col = layout.column(align=True)
+        col.label(text="QuadGraph solver")
+        col.prop(s, "quadgraph_tolerance")
+        col.prop(s, "quadgraph_iterations")
+        col = layout.column(align=True)
+        col.label(text="Caustics (Shah ch. 5)")
+        col.prop(s, "caustics_grid")
+        col.prop(s, "caustics_estimator")
+        col.prop(s, "caustics_iterations")
+        col.prop(s, "caustics_guard")
+        col.prop(s, "caustics_map")
+        col.prop(s, "caustics_splat")
+        col.prop(s, "caustics_adaptive")
+        layout.prop(s, "overlay_other_engines")
+        layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")
+        _last_frame(layout)
+        row = layout.row(align=True)
+        row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
+        row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "CAUSTICS"
+
+
+classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene)
+
+# Blender's own panels (lights, world, materials, render dimensions) show only for
+# the engines in their COMPAT_ENGINES; add ours beside EEVEE's and remove it again.
+_ENGINE = "TRANSLUCENT_RT"
+_patched: list = []
+
+
+def register_compat_panels() -> None:
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if isinstance(engines, set) and engines.intersection(EEVEE_IDS) and _ENGINE not in engines:
+            engines.add(_ENGINE)
+            _patched.append(panel)
+
+
+def unregister_compat_panels() -> None:
+    for panel in _patched:
+        panel.COMPAT_ENGINES.discard(_ENGINE)
+    _patched.clear()

@@ -1,1 +1,0 @@
-"""Comparison with Cycles and EEVEE: parameter conversions, metrics, charts, twin scenes."""

@@ -1,0 +1,217 @@
+"""Pure description of one frame: what the GPU pipeline and the CPU references draw.
+
+Blender data is turned into this by ``render.extract`` (the only bpy-facing step), so
+the GPU pipeline and the NumPy reference renderers see exactly the same inputs.
+Conventions: right-handed world space in Blender units, matrices column-vector
+(``p_world = model @ p_object``), OpenGL clip space, image row 0 at the bottom.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .lights import Emitter
+
+
+@dataclasses.dataclass(frozen=True)
+class Medium:
+    """A homogeneous scattering medium: coefficients in mm^-1 and the object's scale."""
+
+    sigma_a: tuple
+    sigma_s_prime: tuple
+    eta: float
+    mm_per_unit: float
+    g: float = 0.0
+    # Optional multipole: this medium as a layer of the given thickness over a base (Shah 6.5).
+    layer_thickness_mm: float | None = None
+    base_sigma_a: tuple | None = None
+    base_sigma_s_prime: tuple | None = None
+    # QUADGRAPH: procedural marble veins in the volume (strength 0..1, spacing in mm).
+    veins: float = 0.0
+    veins_spacing_mm: float = 20.0
+    single_scattering: bool = True  # QUADGRAPH: draw the surface term (single and local multiple scattering)
+    max_steps: int = 32  # GEOCUBE: cap on the exit search's steps
+
+
+@dataclasses.dataclass(frozen=True)
+class Caster:
+    """A caustics caster (Shah ch. 5): it refracts (through one or two surfaces) or mirrors the light of
+    every emitter with caustics on, onto every other mesh."""
+
+    mode: str = "REFRACTIVE"  # or "REFLECTIVE"
+    eta: float = 1.5
+    surfaces: int = 2  # refracting surfaces: 1 (a water surface), 2 (a solid, Wyman 2005)
+    sigma_a: tuple = (0.0, 0.0, 0.0)  # absorption K_a per scene unit (Shah Eq. 5.7)
+    dispersion: float = 0.0  # eta - s, eta, eta + s for red, green, blue; 0: one index
+    tint: tuple = (1.0, 1.0, 1.0)  # reflectance of a reflective caster
+
+
+@dataclasses.dataclass(frozen=True)
+class CausticSettings:
+    """Scene-wide caustics mapping settings (Shah 5.3.3-5.3.6)."""
+
+    grid: int = 128  # vertex grid per caster, texels per side
+    iterations: int = 4  # look-ups of the intersection estimate
+    guard: bool = True  # oscillation guard: bisection once the estimates bracket the root
+    secant: bool = True  # secant steps after the first (with the guard); False: Shah's iteration only
+    texels: int = 1024  # caustic and receiver-position map, texels per face
+    splat_sigma: float = 1.0  # Gaussian splat width, texels (the smallest with adaptive splats)
+    adaptive: bool = True  # widen each splat to the spacing of its neighbours' landing points
+    splat_sigma_max: float = 16.0
+
+
+@dataclasses.dataclass(frozen=True)
+class GrassLayer:
+    """A grass field on a ground mesh (Shah ch. 4): its BTF bake and how it is laid on the ground."""
+
+    bake: object  # BakeHandle of the GRASS bake; load() -> (arrays, meta)
+    tile: float  # side of one BTF tile, scene units
+    lod: float = 1.0  # texels per pixel above which fewer luminance eigen-textures are summed; 0: never
+    min_groups: int = 2  # the fewest luminance groups of four eigen-textures kept far away
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ReliefSurface:
+    """A height field over a mesh's UVs (Shah ch. 3): interval or relief mapping."""
+
+    key: str  # names the height image (GPU cache)
+    height: np.ndarray  # (H, W) float32 in [0, 1], row 0 at v = 0; 1 is the surface
+    depth: float  # scene units from height 1 down to height 0
+    mode: int = 0  # 0 interval mapping, 1 relief mapping (gpu_shaders/interval_search.glsl)
+    linear_steps: int = 8
+    iterations: int = 10
+    shadows: bool = True
+    uv: np.ndarray | None = None  # (3T, 2) per corner
+    tangent_u: np.ndarray | None = None  # (3T, 3) object-space dP/du per corner
+    tangent_v: np.ndarray | None = None  # (3T, 3) dP/dv
+
+
+# Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
+# (blur), glow factor; the RGB tint is a separate array. Neutral: (1, 1, 1, 0) and tint (1, 1, 1).
+NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
+
+
+class BakeHandle:
+    """An up-to-date bake of a drawn object: ``key`` names it (object and inputs hash), ``load()``
+    reads its arrays (only when the GPU data of that key is not cached yet)."""
+
+    def __init__(self, key: str, load):
+        self.key = key
+        self.load = load
+
+
+@dataclasses.dataclass
+class MeshInstance:
+    """One drawn mesh: triangle corners in object space and a model matrix."""
+
+    key: str  # stable identity for GPU caches (object name + data + geometry hash)
+    name: str
+    positions: np.ndarray  # (3T, 3) float32, object space, triangle corners in order
+    normals: np.ndarray  # (3T, 3) float32, object-space corner normals (Blender's split normals)
+    colors: np.ndarray  # (3T, 3) float32, linear base colour per corner (from the material)
+    model: np.ndarray  # (4, 4) float64
+    method: str = "OFF"
+    medium: Medium | None = None
+    paint: np.ndarray | None = None  # (3T, 4) float32: mask, M_d, glow, 0
+    tint: np.ndarray | None = None  # (3T, 3) float32
+    bake: object = None  # BakeHandle of an up-to-date bake (methods that bake), else None
+    caster: Caster | None = None  # a caustics caster, else a receiver
+    grass: GrassLayer | None = None  # a grass field grows on this mesh
+    relief: ReliefSurface | None = None  # a height field displaces this mesh per pixel (drawn by its pass)
+    auto_target: float | None = None  # AUTO quality's target error (IMAGE_SPACE chooses k per frame); None: manual
+
+    def __post_init__(self):
+        n = len(self.positions)
+        if n % 3 or self.normals.shape != (n, 3) or self.colors.shape != (n, 3):
+            raise ValueError(f"{self.name}: corner arrays must be (3T, 3) and of equal length")
+        if self.paint is None:
+            self.paint = np.tile(np.asarray(NEUTRAL_PAINT, np.float32), (n, 1))
+        if self.tint is None:
+            self.tint = np.ones((n, 3), np.float32)
+        if self.paint.shape != (n, 4) or self.tint.shape != (n, 3):
+            raise ValueError(f"{self.name}: paint must be (3T, 4) and tint (3T, 3)")
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.positions) // 3
+
+    @property
+    def normal_matrix(self) -> np.ndarray:
+        """Inverse transpose of the model's linear part, padded to 4x4 (std140 friendly)."""
+        m = np.eye(4)
+        m[:3, :3] = np.linalg.inv(self.model[:3, :3]).T
+        return m
+
+    def world_positions(self) -> np.ndarray:
+        p = self.positions.astype(np.float64)
+        return p @ self.model[:3, :3].T + self.model[:3, 3]
+
+    def world_normals(self) -> np.ndarray:
+        n = self.normals.astype(np.float64) @ self.normal_matrix[:3, :3].T
+        return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+
+
+@dataclasses.dataclass
+class CameraView:
+    """A camera: view and projection matrices and the image size in pixels."""
+
+    view: np.ndarray  # (4, 4) world -> camera
+    projection: np.ndarray  # (4, 4) camera -> clip (OpenGL)
+    width: int
+    height: int
+
+    @property
+    def view_proj(self) -> np.ndarray:
+        return self.projection @ self.view
+
+    @property
+    def position(self) -> np.ndarray:
+        return np.linalg.inv(self.view)[:3, 3]
+
+
+@dataclasses.dataclass
+class Environment:
+    """The world as an equirectangular radiance image (Blender's Environment Texture, times the
+    Background strength), for the methods that look it up by direction (GEOCUBE). ``key`` names the
+    image and strength for GPU caches."""
+
+    key: str
+    image: np.ndarray  # (H, W, 3) float32 linear radiance, row 0 at the bottom
+    mean: np.ndarray  # (3,) its solid-angle-weighted average: the uniform world the base pass uses
+
+
+@dataclasses.dataclass
+class FrameInputs:
+    """Everything one frame needs, in plain arrays."""
+
+    meshes: list[MeshInstance]
+    emitters: list[Emitter]
+    camera: CameraView
+    world_color: np.ndarray  # (3,) linear radiance of the uniform world
+    film_transparent: bool = False
+    environment: Environment | None = None  # None: the uniform world_color in every direction
+    shadow_resolution: int = 1024  # texels per shadow-map face
+    caustics: CausticSettings = dataclasses.field(default_factory=CausticSettings)
+    warnings: list[str] = dataclasses.field(default_factory=list)
+    _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
+
+    def world_sh(self) -> np.ndarray:
+        """The world's radiance in SH bands 0-2, L_lm (9, 3): the environment image's (projected once per
+        image), or the uniform colour's."""
+        from .physics.sh_irradiance import project_environment, uniform_coefficients
+
+        if self.environment is None:
+            return uniform_coefficients(self.world_color)
+        return project_environment(self.environment.key, self.environment.image)
+
+    def bounds(self) -> tuple[np.ndarray, float]:
+        """Centre and radius of a sphere around every mesh (for directional shadow maps), computed once."""
+        if self._bounds is None:
+            if not self.meshes:
+                self._bounds = (np.zeros(3), 1.0)
+            else:
+                pts = np.concatenate([m.world_positions() for m in self.meshes])
+                lo, hi = pts.min(axis=0), pts.max(axis=0)
+                self._bounds = (0.5 * (lo + hi), max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-4))
+        return self._bounds

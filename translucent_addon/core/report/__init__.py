@@ -1,0 +1,3 @@
+"""The comparison report: report.json, PNG images and the speed-against-accuracy charts, drawn without matplotlib
+(pure).
+"""

@@ -1,0 +1,1 @@
+"""Caustics: refractive and reflective caustics by caustic mapping (Shah 2007, ch. 5)."""

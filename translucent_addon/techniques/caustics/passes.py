@@ -1,0 +1,225 @@
+"""Caustics mapping (Shah ch. 5) in the pipeline: GPU passes per emitter, after its lighting pass.
+
+Per emitter with caustics on (``Emitter.caustics``) and for every caster in the frame:
+
+1. receiver positions from the light into a 3 x 2 atlas (cube faces for point lights, the
+   orthographic map of the shadow pass for directional ones): ``caustic_receiver``;
+2. the caster's positions and normals on its vertex grid, a projection from the light fitted to
+   its bounding sphere (``geometry/caustic_mapping.caster_grid``), nearest and farthest surfaces:
+   ``caustic_caster``;
+3. per grid vertex: refraction through one or two surfaces (or a mirror), the intersection
+   estimate against the back faces and the receivers, flux with Fresnel and Beer (Eq. 5.7):
+   ``caustic_trace``;
+4. Gaussian splats of that flux into the caustic atlas: ``caustic_splat``;
+5. the receivers drawn by the base pass add rho / pi times the caustic irradiance:
+   ``caustic_apply``.
+
+Casters cast ordinary shadows in the shadow pass (glass is opaque to the shadow map, as to
+Cycles' shadow rays); the light they pass on arrives as the caustic. Blender-facing (``gpu``).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...core.frame import CausticSettings, FrameInputs, MeshInstance
+from ...gpu import blocks, shaders
+from ...gpu.targets import new_target, screen_quad
+from .model import CausticError, caster_grid
+
+
+@dataclasses.dataclass
+class Plan:
+    """What the caustic passes draw this frame."""
+
+    settings: CausticSettings
+    casters: list  # (mesh index, MeshInstance, world centre, radius)
+    receivers: list  # mesh indices drawn into the receiver atlas (every mesh that is not a caster)
+    lit: list  # mesh indices that add the caustic (receivers drawn by the base pass)
+
+
+def bounding_sphere(mesh: MeshInstance) -> tuple[np.ndarray, float]:
+    p = mesh.world_positions()
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    centre = 0.5 * (lo + hi)
+    return centre, float(np.linalg.norm(p - centre, axis=1).max())
+
+
+_closed: dict[str, bool] = {}
+
+
+def is_closed(mesh: MeshInstance) -> bool:
+    """Whether the mesh (corners welded by position) is a closed manifold; cached per geometry key."""
+    closed = _closed.get(mesh.key)
+    if closed is None:
+        from ...core.geometry.mesh_checks import check_mesh
+
+        vertices, triangles = np.unique(mesh.positions, axis=0, return_inverse=True)
+        closed = _closed[mesh.key] = check_mesh(vertices, triangles.reshape(-1, 3)).closed_manifold
+        if len(_closed) > 256:
+            _closed.clear()
+    return closed
+
+
+def prepare(frame: FrameInputs) -> Plan | None:
+    casters = []
+    for k, m in enumerate(frame.meshes):
+        if m.caster is None:
+            continue
+        if m.caster.mode == "REFRACTIVE" and m.caster.surfaces == 2 and not is_closed(m):
+            frame.warnings.append(f"'{m.name}': an open mesh has no back faces to refract out of; its caustics "
+                                  "use one surface (set Surfaces to One, or close the mesh)")
+            m = dataclasses.replace(m, caster=dataclasses.replace(m.caster, surfaces=1))
+        casters.append((k, m, *bounding_sphere(m)))
+    if not casters or not any(e.caustics for e in frame.emitters):
+        return None
+    receivers = [k for k, m in enumerate(frame.meshes) if m.caster is None]
+    lit = [k for k in receivers if frame.meshes[k].method == "OFF"]
+    return Plan(frame.caustics, casters, receivers, lit)
+
+
+def _target(pipeline, name: str, size, depth: bool = False, attachments: int = 1):
+    key = (name, tuple(size))
+    t = pipeline.targets.get(key)
+    if t is None:
+        t = pipeline.targets[key] = new_target(tuple(size), depth=depth, attachments=attachments)
+    return t
+
+
+def _batch(pipeline, shader_name: str, mesh: MeshInstance, with_normals: bool):
+    key = (shader_name, mesh.key)
+    batch = pipeline.targets.get(key)
+    if batch is None:
+        from gpu_extras.batch import batch_for_shader
+
+        attrs = {"pos": np.ascontiguousarray(mesh.positions, np.float32)}
+        if with_normals:
+            attrs["nor"] = np.ascontiguousarray(mesh.normals, np.float32)
+        batch = pipeline.targets[key] = batch_for_shader(shaders.get(shader_name), "TRIS", attrs)
+    return batch
+
+
+def _capture(pipeline, name: str, fb, size, slot: int = 0) -> None:
+    if pipeline.capture is not None:
+        from ...pipeline import read_pixels
+
+        pipeline.capture.setdefault(name, []).append(read_pixels(fb, size[0], size[1], slot))
+
+
+def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects, frame_ubo, fb, pipeline,
+                 shadow_atlas) -> None:
+    """The caustics of every caster under one emitter, added to the bound target ``fb``; ``shadow_atlas``
+    (this emitter's, from the shadow pass) drops grid vertices that another object hides from the light."""
+    import gpu
+
+    from ...pipeline import clear_target
+
+    s = plan.settings
+    N = int(s.texels)
+    atlas_size = (3 * N, 2 * N)
+    gpu.state.blend_set("NONE")
+    gpu.state.depth_mask_set(True)
+
+    # 1. Receiver positions from the light.
+    recv_fb, (recv_tex,), _recv_depth = _target(pipeline, "caustic_receivers", atlas_size, depth=True)
+    shader = shaders.get("caustic_receiver")
+    n_faces = 6 if e.kind else 1
+    with recv_fb.bind():
+        clear_target(recv_fb, (0.0, 0.0, 0.0, 0.0))
+        gpu.state.depth_test_set("LESS_EQUAL")
+        shader.bind()
+        shader.uniform_block("light", light_ubo)
+        for face in range(n_faces):
+            gpu.state.viewport_set((face % 3) * N, (face // 3) * N, N, N)
+            shader.uniform_int("face", face)
+            for k in plan.receivers:
+                shader.uniform_block("object", objects[k])
+                _batch(pipeline, "caustic_receiver", frame.meshes[k], False).draw(shader)
+    _capture(pipeline, "caustic_receivers", recv_fb, atlas_size)
+
+    flux_fb, (flux_tex,), _ = _target(pipeline, "caustic_flux", atlas_size)
+    with flux_fb.bind():
+        clear_target(flux_fb, (0.0, 0.0, 0.0, 0.0), depth=None)
+    G = int(s.grid)
+    caster_shader = shaders.get("caustic_caster")
+    trace_shader = shaders.get("caustic_trace")
+    splat_shader = shaders.get("caustic_splat")
+    keep_alive = []
+    for k, mesh, centre, radius in plan.casters:
+        try:
+            grid = caster_grid(e, centre, radius, G)
+        except CausticError as exc:
+            frame.warnings.append(f"'{mesh.name}': {exc}")
+            continue
+        ubo = gpu.types.GPUUniformBuf(blocks.caustic_block(grid.view_proj, G, grid.half_extent, mesh.caster, s))
+        keep_alive.append(ubo)
+        # 2. The caster on its grid: nearest (front) and farthest (back) surfaces.
+        maps = []
+        for name, depth_clear, test in (("caustic_front", 1.0, "LESS_EQUAL"), ("caustic_back", 0.0, "GREATER_EQUAL")):
+            grid_fb, textures, _depth = _target(pipeline, name, (G, G), depth=True, attachments=2)
+            with grid_fb.bind():
+                clear_target(grid_fb, (0.0, 0.0, 0.0, 0.0), depth=depth_clear)
+                gpu.state.viewport_set(0, 0, G, G)
+                gpu.state.depth_test_set(test)
+                caster_shader.bind()
+                caster_shader.uniform_block("caustic", ubo)
+                caster_shader.uniform_block("object", objects[k])
+                _batch(pipeline, "caustic_caster", mesh, True).draw(caster_shader)
+            maps.append(textures)
+            _capture(pipeline, name + "_position", grid_fb, (G, G), 0)
+            _capture(pipeline, name + "_normal", grid_fb, (G, G), 1)
+        # 3. Refract and estimate the landing points.
+        channels = 3 if (mesh.caster.dispersion > 0 and mesh.caster.mode != "REFLECTIVE") else 1
+        trace_size = (G * channels, G)
+        trace_fb, (landing_tex, trace_flux_tex), _ = _target(pipeline, "caustic_trace", trace_size, attachments=2)
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        with trace_fb.bind():
+            gpu.state.viewport_set(0, 0, *trace_size)
+            trace_shader.bind()
+            trace_shader.uniform_block("light", light_ubo)
+            trace_shader.uniform_block("caustic", ubo)
+            trace_shader.uniform_sampler("front_position", maps[0][0])
+            trace_shader.uniform_sampler("front_normal", maps[0][1])
+            trace_shader.uniform_sampler("back_position", maps[1][0])
+            trace_shader.uniform_sampler("back_normal", maps[1][1])
+            trace_shader.uniform_sampler("receiver_atlas", recv_tex)
+            trace_shader.uniform_sampler("shadow_atlas", shadow_atlas)
+            screen_quad(pipeline, "caustic_trace").draw(trace_shader)
+        _capture(pipeline, "caustic_landing", trace_fb, trace_size, 0)
+        _capture(pipeline, "caustic_trace_flux", trace_fb, trace_size, 1)
+        # 4. Splat into the caustic atlas.
+        with flux_fb.bind():
+            gpu.state.viewport_set(0, 0, *atlas_size)
+            gpu.state.blend_set("ADDITIVE_PREMULT")
+            splat_shader.bind()
+            splat_shader.uniform_block("light", light_ubo)
+            splat_shader.uniform_block("caustic", ubo)
+            splat_shader.uniform_sampler("trace_landing", landing_tex)
+            splat_shader.uniform_sampler("trace_flux", trace_flux_tex)
+            screen_quad(pipeline, "caustic_splat").draw_instanced(
+                splat_shader, instance_start=0, instance_count=trace_size[0] * trace_size[1])
+            gpu.state.blend_set("NONE")
+        gpu.state.depth_mask_set(True)
+    _capture(pipeline, "caustic_flux", flux_fb, atlas_size)
+    if not keep_alive or not plan.lit:
+        return
+
+    # 5. Receivers add the caustic.
+    apply = shaders.get("caustic_apply")
+    with fb.bind():
+        gpu.state.depth_mask_set(False)
+        gpu.state.depth_test_set("LESS_EQUAL")
+        gpu.state.blend_set("ADDITIVE_PREMULT")
+        apply.bind()
+        apply.uniform_block("frame", frame_ubo)
+        apply.uniform_block("light", light_ubo)
+        apply.uniform_block("caustic", keep_alive[0])  # only its settings are read
+        apply.uniform_sampler("caustic_atlas", flux_tex)
+        apply.uniform_sampler("receiver_atlas", recv_tex)
+        for k in plan.lit:
+            apply.uniform_block("object", objects[k])
+            batches[k][0].draw(apply)
+        gpu.state.blend_set("NONE")
+        gpu.state.depth_mask_set(True)

@@ -1,0 +1,136 @@
+"""GEOCUBE: refraction through both sides, one internal reflection and thickness-dependent blur on the
+GPU every frame (Chan & Wang 2005, Blender-facing).
+
+Per frame, for each mesh with an up-to-date bake, one pass over its front faces (``gc_refract``) after
+the base pass: Fresnel reflection of the world, refraction in, the cone-propelled exit search through
+the object's geocubes (``gc_common.glsl``, twin of ``geocube_data``), refraction out or one total internal
+reflection, then the world in the leaving direction from the key filtered environment chain
+(``techniques/geocube/environment.py``) at the blur of the slab transfer fit for the path's scattering depth
+(``core/physics/slab_transfer.py``), with coloured Beer absorption. The refracted scene is the world only:
+other objects behind a glass object are not seen through it (the paper's environment-map model).
+The GPU data of the world and of each anisotropy g are built once and cached.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...gpu import bake_cache, shaders
+from ...gpu.bake_cache import Active
+from ...gpu.targets import texture_from_array
+from . import environment as env_chain
+from . import model as gcd
+from .bake import from_arrays
+
+ENV_RES_RANGE = (16, 256)
+_env_cache: dict = {}
+_transfer_cache: dict = {}
+
+
+class Resources:
+    """GPU data of one bake: the cone and normal atlases, the centres, and the draw batch."""
+
+    def __init__(self, arrays: dict):
+        self.gset = from_arrays(arrays)
+        self.atlases = gcd.atlases(self.gset)
+        self.stretch = np.asarray(arrays["stretch"], np.float64).reshape(3, 3)
+        self.cones = texture_from_array(self.atlases.cones)
+        self.normals = texture_from_array(self.atlases.normals)
+        self.centres = texture_from_array(self.atlases.centres[None].astype(np.float32))
+        self.batches: dict = {}
+
+    def batch(self, mesh):
+        """pos, nor and the starting cube of each corner (the bake's per-triangle choice, Sec. 2.3)."""
+        b = self.batches.get(mesh.key)
+        if b is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.batches.clear()
+            start = np.repeat(self.gset.start_cube, 3).astype(np.float32)
+            b = self.batches[mesh.key] = batch_for_shader(shaders.get("gc_refract"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32),
+                "start_cube": start})
+        return b
+
+
+def environment(frame):
+    """(EnvironmentChain, atlas texture) of the frame's world, built once per world image."""
+    env = frame.environment
+    key = env.key if env is not None else "uniform:" + ",".join(f"{c:.6g}" for c in frame.world_color)
+    cached = _env_cache.get(key)
+    if cached is None:
+        if env is None:
+            chain = env_chain.EnvironmentChain.uniform(np.asarray(frame.world_color, np.float64))
+        else:
+            w = env.image.shape[1]
+            res = int(np.clip(2 ** int(np.round(np.log2(max(w, 4) / 4))), *ENV_RES_RANGE))
+            chain = env_chain.EnvironmentChain.from_equirect(env.image, res)
+        _env_cache.clear()
+        cached = _env_cache[key] = (chain, texture_from_array(chain.atlas))
+    return cached
+
+
+def transfer(g: float):
+    """(texture, log(1 + tau_max)) of the slab transfer fit for anisotropy g (Monte Carlo, ~1 s, cached)."""
+    from ...core.physics.slab_transfer import transfer_table
+
+    key = round(float(g), 3)
+    cached = _transfer_cache.get(key)
+    if cached is None:
+        image, log_max = gcd.transfer_image(transfer_table(key))
+        cached = _transfer_cache[key] = (texture_from_array(image), log_max)
+    return cached
+
+
+def prepare(frame) -> list[Active]:
+    """The GEOCUBE meshes of a frame whose bake is loaded (on first use) and matches the mesh."""
+    return bake_cache.prepare(frame, "GEOCUBE", lambda arrays, mesh: Resources(arrays),
+                              lambda res, mesh: len(res.gset.start_cube) == mesh.triangle_count)
+
+
+def block_for(a: Active, frame, mode: int = 0) -> bytes:
+    m = a.mesh.medium
+    chain, _ = environment(frame)
+    _, log_max = transfer(m.g)
+    g = a.resources.gset
+    sigma_s = np.asarray(m.sigma_s_prime, np.float64) / max(1.0 - float(m.g), 1e-3)
+    to_bake = gcd.bake_from_world(a.mesh.model, a.resources.stretch, m.mm_per_unit)
+    return gcd.gc_block(to_bake, m.sigma_a, sigma_s, m.eta, g.min_step, g.res, g.count, m.max_steps, chain,
+                        log_max, mode)
+
+
+def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline) -> dict:
+    """The refraction pass of every GEOCUBE mesh over the base; returns seconds spent."""
+    import gpu
+
+    t0 = time.perf_counter()
+    _, env_tex = environment(frame)
+    mode = int(getattr(pipeline, "geocube_mode", 0))
+    with target_fb.bind():
+        gpu.state.depth_test_set("LESS_EQUAL")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("NONE")
+        shader = shaders.get("gc_refract")
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        shader.uniform_sampler("env_atlas", env_tex)
+        for a in actives:
+            table_tex, _ = transfer(a.mesh.medium.g)
+            r = a.resources
+            shader.uniform_block("object", objects[a.index])
+            gc_ubo = gpu.types.GPUUniformBuf(block_for(a, frame, mode))  # referenced until drawn
+            shader.uniform_block("gc", gc_ubo)
+            shader.uniform_sampler("gc_cones", r.cones)
+            shader.uniform_sampler("gc_normals", r.normals)
+            shader.uniform_sampler("gc_centres", r.centres)
+            shader.uniform_sampler("transfer_table", table_tex)
+            r.batch(a.mesh).draw(shader)
+        gpu.state.depth_mask_set(True)
+    return {"geocube": time.perf_counter() - t0}
+
+
+def clear_caches() -> None:
+    _env_cache.clear()
+    _transfer_cache.clear()

@@ -1,0 +1,104 @@
+"""Grass fields (Shah ch. 4): the GPU pass drawing each grass-covered ground mesh as a BTF layer.
+
+Blender-facing (``gpu``). The pipeline calls ``draw`` right after the base pass in the world pass
+(mode 0) and in each emitter's lighting pass (mode 1), so the grass takes part in the same depth
+test as everything else: blades in front of an object hide it, gaps show what is behind, and the
+base pass adds light only to what the blades leave visible. Per-pixel maths:
+``techniques/grass/model.py``; shader: ``gpu_shaders/grass_btf.glsl``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...gpu import bake_cache, shaders
+from . import bake as grass_btf
+from . import model as grass_data
+
+
+@dataclasses.dataclass
+class Resources:
+    btf: object  # CompressedBTF
+    basis: object
+    coeffs: object
+    depth: object
+    tables: object
+    groups: tuple
+
+
+@dataclasses.dataclass
+class Active:
+    index: int
+    mesh: object
+    resources: Resources
+
+
+def build(loaded) -> Resources:
+    from ...gpu.targets import texture_from_array
+
+    arrays, meta = loaded
+    cb = grass_btf.from_arrays(arrays, meta)
+    return Resources(
+        btf=cb,
+        basis=texture_from_array(grass_data.packed_basis(cb)),
+        coeffs=texture_from_array(grass_data.packed_coeffs(cb)),
+        depth=texture_from_array(grass_data.packed_depth(cb)[..., None], "R32F"),
+        tables=texture_from_array(grass_data.packed_tables(grass_data.Tables.of(cb))),
+        groups=grass_data.groups(cb),
+    )
+
+
+def prepare(frame) -> list[Active]:
+    """The frame's grass-covered meshes with the GPU data of their BTF."""
+    active = []
+    for k, mesh in enumerate(frame.meshes):
+        layer = getattr(mesh, "grass", None)
+        if layer is None:
+            continue
+        active.append(Active(k, mesh, bake_cache.get(layer.bake, build)))
+    return active
+
+
+def grass_block(layer, res: Resources) -> bytes:
+    cb = res.btf
+    g = res.groups
+    data = np.array([
+        layer.tile, cb.height, cb.resolution, grass_data.TABLE_RES,
+        len(cb.views), len(cb.lights), 0.0, layer.lod,
+        g[0], g[1], g[2], min(max(int(layer.min_groups), 1), g[0]),
+    ], np.float32)
+    return data.tobytes()
+
+
+def _batch(pipeline, mesh):
+    key = ("grass", mesh.key)
+    batch = pipeline.targets.get(key)
+    if batch is None:
+        from gpu_extras.batch import batch_for_shader
+
+        batch = pipeline.targets[key] = batch_for_shader(
+            shaders.get("grass_btf"), "TRIS",
+            {"pos": np.ascontiguousarray(mesh.positions, np.float32),
+             "nor": grass_data.smooth_corner_normals(mesh.positions)})
+    return batch
+
+
+def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_atlas, mode: int) -> None:
+    """Draw every grass layer into the bound target: mode 0 writes colour and depth, mode 1 adds one
+    emitter's light where the depth of mode 0 is matched (the caller sets blending and depth writes)."""
+    import gpu
+
+    shader = shaders.bind_lit("grass_btf", frame_ubo, light_ubo, shadow_atlas, mode)
+    blocks = []
+    for a in actives:
+        r = a.resources
+        ubo = gpu.types.GPUUniformBuf(grass_block(a.mesh.grass, r))
+        blocks.append(ubo)  # referenced until drawn
+        shader.uniform_block("object", objects[a.index])
+        shader.uniform_block("grass", ubo)
+        shader.uniform_sampler("btf_basis", r.basis)
+        shader.uniform_sampler("btf_coeffs", r.coeffs)
+        shader.uniform_sampler("btf_depth", r.depth)
+        shader.uniform_sampler("btf_tables", r.tables)
+        _batch(pipeline, a.mesh).draw(shader)

@@ -1,0 +1,1 @@
+"""IMAGE_SPACE: image-space subsurface scattering by splatting (Shah 2007, ch. 6-7)."""

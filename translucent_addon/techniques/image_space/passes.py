@@ -1,0 +1,287 @@
+"""IMAGE_SPACE: image-space subsurface scattering by splatting (Shah ch. 6-7) on the GPU.
+
+Per frame: material tables (``image_space_data.plan``); the base pass adds the near field of the
+profile; then a camera-view G-buffer of positions and object slots (pass 2), and per emitter the
+light-view samples (pass 1, a 3x2 cube atlas for point emitters) and one camera-facing splat per
+sample (pass 3) accumulating the far field into a scatter texture; world light the same way from
+depth-peeled samples along the three axes (Shah 6.4.2, ``_draw_world``); with temporal coherence on, the
+far field is blended with the previous frame's, reprojected through each object's motion
+(``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects.
+Blender-facing (``gpu``), the maths is in ``image_space_data`` and the GLSL in ``gpu_shaders/is_*.glsl``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...core.physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
+from ...gpu import blocks, shaders
+from ...gpu.targets import new_target, screen_quad, texture_from_array
+from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
+
+# Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
+# camera and object matrices (two targets of each, used in turn). Module level, because every F12
+# makes a new engine.
+_history: dict = {}
+
+
+def clear_history() -> None:
+    _history.clear()
+
+
+@dataclasses.dataclass
+class Prepared:
+    plan: ImageSpacePlan | None
+    materials: object  # GPUUniformBuf
+    near_lut: object  # GPUTexture
+    far_lut: object  # GPUTexture
+
+
+def prepare(frame, settings: SamplingSettings) -> Prepared:
+    """The plan and its GPU data; placeholders when no mesh uses IMAGE_SPACE (the base pass binds them)."""
+    import gpu
+
+    p = plan(frame, settings)
+    if p is None:
+        empty = np.zeros((2, 2, 4), np.float32)
+        return Prepared(None, gpu.types.GPUUniformBuf(materials_block(None)), texture_from_array(empty),
+                        texture_from_array(empty))
+    return Prepared(p, gpu.types.GPUUniformBuf(materials_block(p)), texture_from_array(p.near_lut()),
+                    texture_from_array(p.far_lut()))
+
+
+def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):
+    """Float render targets reused across frames: (framebuffer, color textures).
+
+    The depth texture is kept in the cache too: a GPUTexture that Python frees is silently
+    detached from the framebuffer, which then draws without a depth test.
+    """
+    key = (name, tuple(size), depth, attachments)
+    found = pipeline.targets.get(key)
+    if found is None:
+        found = pipeline.targets[key] = new_target(size, depth, attachments)
+    return found[:2]
+
+
+TEMPORAL_BLEND = 0.3  # weight of the current frame in the accumulated far field
+
+
+def _history_for(pipeline, frame, p: ImageSpacePlan, size):
+    """This sequence's temporal history (created or reset as needed), or None when coherence is off."""
+    if pipeline.coherence_key is None:
+        return None
+    signature = (tuple(size), tuple(sorted((frame.meshes[k].name, slot) for k, slot in p.slot_of.items())))
+    history = _history.get(pipeline.coherence_key)
+    if history is None or history["signature"] != signature:
+        history = _history[pipeline.coherence_key] = {
+            "signature": signature, "parity": 0, "frame": None, "view_proj": None, "models": None,
+            "gbuffer": [new_target(size, depth=True, attachments=2) for _ in range(2)],
+            "accum": [new_target(size, depth=False) for _ in range(2)],
+        }
+    return history
+
+
+def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad):
+    """Blend this frame's far field with the previous accumulation, reprojected; returns the result."""
+    import gpu
+
+    parity = history["parity"]
+    models = np.tile(np.eye(4), (32, 1, 1))
+    inverse = np.tile(np.eye(4), (32, 1, 1))
+    for k, slot in p.slot_of.items():
+        models[slot] = frame.meshes[k].model
+        inverse[slot] = np.linalg.inv(frame.meshes[k].model)
+    valid = history["frame"] == pipeline.coherence_frame - 1 and history["view_proj"] is not None
+    previous_models = history["models"] if valid else models
+    data = np.concatenate([
+        np.concatenate([m.T.ravel() for m in inverse]), np.concatenate([m.T.ravel() for m in previous_models]),
+        np.asarray(history["view_proj"] if valid else frame.camera.view_proj).T.ravel(),
+        [max(p.rho_world), 0.0, 0.0, 0.0]]).astype(np.float32)
+    out_fb, (out,), _ = history["accum"][1 - parity]
+    _, (previous_accum,), _ = history["accum"][parity]
+    _, (previous_gbuffer, _), _ = history["gbuffer"][parity]
+    shader = shaders.get("is_temporal")
+    temporal_ubo = gpu.types.GPUUniformBuf(data.tobytes())  # referenced until the draw: a freed UBO reads as 0
+    with out_fb.bind():
+        gpu.state.depth_test_set("NONE")
+        gpu.state.blend_set("NONE")
+        shader.bind()
+        shader.uniform_block("temporal", temporal_ubo)
+        shader.uniform_sampler("scatter", scatter)
+        shader.uniform_sampler("gbuffer", gbuf)
+        shader.uniform_sampler("previous_accum", previous_accum if valid else scatter)
+        shader.uniform_sampler("previous_gbuffer", previous_gbuffer if valid else gbuf)
+        shader.uniform_float("blend", TEMPORAL_BLEND if valid else 1.0)
+        quad.draw(shader)
+    history.update(parity=1 - parity, frame=pipeline.coherence_frame, view_proj=frame.camera.view_proj,
+                   models=models)
+    return out
+
+
+def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool, quad) -> None:
+    """Pass 3: one splat per sample of a (pos_id, flux) pair into the bound scatter target; ``gbuf`` is
+    the camera view's (positions and slots, facet normals). Light samples also get their tail splats, one
+    per TAIL_BLOCK x TAIL_BLOCK block (``physics.lut.crossover``)."""
+    import gpu
+
+    gpu.state.depth_test_set("NONE")
+    gpu.state.depth_mask_set(False)
+    gpu.state.blend_set("ADDITIVE_PREMULT")
+    shader = shaders.get("is_splat")
+    shader.bind()
+    shader.uniform_block("frame", frame_ubo)
+    shader.uniform_block("materials", prepared.materials)
+    shader.uniform_sampler("sample_pos_id", pos_id)
+    shader.uniform_sampler("sample_flux", flux)
+    shader.uniform_sampler("gbuffer", gbuf[0])
+    shader.uniform_sampler("gbuffer_normal", gbuf[1])
+    shader.uniform_sampler("far_lut", prepared.far_lut)
+    shader.uniform_int("samples_per_row", size[0])
+    shader.uniform_int("world_pass", 1 if world else 0)
+    shader.uniform_float("tail_reach", TAIL_REACH)
+    shader.uniform_float("tail_start", TAIL_START)
+    shader.uniform_int("tail_block", TAIL_BLOCK)
+    shader.uniform_int("tail_pass", 0)
+    quad.draw_instanced(shader, instance_start=0, instance_count=size[0] * size[1])
+    if not world:
+        shader.uniform_int("tail_pass", 1)
+        tail_grid = [-(-n // TAIL_BLOCK) for n in size]
+        quad.draw_instanced(shader, instance_start=0, instance_count=tail_grid[0] * tail_grid[1])
+    gpu.state.blend_set("NONE")
+
+
+def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, scatter_fb, gbuf, pipeline,
+                quad) -> None:
+    """World light (Shah 6.4.2): depth peel the subsurface meshes along each axis, ``layers`` deep,
+    and splat every layer's samples. Two sample targets in turn: a layer reads the previous one's
+    positions to skip what is peeled already."""
+    import gpu
+
+    from ...pipeline import clear_target, read_pixels
+
+    w = prepared.plan.world
+    size = (w.grid, w.grid)
+    targets = [_target(pipeline, f"world_samples_{i}", size, depth=True, attachments=2) for i in range(2)]
+    peel = shaders.get("is_world_samples")
+    for axis in range(3):
+        for layer in range(w.layers):
+            fb, (pos_id, flux) = targets[layer % 2]
+            previous = targets[(layer + 1) % 2][1][0]
+            with fb.bind():
+                clear_target(fb)
+                gpu.state.viewport_set(0, 0, w.grid, w.grid)
+                gpu.state.depth_test_set("LESS")
+                gpu.state.depth_mask_set(True)
+                gpu.state.blend_set("NONE")
+                peel.bind()
+                peel.uniform_block("frame", frame_ubo)
+                peel.uniform_block("materials", prepared.materials)
+                peel.uniform_sampler("previous_pos_id", previous)
+                peel.uniform_float("view_proj", [float(x) for x in w.faces[axis].T.ravel()])
+                peel.uniform_int("layer", layer)
+                peel.uniform_float("depth_epsilon", float(w.depth_epsilon))
+                peel.uniform_float("texel_area", float(w.texel_area))
+                for (full, _), obj, sss in zip(batches, objects, is_subsurface):
+                    if sss:
+                        peel.uniform_block("object", obj)
+                        full.draw(peel)
+                if pipeline.capture is not None:
+                    pipeline.capture.setdefault("world_samples", []).append(
+                        (read_pixels(fb, *size, slot=0), read_pixels(fb, *size, slot=1)))
+            with scatter_fb.bind():
+                _splat(prepared, frame_ubo, pos_id, flux, gbuf, size, True, quad)
+
+
+def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipeline) -> None:
+    import gpu
+
+    from ...pipeline import clear_target, read_pixels
+
+    p = prepared.plan
+    cam = frame.camera
+    size = (cam.width, cam.height)
+    is_subsurface = [k in p.slot_of for k in range(len(frame.meshes))]
+
+    history = _history_for(pipeline, frame, p, size)
+    # Pass 2: camera-view positions and slots of every surface (others occlude with slot 0).
+    if history is not None:
+        gbuf_fb, (gbuf, gbuf_normal), _ = history["gbuffer"][1 - history["parity"]]
+    else:
+        gbuf_fb, (gbuf, gbuf_normal) = _target(pipeline, "gbuffer", size, depth=True, attachments=2)
+    shader = shaders.get("is_gbuffer")
+    with gbuf_fb.bind():
+        clear_target(gbuf_fb)
+        gpu.state.depth_test_set("LESS_EQUAL")
+        gpu.state.depth_mask_set(True)
+        gpu.state.blend_set("NONE")
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        for (_, pos_only), obj in zip(batches, objects):
+            shader.uniform_block("object", obj)
+            pos_only.draw(shader)
+        if pipeline.capture is not None:
+            pipeline.capture["gbuffer"] = read_pixels(gbuf_fb, *size)
+            pipeline.capture["gbuffer_normal"] = read_pixels(gbuf_fb, *size, slot=1)
+
+    scatter_fb, (scatter,) = _target(pipeline, "scatter", size, depth=False)
+    with scatter_fb.bind():
+        clear_target(scatter_fb, depth=None)
+
+    samples_shader = shaders.get("is_samples")
+    quad = screen_quad(pipeline, "is_splat")
+    for sampling in p.samplings:
+        n = sampling.grid
+        atlas_size = (3 * n, 2 * n) if sampling.n_faces == 6 else (n, n)
+        light_ubo = gpu.types.GPUUniformBuf(
+            blocks.light_block(sampling.emitter, sampling.faces, sampling.origin, n, sampling.texel_measure,
+                               normal_offset_texels=sampling.tan_half))
+        samples_fb, (pos_id, flux) = _target(pipeline, "samples", atlas_size, depth=True, attachments=2)
+        # Pass 1: light-view samples x_i with the power entering through each texel.
+        with samples_fb.bind():
+            clear_target(samples_fb)
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+            samples_shader.bind()
+            samples_shader.uniform_block("light", light_ubo)
+            samples_shader.uniform_block("materials", prepared.materials)
+            for face in range(sampling.n_faces):
+                gpu.state.viewport_set((face % 3) * n, (face // 3) * n, n, n)
+                samples_shader.uniform_int("face", face)
+                for (full, _), obj in zip(batches, objects):
+                    samples_shader.uniform_block("object", obj)
+                    full.draw(samples_shader)
+            if pipeline.capture is not None:
+                pipeline.capture.setdefault("samples", []).append(
+                    (read_pixels(samples_fb, *atlas_size, slot=0), read_pixels(samples_fb, *atlas_size, slot=1)))
+        # Pass 3: a splat per sample into the scatter texture.
+        with scatter_fb.bind():
+            _splat(prepared, frame_ubo, pos_id, flux, (gbuf, gbuf_normal), atlas_size, False, quad)
+    if p.world is not None:
+        _draw_world(prepared, frame_ubo, batches, objects, is_subsurface, scatter_fb, (gbuf, gbuf_normal), pipeline,
+                    quad)
+    if pipeline.capture is not None:
+        with scatter_fb.bind():
+            pipeline.capture["scatter"] = read_pixels(scatter_fb, *size)
+        pipeline.capture["plan"] = p
+
+    if history is not None:
+        scatter = _accumulate(history, frame, p, scatter, gbuf, pipeline, quad)
+
+    # Final: add F_t / pi * S to the subsurface objects' visible pixels.
+    composite = shaders.get("is_composite")
+    with target_fb.bind():
+        gpu.state.depth_test_set("LESS_EQUAL")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("ADDITIVE_PREMULT")
+        composite.bind()
+        composite.uniform_block("frame", frame_ubo)
+        composite.uniform_block("materials", prepared.materials)
+        composite.uniform_sampler("scatter", scatter)
+        for (full, _), obj, sss in zip(batches, objects, is_subsurface):
+            if sss:
+                composite.uniform_block("object", obj)
+                full.draw(composite)
+        gpu.state.blend_set("NONE")
+        gpu.state.depth_mask_set(True)

@@ -1,0 +1,94 @@
+"""AUTO quality of IMAGE_SPACE, chosen again every frame (pure).
+
+IMAGE_SPACE has nothing to bake: its one resolution is the splat overlap k (samples per splat radius in
+the light views, Shah Eq. 6.17), and what k an object needs depends on how large the camera sees it
+(``quality_auto.splat_overlap_for``: no finer than an eighth of a pixel). So for the objects whose
+quality is AUTO, k follows the camera, in F12 and in the viewport, from the frame's own camera: a
+bunny that walks towards the camera gets more samples, one that walks away fewer.
+
+k is scene-wide (one light-view sampling for every IMAGE_SPACE mesh): the largest any AUTO object needs,
+and at least the scene's own value when a manual IMAGE_SPACE object is drawn too. It is rounded up to a
+quarter of an octave so that a camera moving smoothly does not change the sample pattern every frame.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ...core.frame import CameraView, FrameInputs, MeshInstance
+from ...core.geometry.mesh_checks import triangle_areas
+from ...core.geometry.mesh_measures import stretch_of
+from ..quality_auto import SPLAT_OVERLAP_RANGE, ObjectView, splat_overlap_for
+from .model import SamplingSettings
+
+STEPS_PER_OCTAVE = 4
+LARGE_GRID_ABOVE = 32.0  # past this k the light view needs 2048 texels a side (quality_auto._image_space)
+
+_SHAPES: dict = {}  # (mesh key, model, mm per unit) -> (diagonal mm, area mm^2, world bounding box corners)
+
+
+def quantised(k: float) -> float:
+    """k rounded up to the next quarter octave (2^(n/4)), within SPLAT_OVERLAP_RANGE."""
+    lo, hi = SPLAT_OVERLAP_RANGE
+    q = 2.0 ** (math.ceil(STEPS_PER_OCTAVE * math.log2(max(k, 1e-9)) - 1e-9) / STEPS_PER_OCTAVE)
+    return float(min(max(q, lo), hi))
+
+
+def screen_diagonal(points_world: np.ndarray, view_proj: np.ndarray, width: int, height: int) -> float:
+    """The diagonal in pixels of the screen box of world points, each clamped to half an image beyond the
+    frame (as ``bake.inputs.screen_pixels`` does for the scene camera); a point behind the camera counts as
+    at the far side of that margin."""
+    p = np.c_[np.asarray(points_world, np.float64), np.ones(len(points_world))] @ np.asarray(view_proj).T
+    w = p[:, 3]
+    front = w > 1e-9
+    uv = np.empty((len(p), 2))
+    uv[front] = 0.5 * (p[front, :2] / w[front, None] + 1.0)
+    uv[~front] = np.where(p[~front, :2] >= 0, 1.5, -0.5)
+    uv = np.clip(uv, -0.5, 1.5) * np.array([width, height], np.float64)
+    return float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
+
+
+def _shape(mesh: MeshInstance) -> tuple[float, float, np.ndarray]:
+    """Diagonal and area in mm (the model's scale applied, as ``bake.inputs.object_view``) and the object
+    space bounding box's corners in world space; cached by the mesh's geometry key and transform."""
+    mm = mesh.medium.mm_per_unit
+    key = (mesh.key, np.asarray(mesh.model, np.float64).tobytes(), mm)
+    hit = _SHAPES.get(key)
+    if hit is None:
+        if len(_SHAPES) > 256:
+            _SHAPES.clear()
+        model = np.asarray(mesh.model, np.float64)
+        v_mm = np.asarray(mesh.positions, np.float64) @ stretch_of(model[:3, :3]).T * mm
+        area = float(triangle_areas(v_mm, np.arange(len(v_mm)).reshape(-1, 3)).sum())
+        lo, hi = mesh.positions.min(axis=0), mesh.positions.max(axis=0)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        world = corners @ model[:3, :3].T + model[:3, 3]
+        hit = _SHAPES[key] = (float(np.linalg.norm(np.ptp(v_mm, axis=0))), area, world)
+    return hit
+
+
+def object_view(mesh: MeshInstance, camera: CameraView) -> ObjectView:
+    """``quality_auto.ObjectView`` of a drawn mesh, seen by this frame's camera."""
+    diagonal, area, corners = _shape(mesh)
+    m = mesh.medium
+    return ObjectView(diagonal_mm=diagonal, area_mm2=area,
+                      screen_pixels=screen_diagonal(corners, camera.view_proj, camera.width, camera.height),
+                      sigma_a=tuple(m.sigma_a), sigma_s_prime=tuple(m.sigma_s_prime), eta=float(m.eta),
+                      triangles=len(mesh.positions) // 3)
+
+
+def frame_sampling(frame: FrameInputs, manual: SamplingSettings) -> tuple[SamplingSettings, dict]:
+    """The sampling for this frame and the k each AUTO object asked for ({name: k}); ``manual`` itself
+    when no AUTO IMAGE_SPACE object is drawn."""
+    drawn = [m for m in frame.meshes if m.method == "IMAGE_SPACE" and m.medium is not None]
+    autos = [m for m in drawn if m.auto_target is not None]
+    if not autos:
+        return manual, {}
+    asked = {m.name: quantised(splat_overlap_for(object_view(m, frame.camera), m.auto_target)[0]) for m in autos}
+    k = max(asked.values())
+    if len(autos) < len(drawn):
+        k = max(k, manual.overlap)
+    grid = max(manual.max_grid, 2048 if k > LARGE_GRID_ABOVE else 1024)
+    return dataclasses.replace(manual, overlap=k, max_grid=grid), asked

@@ -1,0 +1,486 @@
+"""QUADGRAPH: the diffusion equation solved on the GPU every frame (Wang et al. 2010, Blender-facing).
+
+Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
+1. q(n_s) at the surface nodes of every level: one point per surface node at its texel, lit at its
+   surface point with Fresnel and shadows, the world first and then each emitter inside the
+   pipeline's emitter loop (the ``ts_illumination`` pass of TEXTURE_SPACE, pointed at the level);
+2. coarse to fine: start each level from the coarser solution (``qg_upsample``, Eq. 10), the
+   coarsest from zero (or the finest from the last frame when nothing but the lights moved is not
+   assumed: lights do move), then Jacobi steps (``qg_relax``, Eq. 8-9) into two textures in turn;
+   every ``CHECK_EVERY`` steps the last step's relative change is read back and the level stops
+   below the scene's tolerance or at its iteration cap (Sec. 5.2);
+3. the surface's own response to the light entering it, which diffusion draws with the wrong angular
+   law and without single scattering (Wang Sec. 7; ``core/physics/single_scattering.py``): the nearest
+   QUADGRAPH surface's depth into a screen target in the world pass, then per emitter the refracted
+   view ray marched through the emitter's distance map (single scattering L^(1)) plus Chandrasekhar's
+   multiple scattering of a lit half-space at the pixel (L^(ms)), added into it (``qg_single``). The
+   diffusion's exitance where light enters stood for that response: the finest level's surface nodes
+   sum R q per emitter, R the diffusion's own flat-face reflectance
+   (``single_scattering.exitance_loss``), and the display takes it from B; the world's R q apart;
+4. display: the original mesh interpolates B = (1 - F_dr) phi_s / (2 (1 + F_dr)) from four surface
+   nodes per vertex, less the losses above, and draws L = F_t / pi (B + w(mu_o) R q_world) + L^(1) +
+   L^(ms) + F_r L_world over the base pass (``qg_display``): w is a half-space's law under uniform light
+   (``single_scattering.uniform_light_table``), 1 where the surface term is off (Wang's display).
+kappa and mu are set per node from the current material and veins (``quadgraph_data``), so material
+edits need no bake. A deformed mesh (armature, lattice, shape keys) moves the nodes first
+(``Resources.follow``), and the solve above runs on the moved graph. Painted maps (Shah ch. 7) are
+carried into the volume (``Resources.set_paint``): the blur scales kappa and mu per node, mask x glow x
+tint scales q at the surface nodes, and the mask blends the display over the base pass's Lambert. The
+maths is in ``core/physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...core.geometry.mesh_measures import vertex_normals
+from ...core.physics import diffusion as df
+from ...core.physics import single_scattering as ss
+from ...core.physics import terminator
+from ...core.physics.dipole import A as internal_reflection
+from ...core.physics.fresnel import F_dr as diffuse_fresnel
+from ...gpu import bake_cache, shaders
+from ...gpu.bake_cache import Active
+from ...gpu.targets import new_target, screen_quad, texture_from_array
+from ..texture_space.passes import draw_illumination, unit_texture
+from . import model as qgd
+from .deformation import DeformationError
+
+CHECK_EVERY = 16
+
+
+class LevelGpu:
+    """Textures and targets of one level."""
+
+    def __init__(self, t: qgd.LevelTables, stretch_inv: np.ndarray, mm: float):
+        self.stretch_inv, self.mm = stretch_inv, mm
+        size = t.layout.size
+        self.links = texture_from_array(t.links_image)
+        self.up = tuple(texture_from_array(img) for img in t.up_images) if t.up_images else None
+        self.set_geometry(t)
+        self.incident = new_target(size)
+        self.phi = [new_target(size), new_target(size)]
+        self.kappa = self.mu = self.q_factor = None  # set by Resources.set_material and set_paint
+
+    def set_q_factor(self, q_factor: np.ndarray) -> None:
+        """The painted factor (mask x glow x tint) on the light entering at each surface node."""
+        self.q_factor = texture_from_array(self.tables.image(q_factor))
+
+    def set_geometry(self, t: qgd.LevelTables) -> None:
+        """The link weights and the surface nodes' points for the illumination pass (rest or deformed)."""
+        from gpu_extras.batch import batch_for_shader
+
+        self.tables = t
+        self.weights = texture_from_array(t.weights_image)
+        S = t.n_surface
+        pos = (t.positions_mm[:S] @ self.stretch_inv.T / self.mm).astype(np.float32)
+        nor, facet = (self._object_normals(n) for n in (t.normals, t.facets))
+        self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
+            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": facet, "sky": t.sky})
+
+    def _object_normals(self, normals_mm: np.ndarray) -> np.ndarray:
+        """Unit normals in object space from mm space: normals transform with S (S symmetric)."""
+        n = normals_mm @ np.linalg.inv(self.stretch_inv)
+        return (n / np.linalg.norm(n, axis=1, keepdims=True)).astype(np.float32)
+
+    def set_material(self, kappa: np.ndarray, mu: np.ndarray) -> None:
+        self.kappa = texture_from_array(self.tables.image(kappa))
+        self.mu = texture_from_array(self.tables.image(mu))
+
+
+class Resources:
+    """GPU data of one bake: its levels, the material images and the display batch."""
+
+    def __init__(self, arrays: dict, mm: float):
+        self.rest_levels = self.levels_cpu = qgd.load(arrays)
+        self.stretch = np.asarray(arrays["stretch"], np.float64).reshape(3, 3)
+        self.mm = mm
+        self.levels = [LevelGpu(t, np.linalg.inv(self.stretch), mm) for t in self.levels_cpu]
+        self.rest_vertices = np.asarray(arrays["qg_rest_vertices"], np.float64)
+        self.rest_triangles = np.asarray(arrays["qg_rest_triangles"], np.int64)
+        self.tetrahedra = [(arrays[f"qg{h}_points"], arrays[f"qg{h}_tets"], arrays[f"qg{h}_inner_bary"])
+                           for h in range(len(self.levels))]
+        self._embeddings = None
+        self.pose = None  # the surface vertices [mm] the nodes were last placed for
+        self.paint = None  # the painted corner values (paint, tint) the nodes were last set for
+        self.M_d = [None] * len(self.levels)  # painted blur per node, None where unpainted
+        self.q_factors = [np.ones((t.count, 3)) for t in self.rest_levels]
+        self.display_index = arrays["qg_display_index"]
+        self.display_weight = arrays["qg_display_weight"]
+        self.material_key = None
+        self.materials = None
+        self.display = {}
+        self.surface = {}
+        self._loss_scale = None  # (material key, finest tables, texture): Resources.loss_scale
+        self.medium_tables = {}  # name: (medium key, n x 1 texture), the tables below
+        self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
+        self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
+        self.iterations: list[int] = []
+
+    @property
+    def embeddings(self) -> list[qgd.LevelEmbedding]:
+        """Where each level's nodes lie relative to the mesh (for poses and paint): built on first use."""
+        if self._embeddings is None:
+            self._embeddings = [qgd.LevelEmbedding(t, *tet, self.rest_vertices, self.rest_triangles)
+                                for t, tet in zip(self.rest_levels, self.tetrahedra)]
+        return self._embeddings
+
+    def set_paint(self, mesh) -> None:
+        """Painted maps (Shah ch. 7: mask, blur, glow, tint) carried into every level's volume; unpainted
+        meshes skip the work."""
+        paint = (mesh.paint, mesh.tint)
+        if self.paint is not None and all(np.array_equal(a, b) for a, b in zip(paint, self.paint)):
+            return
+        neutral = bool((mesh.paint[:, :3] == 1.0).all() and (mesh.tint == 1.0).all())
+        for h, (lg, rest) in enumerate(zip(self.levels, self.rest_levels)):
+            if neutral:
+                self.M_d[h], self.q_factors[h] = None, np.ones((rest.count, 3))
+            else:
+                self.M_d[h], self.q_factors[h] = qgd.node_paint(self.embeddings[h], mesh.paint, mesh.tint)
+            lg.set_q_factor(self.q_factors[h])
+        self.paint = tuple(np.array(a) for a in paint)
+        self.material_key = None  # the blur changes kappa and mu
+
+    def loss_scale(self):
+        """The finest level's surface nodes' held_source_gain as a texture (1 at inner nodes), which
+        qg_display applies to the losses: built again when the material or the pose changes."""
+        finest = self.levels_cpu[-1]
+        cached = self._loss_scale
+        if cached is None or cached[0] != self.material_key or cached[1] is not finest:
+            kappa, mu = self.materials[-1]
+            gain = np.ones((finest.count, 3))
+            gain[:finest.n_surface] = df.held_source_gain(kappa, mu, finest.d_surface)
+            cached = self._loss_scale = (self.material_key, finest,
+                                         texture_from_array(self.levels[-1].tables.image(gain)))
+        return cached[2]
+
+    def set_material(self, medium) -> None:
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.veins, medium.veins_spacing_mm)
+        if key == self.material_key:
+            return
+        self.materials = []
+        for lg, rest, M_d in zip(self.levels, self.rest_levels, self.M_d):
+            # Veins are set at the rest pose's positions, so they stay in the material as it deforms.
+            kappa, mu = qgd.node_material(rest.positions_mm, medium.sigma_a, medium.sigma_s_prime,
+                                          medium.veins, medium.veins_spacing_mm, M_d)
+            lg.set_material(kappa, mu)
+            self.materials.append((kappa, mu))
+        self.material_key = key
+
+    def follow(self, mesh, label: str = "") -> None:
+        """Move the nodes to the mesh's current pose (armature, lattice, shape keys): Wang Sec. 6's
+        deformable objects; raises DeformationError when the pose folds the volume over (more than
+        ``volume_deformation.FOLD_LIMIT`` of it in tetrahedra turned inside out)."""
+        vertices = self.rest_vertices.copy()  # loose vertices (in no triangle) keep their rest place
+        vertices[self.rest_triangles.reshape(-1)] = np.asarray(mesh.positions, np.float64) @ self.stretch.T * self.mm
+        if self.pose is not None and np.array_equal(vertices, self.pose):
+            return
+        extent = float(np.ptp(self.rest_vertices, axis=0).max())
+        if np.abs(vertices - self.rest_vertices).max() <= 1e-5 * extent:
+            tables = self.rest_levels
+        else:
+            normals = vertex_normals(vertices, self.rest_triangles)  # one mesh for every level
+            tables = [e.deform(vertices, label, normals) for e in self.embeddings]
+        if tables is not self.levels_cpu:  # the rest tables are on the GPU from the start
+            for lg, t in zip(self.levels, tables):
+                lg.set_geometry(t)
+            self.levels_cpu = tables
+        self.pose = vertices
+
+    def display_batch(self, mesh):
+        batch = self.display.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.display.clear()
+            finest = self.levels_cpu[-1]
+            slots = finest.layout.slots(self.display_index).astype(np.float32)
+            batch = self.display[mesh.key] = batch_for_shader(shaders.get("qg_display"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32),
+                "links": slots, "link_weights": np.ascontiguousarray(self.display_weight, np.float32),
+                "mask": np.ascontiguousarray(np.clip(mesh.paint[:, 0], 0.0, 1.0), np.float32)})
+        return batch
+
+    def surface_batch(self, mesh):
+        """The mesh's triangles for ``qg_single``: positions, smooth normals and each corner's barycentric
+        (1, 0, 0), (0, 1, 0), (0, 0, 1), from which the pass has a point's distances to its triangle's
+        edges (the triangle's share in the medium's normal at the kernel's scale)."""
+        batch = self.surface.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.surface.clear()
+            corner = np.tile(np.eye(3, dtype=np.float32), (len(mesh.positions) // 3, 1))
+            batch = self.surface[mesh.key] = batch_for_shader(shaders.get("qg_single"), "TRIS", {
+                "pos": np.ascontiguousarray(mesh.positions, np.float32),
+                "nor": np.ascontiguousarray(mesh.normals, np.float32), "corner": corner})
+        return batch
+
+    def exitance_loss(self, medium):
+        """What a lit node's exitance gives up per unit q to the surface term, R, as a one-texel table
+        for ``ts_illumination``'s cosine table (``single_scattering.exitance_loss``), rebuilt when the
+        medium changes."""
+        return self._medium_table("loss", medium, ss.exitance_loss)
+
+    def chandrasekhar_h(self, medium):
+        """H(mu) of the medium's albedo per channel (``single_scattering.h_table``), rebuilt when it changes."""
+        return self._medium_table("H", medium, lambda sigma_a, sigma_s_prime, eta: ss.h_table(sigma_a, sigma_s_prime))
+
+    def terminator(self, medium):
+        """The clamped ramp's excess G per channel as a texture and the kernel's mean radius rho in mm
+        (``physics.terminator``), rebuilt when the medium changes."""
+        rho = self._medium_table("rho", medium, terminator.kernel_mean_radii, texture=False)
+        return self._medium_table("terminator", medium, terminator.excess_table), rho
+
+    def world_law(self, medium):
+        """The angular law of the world's light entering a flat face over Lambert's per channel
+        (``single_scattering.uniform_light_table``), rebuilt when the medium changes."""
+        return self._medium_table("world", medium, ss.uniform_light_table)
+
+    def _medium_table(self, name: str, medium, table_of, texture: bool = True):
+        """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture (or as it is), built again
+        only when the medium's coefficients change."""
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
+        cached = self.medium_tables.get(name)
+        if cached is None or cached[0] != key:
+            table = table_of(medium.sigma_a, medium.sigma_s_prime, medium.eta)
+            cached = self.medium_tables[name] = (key, _rgb_table(table) if texture else table)
+        return cached[1]
+
+
+def _rgb_table(table):
+    """An (n, 3) table as an n x 1 RGBA32F texture."""
+    image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
+    return texture_from_array(image)
+
+
+def prepare(frame) -> list[Active]:
+    """The QUADGRAPH meshes of a frame whose bake is loaded (on first use) and current, with the
+    current material's kappa and mu."""
+    active = bake_cache.prepare(frame, "QUADGRAPH",
+                                lambda arrays, mesh: Resources(arrays, mesh.medium.mm_per_unit),
+                                lambda res, mesh: len(res.display_index) == len(mesh.positions))
+    followed = []
+    for a in active:
+        try:
+            a.resources.follow(a.mesh, f"'{a.mesh.name}': ")
+        except DeformationError as err:
+            frame.warnings.append(f"{err} (QUADGRAPH; drawn with its base colour)")
+            continue
+        a.resources.set_paint(a.mesh)
+        a.resources.set_material(a.mesh.medium)
+        followed.append(a)
+    return followed
+
+
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline,
+               size) -> None:
+    """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3),
+    and the emitter's single scattering into the screen target (mode 0: its depth, zero colour)."""
+    from ...pipeline import clear_target
+
+    for a in actives:
+        m, res = a.mesh.medium, a.resources
+        for lg in res.levels:
+            draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
+                              light_ubo, shadow_atlas, mode, m.eta, unit_texture(pipeline))
+        # The exitance the surface term takes over at the finest level's surface nodes.
+        finest = res.levels[-1]
+        if mode == 0:
+            with res.loss[0].bind():
+                clear_target(res.loss[0], depth=None)
+            if m.single_scattering:  # the world's flat-face response R q_world, drawn with its own law
+                draw_illumination(res.loss_world[0], finest.points, finest.tables.layout.size, objects[a.index],
+                                  frame_ubo, light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
+            else:
+                with res.loss_world[0].bind():
+                    clear_target(res.loss_world[0], depth=None)
+        elif m.single_scattering:
+            draw_illumination(res.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
+                              light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
+    draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size)
+
+
+def single_target(pipeline, size, name: str = "qg_single"):
+    """A screen target of the single-scattering pass (RGBA32F and its own depth), reused across frames
+    and rebuilt when the image size changes: "qg_single" sums L^(1) (alpha: the eye's distance to the
+    surface), "qg_exit" holds where the view ray leaves the medium."""
+    size = tuple(size)
+    found = pipeline.targets.get(name)
+    if found is None or found[0] != size:
+        found = pipeline.targets[name] = (size, new_target(size, depth=True))
+    return found[1]
+
+
+def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline, size) -> None:
+    """mode 0: clear the targets, lay down the nearest QUADGRAPH surface (depth, eye distance), then the
+    next surface behind it (the view ray's exit, mode 2); mode 1: add one emitter's surface term on the
+    nearest surface, single scattering L^(1) and local multiple scattering L^(ms) (objects with the term
+    switched off add none; the pipeline's QUADGRAPH output 2 or 3 keeps one of the two)."""
+    import gpu
+
+    from ...pipeline import clear_target
+
+    single, exit_ = single_target(pipeline, size), single_target(pipeline, size, "qg_exit")
+    # (target drawn into, pass mode, target read as ``depths``)
+    passes = ((single, 0, exit_), (exit_, 2, single)) if mode == 0 else ((single, 1, exit_),)
+    for target, pass_mode, source in passes:
+        fb, depths = target[0], source[1][0]
+        with fb.bind():
+            if pass_mode != 1:
+                clear_target(fb, (3.0e38,) * 4 if pass_mode == 2 else (0.0,) * 4)
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(pass_mode != 1)
+            gpu.state.blend_set("ADDITIVE_PREMULT" if pass_mode == 1 else "NONE")
+            shader = shaders.bind_lit("qg_single", frame_ubo, light_ubo, shadow_atlas, pass_mode)
+            shader.uniform_sampler("depths", depths)
+            shader.uniform_int("segments", ss.SEGMENTS)
+            shader.uniform_float("tau_max", ss.TAU_MAX)
+            shader.uniform_int("terms", {2: 1, 3: 2}.get(int(pipeline.quadgraph_mode), 3))
+            for a in actives:
+                m = a.mesh.medium
+                if pass_mode == 1 and not m.single_scattering:
+                    continue
+                sigma_s, sigma_t = ss.coefficients(m.sigma_a, m.sigma_s_prime, m.g)
+                shader.uniform_block("object", objects[a.index])
+                shader.uniform_float("eta", float(m.eta))
+                shader.uniform_float("g", float(m.g))
+                shader.uniform_float("sigma_a", (*map(float, (sigma_t - sigma_s) * m.mm_per_unit), 0.0))
+                shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
+                shader.uniform_sampler("h_table", a.resources.chandrasekhar_h(m))
+                table, rho_mm = a.resources.terminator(m)
+                shader.uniform_sampler("terminator_table", table)
+                shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
+                a.resources.surface_batch(a.mesh).draw(shader)
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+
+
+def _relative_change(fb_new, fb_old, size) -> float:
+    """The convergence test of ``physics.diffusion.relative_change`` on two read-back phi targets."""
+    from ...pipeline import read_pixels
+
+    with fb_new.bind():
+        new = read_pixels(fb_new, *size)[..., :3]
+    with fb_old.bind():
+        old = read_pixels(fb_old, *size)[..., :3]
+    return df.relative_change(new, old)
+
+
+def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresolution: bool = True):
+    """Relax every level coarse to fine; returns the finest level's current phi target index."""
+    import gpu
+
+    from ...pipeline import clear_target
+
+    res = a.resources
+    tolerance = df.reachable_tolerance(tolerance)
+    eta = float(a.mesh.medium.eta)
+    A = float(internal_reflection(eta))
+    res.iterations = []
+    previous = None  # (LevelGpu, index of its current phi target)
+    levels = res.levels if multiresolution else res.levels[-1:]
+    for lg in levels:
+        t = lg.tables
+        size = t.layout.size
+        cur = 0
+        fb = lg.phi[cur][0]
+        with fb.bind():
+            gpu.state.blend_set("NONE")
+            gpu.state.depth_test_set("NONE")
+            if previous is None or lg.up is None:
+                clear_target(fb, depth=None)
+            else:
+                shader = shaders.get("qg_upsample")
+                shader.bind()
+                shader.uniform_sampler("coarse_phi", previous[0].phi[previous[1]][1][0])
+                for name, tex in zip(("up_index0", "up_index1", "up_weight0", "up_weight1"), lg.up):
+                    shader.uniform_sampler(name, tex)
+                shader.uniform_int("coarse_blocks_per_row", previous[0].tables.layout.blocks_per_row)
+                screen_quad(pipeline, "qg_upsample").draw(shader)
+        shader = shaders.get("qg_relax")
+        n = 0
+        while n < max_iterations:
+            step = min(CHECK_EVERY, max_iterations - n)
+            for _ in range(step):
+                src, dst = lg.phi[cur], lg.phi[1 - cur]
+                with dst[0].bind():
+                    gpu.state.blend_set("NONE")
+                    shader.bind()
+                    shader.uniform_sampler("phi", src[1][0])
+                    shader.uniform_sampler("incident", lg.incident[1][0])
+                    shader.uniform_sampler("links_map", lg.links)
+                    shader.uniform_sampler("weights_map", lg.weights)
+                    shader.uniform_sampler("node_kappa", lg.kappa)
+                    shader.uniform_sampler("node_mu", lg.mu)
+                    shader.uniform_sampler("q_factor", lg.q_factor)
+                    shader.uniform_int("blocks_per_row", t.layout.blocks_per_row)
+                    shader.uniform_int("n_surface", t.n_surface)
+                    shader.uniform_int("inner_start", t.layout.inner_start)
+                    shader.uniform_int("inner_end", t.layout.inner_start + t.count - t.n_surface)
+                    shader.uniform_float("A", A)
+                    screen_quad(pipeline, "qg_relax").draw(shader)
+                cur = 1 - cur
+            n += step
+            if _relative_change(lg.phi[cur][0], lg.phi[1 - cur][0], size) < tolerance:
+                break
+        res.iterations.append(n)
+        previous = (lg, cur)
+    return previous[1]
+
+
+def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, tolerance: float,
+           max_iterations: int) -> dict:
+    """Solve and display; returns seconds per step (summed over meshes)."""
+    import gpu
+
+    from ...pipeline import read_pixels
+
+    timings = {"qg_solve": 0.0, "qg_display": 0.0}
+    for a in actives:
+        t0 = time.perf_counter()
+        cur = solve(a, pipeline, tolerance, max_iterations)
+        finest = a.resources.levels[-1]
+        if pipeline.capture is not None:
+            size = finest.tables.layout.size
+            # "q": the light entering each level's nodes before the painted factor (resources.q_factors).
+            record = {"name": a.mesh.name, "iterations": list(a.resources.iterations), "q": [],
+                      "resources": a.resources}
+            for lg in a.resources.levels:
+                with lg.incident[0].bind():
+                    record["q"].append(lg.tables.from_image(read_pixels(lg.incident[0], *lg.tables.layout.size)))
+            with finest.phi[cur][0].bind():
+                record["phi"] = finest.tables.from_image(read_pixels(finest.phi[cur][0], *size))
+            pipeline.capture.setdefault("quadgraph", []).append(record)
+        t1 = time.perf_counter()
+        eta = float(a.mesh.medium.eta)
+        with target_fb.bind():
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(False)
+            gpu.state.blend_set("ALPHA")  # the painted mask: the base pass's Lambert shows where it is 0
+            shader = shaders.get("qg_display")
+            shader.bind()
+            shader.uniform_block("frame", frame_ubo)
+            shader.uniform_block("object", objects[a.index])
+            shader.uniform_sampler("phi", finest.phi[cur][1][0])
+            shader.uniform_sampler("q_factor", finest.q_factor)
+            shader.uniform_sampler("loss", a.resources.loss[1][0])
+            shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
+            shader.uniform_sampler("loss_scale", a.resources.loss_scale())
+            term = a.mesh.medium.single_scattering
+            shader.uniform_sampler("world_law",
+                                   a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
+            shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
+            shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
+            shader.uniform_float("eta", eta)
+            shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
+            shader.uniform_int("display_output", int(pipeline.quadgraph_mode))
+            a.resources.display_batch(a.mesh).draw(shader)
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+        t2 = time.perf_counter()
+        timings["qg_solve"] += t1 - t0
+        timings["qg_display"] += t2 - t1
+    return timings

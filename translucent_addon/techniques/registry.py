@@ -1,0 +1,187 @@
+"""What each method bakes, as a sequence of stages, and what its bake depends on.
+
+Pure. A bake is a generator: it yields (fraction done, status text) so that the
+operator can show progress and cancel between steps, and returns the arrays to
+store. Nothing is written to the object until the generator has finished, so a
+cancelled bake leaves the object as it was.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..core import bake_store as store
+from ..core.geometry.mesh_checks import check_mesh, self_intersections
+from ..core.physics.presets import validate_coefficients
+
+# method -> stage names, in order. The method issues append their stages.
+METHOD_STAGES = {
+    "OFF": (),
+    "IMAGE_SPACE": (),
+    "TEXTURE_SPACE": ("texture_space",),
+    "QUADGRAPH": ("quadgraph",),
+    "GEOCUBE": ("geocube",),
+}
+
+NO_BAKE_REASON = {
+    "OFF": "method is Off: choose a translucency method first",
+    "IMAGE_SPACE": "IMAGE_SPACE needs no bake: it splats the dipole every frame",
+}
+
+# Triangle count above which a bake refuses the mesh and asks for a proxy.
+MAX_BAKE_TRIANGLES = 2_000_000
+
+
+class BakeInputError(ValueError):
+    """The object cannot be baked; the message says what and why, in one line."""
+
+
+@dataclasses.dataclass
+class BakeInputs:
+    name: str
+    method: str
+    vertices: np.ndarray  # (V, 3) float32, object space of the evaluated mesh
+    triangles: np.ndarray  # (T, 3) int32
+    mm_per_unit: float
+    sigma_a: tuple
+    sigma_s_prime: tuple
+    eta: float
+    g: float
+    atlas_resolution: int = 512  # TEXTURE_SPACE
+    proxy_spacing: float = 3.5  # TEXTURE_SPACE: mean proxy edge in atlas texels (techniques/texture_space/proxy.py)
+    blending: bool = True  # TEXTURE_SPACE
+    # TEXTURE_SPACE: a decimated proxy made by Blender (object space), or None to derive it here.
+    proxy_vertices: np.ndarray | None = None
+    proxy_triangles: np.ndarray | None = None
+    # TEXTURE_SPACE: the shading normals at each triangle corner (T, 3, 3), object space, or None
+    # (smooth, angle-weighted): the illumination map lights each texel with the normal the display shows.
+    corner_normals: np.ndarray | None = None
+    # The object's stretch (scale without rotation, 3x3, the symmetric factor of the polar
+    # decomposition of its world matrix): the physical size is stretch @ vertex * mm_per_unit.
+    stretch: np.ndarray | None = None
+    quadgraph_K: float = 1.0  # QUADGRAPH density (the paper's K; techniques/quadgraph/bake.py maps it)
+    quadgraph_levels: int = 3  # QUADGRAPH multi-resolution levels
+    # QUADGRAPH: decimated proxies, coarsest first, made by Blender ([(vertices, triangles)], object space).
+    proxy_levels: list | None = None
+    geocube_resolution: int = 0  # GEOCUBE cube face texels; 0: from screen_pixels
+    screen_pixels: float | None = None  # GEOCUBE: the object's size on the camera's image
+
+    def geocube_res(self) -> int:
+        from .geocube.bake import resolution_for
+
+        return int(self.geocube_resolution) or resolution_for(self.screen_pixels)
+
+    def stretch_matrix(self) -> np.ndarray:
+        return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
+
+    def hash(self) -> str:
+        """Hash of what the bake depends on. A QUADGRAPH bake is geometry only (kappa and mu are set per
+        node at run time), so editing its material keeps the bake current; and only its topology: moving
+        vertices (an armature, a lattice, shape keys) moves the nodes at run time instead."""
+        material = {"sigma_a": list(self.sigma_a), "sigma_s_prime": list(self.sigma_s_prime), "eta": self.eta,
+                    "g": self.g}
+        stretch = {"stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
+        extra = {}
+        if self.method == "TEXTURE_SPACE":
+            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
+                     "proxy_spacing": round(float(self.proxy_spacing), 4), **stretch}
+        elif self.method == "QUADGRAPH":
+            material = {}
+            extra = {"K": float(self.quadgraph_K), "levels": int(self.quadgraph_levels), **stretch}
+        elif self.method == "GEOCUBE":
+            material = {"eta": self.eta}  # cone C's half angle is the critical angle; the rest is geometry
+            # An automatic resolution is chosen once, at bake time: moving the camera later does not stale it.
+            extra = {"res": int(self.geocube_resolution) or "auto", **stretch}
+        geometry = {"vertices": self.vertices, "triangles": self.triangles}
+        if self.method == "TEXTURE_SPACE" and self.corner_normals is not None:
+            geometry["corner_normals"] = np.asarray(self.corner_normals, np.float32)
+        if self.method == "QUADGRAPH":
+            geometry = {"triangles": self.triangles}
+            extra["vertex_count"] = int(len(self.vertices))
+        return store.inputs_hash(
+            geometry,
+            {
+                "method": self.method,
+                "stages": list(METHOD_STAGES.get(self.method, ())),
+                "mm_per_unit": self.mm_per_unit,
+                **material,
+                **extra,
+            },
+        )
+
+
+def needs_bake(method: str) -> bool:
+    return bool(METHOD_STAGES.get(method))
+
+
+def validate(inputs: BakeInputs) -> list[str]:
+    """Raise BakeInputError for input no bake can use; return warnings for the rest."""
+    if not needs_bake(inputs.method):
+        raise BakeInputError(f"'{inputs.name}': nothing to bake, {NO_BAKE_REASON.get(inputs.method, 'unknown method')}")
+    if len(inputs.triangles) == 0:
+        raise BakeInputError(f"'{inputs.name}': the mesh is empty (no faces), nothing to bake")
+    if len(inputs.triangles) > MAX_BAKE_TRIANGLES:
+        raise BakeInputError(
+            f"'{inputs.name}': {len(inputs.triangles):,} triangles is more than a bake takes "
+            f"({MAX_BAKE_TRIANGLES:,}); decimate it or bake a proxy"
+        )
+    if not (inputs.mm_per_unit > 0):
+        raise BakeInputError(f"'{inputs.name}': mm per unit is {inputs.mm_per_unit}, must be > 0")
+    try:
+        validate_coefficients(inputs.sigma_a, inputs.sigma_s_prime, inputs.eta, inputs.g, name=f"'{inputs.name}'")
+    except ValueError as err:
+        raise BakeInputError(str(err)) from None
+    report = check_mesh(inputs.vertices, inputs.triangles)
+    if report.zero_area_triangles == report.triangles:
+        raise BakeInputError(f"'{inputs.name}': every face has zero area, nothing to bake")
+    warnings = []
+    if report.zero_area_triangles:
+        warnings.append(f"'{inputs.name}': {report.zero_area_triangles} zero-area faces carry no light and are ignored")
+    if report.boundary_edges:
+        warnings.append(f"'{inputs.name}': the mesh is open ({report.boundary_edges} boundary edges); "
+                        "light leaks where the surface has holes")
+    if report.non_manifold_edges:
+        warnings.append(f"'{inputs.name}': {report.non_manifold_edges} non-manifold edges")
+    crossing = self_intersections(inputs.vertices, inputs.triangles)
+    if crossing:
+        warnings.append(f"'{inputs.name}': the surface intersects itself ({crossing} pairs of faces cross); "
+                        "its inside is ambiguous, so light may leak or be trapped there")
+    return warnings
+
+
+def run(inputs: BakeInputs):
+    """Generator: yields (fraction, text); returns (arrays, meta)."""
+    stages = METHOD_STAGES[inputs.method]
+    arrays: dict[str, np.ndarray] = {}
+    meta_extra: dict = {}
+    for i, stage in enumerate(stages):
+        yield i / len(stages), f"{inputs.method}: {stage}"
+        if stage in ("texture_space", "quadgraph", "geocube"):
+            if stage == "texture_space":
+                from .texture_space.bake import bake as stage_bake
+            elif stage == "quadgraph":
+                from .quadgraph.bake import bake as stage_bake
+            else:
+                from .geocube.bake import bake as stage_bake
+
+            from .geocube.bake import GeocubeError
+            from .quadgraph.tetra import TetrahedraError
+
+            job = stage_bake(inputs)
+            try:
+                while True:
+                    fraction, text = next(job)
+                    yield (i + fraction) / len(stages), text
+            except StopIteration as done:
+                stage_arrays, stage_meta = done.value
+            except (TetrahedraError, GeocubeError) as err:
+                raise BakeInputError(f"'{inputs.name}': {err}") from None
+            arrays.update(stage_arrays)
+            meta_extra.update(stage_meta)
+        else:  # pragma: no cover - a stage name without an implementation is a programming error
+            raise KeyError(stage)
+    yield 1.0, f"{inputs.method}: done"
+    meta = {"stages": list(stages), "vertices": int(len(inputs.vertices)), "triangles": int(len(inputs.triangles)),
+            **meta_extra}
+    return arrays, meta

@@ -1,0 +1,78 @@
+"""Height fields (Shah ch. 3): the GPU pass drawing meshes displaced per pixel by a height map.
+
+Blender-facing (``gpu``). A mesh with a height field is left out of the base pass and drawn here in
+the world pass (mode 0) and in each emitter's pass (mode 1), writing the depth of the displaced
+surface, so it sorts with everything else. Shader: ``gpu_shaders/relief.glsl`` with the search
+library ``interval_search.glsl`` (NumPy twin: ``techniques/relief/model.py``).
+"""
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+
+from ...gpu import shaders
+
+_height_textures: dict = {}
+
+
+def height_texture(surface):
+    """The R32F texture of a height map, cached by its key (image name and content)."""
+    from ...gpu.targets import texture_from_array
+
+    tex = _height_textures.get(surface.key)
+    if tex is None:
+        if len(_height_textures) > 16:
+            _height_textures.clear()
+        tex = _height_textures[surface.key] = texture_from_array(surface.height[..., None], "R32F")
+    return tex
+
+
+def clear_cache() -> None:
+    _height_textures.clear()
+
+
+def relief_block(surface, output: int) -> bytes:
+    return np.array([surface.depth, surface.linear_steps, surface.iterations, float(output),
+                     surface.mode, float(surface.shadows), 0.0, 0.0], np.float32).tobytes()
+
+
+def _batch(pipeline, mesh):
+    s = mesh.relief
+    digest = hashlib.blake2b(s.uv.tobytes(), digest_size=8).hexdigest()
+    key = ("relief", mesh.key, digest)
+    batch = pipeline.targets.get(key)
+    if batch is None:
+        from gpu_extras.batch import batch_for_shader
+
+        batch = pipeline.targets[key] = batch_for_shader(shaders.get("relief"), "TRIS", {
+            "pos": np.ascontiguousarray(mesh.positions, np.float32),
+            "nor": np.ascontiguousarray(mesh.normals, np.float32),
+            "col": np.ascontiguousarray(mesh.colors, np.float32),
+            "uv": np.ascontiguousarray(s.uv, np.float32),
+            "tangent_u": np.ascontiguousarray(s.tangent_u, np.float32),
+            "tangent_v": np.ascontiguousarray(s.tangent_v, np.float32),
+        })
+    return batch
+
+
+def indices(frame) -> list[int]:
+    """Meshes of the frame drawn by this pass instead of the base pass."""
+    return [k for k, m in enumerate(frame.meshes) if getattr(m, "relief", None) is not None]
+
+
+def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shadow_atlas, mode: int) -> None:
+    """Draw the height-field meshes into the bound target (the caller sets blending and depth writes)."""
+    import gpu
+
+    shader = shaders.bind_lit("relief", frame_ubo, light_ubo, shadow_atlas, mode)
+    output = int(getattr(pipeline, "relief_mode", 0))
+    keep = []
+    for k in which:
+        mesh = frame.meshes[k]
+        ubo = gpu.types.GPUUniformBuf(relief_block(mesh.relief, output))
+        keep.append(ubo)  # referenced until drawn
+        shader.uniform_block("object", objects[k])
+        shader.uniform_block("relief", ubo)
+        shader.uniform_sampler("height_map", height_texture(mesh.relief))
+        _batch(pipeline, mesh).draw(shader)

@@ -1,0 +1,1 @@
+"""TEXTURE_SPACE: texture-space kernels plus global throughput (Lensch et al. 2002)."""

@@ -1,0 +1,101 @@
+"""The TEXTURE_SPACE bake (Lensch 2002): proxy, atlas, Lensch tables, display mapping.
+
+Pure. A generator like every bake: yields (fraction, text), returns (arrays, meta). The arrays
+are what ``techniques/texture_space/passes.py`` draws with; kernels are stored as float16 (three
+significant digits, the same as the GPU reads them).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...core.geometry.mesh_measures import vertex_normals
+from . import proxy
+from . import throughput as lensch
+from .atlas import build_atlas
+
+# A display corner may lie off its proxy triangle (the two meshes differ); its atlas position is
+# extrapolated at most this many texels past the triangle, into the chart's border.
+MAX_EXTRAPOLATION_TEXELS = 3.0
+
+
+def _display_uv(atlas, tri, bary) -> np.ndarray:
+    uv = atlas.uv[tri].astype(np.float64)
+    bary = bary.astype(np.float64)
+    inside = np.clip(bary, 0.0, None)
+    inside /= np.maximum(inside.sum(axis=1, keepdims=True), 1e-12)
+    p_in = np.einsum("nk,nkd->nd", inside, uv)
+    step = np.einsum("nk,nkd->nd", bary, uv) - p_in
+    length = np.linalg.norm(step, axis=1, keepdims=True)
+    return p_in + step * np.minimum(1.0, MAX_EXTRAPOLATION_TEXELS / np.maximum(length, 1e-12))
+
+
+def bake(inputs):
+    t0 = time.perf_counter()
+    mm = float(inputs.mm_per_unit)
+    S = inputs.stretch_matrix()  # physical mm = S @ object-space vertex * mm per unit
+    display_v = np.asarray(inputs.vertices, np.float64) @ S.T * mm
+    display_t = np.asarray(inputs.triangles, np.int64)
+    yield 0.02, "TEXTURE_SPACE: proxy mesh"
+    # The display's shading normals at its corners, in mm space (normals transform with S^-T).
+    display_n = (vertex_normals(display_v, display_t, by_angle=True)[display_t] if inputs.corner_normals is None
+                 else np.asarray(inputs.corner_normals, np.float64).reshape(-1, 3, 3) @ np.linalg.inv(S))
+    refinement = None
+    if inputs.proxy_vertices is not None:
+        proxy_v = np.asarray(inputs.proxy_vertices, np.float64) @ S.T * mm
+        proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
+        proxy_n = proxy.transfer_normals(display_v, display_t, display_n, proxy_v, proxy_t)[proxy_t]
+    else:
+        refinement = proxy.refine_for_atlas(display_v, display_t, inputs.atlas_resolution, inputs.proxy_spacing)
+        proxy_v, proxy_t = refinement.vertices, refinement.triangles
+        # The refined display's corners carry its normals, interpolated like the positions.
+        proxy_n = refinement.corners(display_n.reshape(-1, 3)).reshape(-1, 3, 3)
+    yield 0.05, f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
+    t_atlas = time.perf_counter()
+    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n)
+    t_atlas = time.perf_counter() - t_atlas
+    material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta))
+    job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)
+    try:
+        while True:
+            fraction, text = next(job)
+            yield 0.1 + 0.85 * fraction, f"TEXTURE_SPACE: {text}"
+    except StopIteration as done:
+        tables = done.value
+    yield 0.96, "TEXTURE_SPACE: display mapping"
+    if refinement is not None:  # the refined display is drawn with the proxy's own coordinates
+        display_uv = atlas.uv.reshape(-1, 2).astype(np.float64)
+        corners = refinement.corners(display_v[display_t].reshape(-1, 3))
+    else:
+        tri, bary = proxy.display_mapping(display_v, display_t, proxy_v, proxy_t)
+        display_uv = _display_uv(atlas, tri, bary)
+        corners = display_v[display_t].reshape(-1, 3)
+    # T_p at each proxy vertex (Lensch Eq. 13): the base colour of the nearest (drawn) display corner.
+    from scipy.spatial import cKDTree
+
+    _, vertex_corner = cKDTree(corners).query(proxy_v)
+    arrays = {
+        "proxy_vertices_mm": proxy_v.astype(np.float32),
+        "proxy_triangles": proxy_t.astype(np.int32),
+        "display_uv": display_uv.astype(np.float32),
+        "vertex_corner": vertex_corner.astype(np.int32),
+        **({} if refinement is None else {"display_parent": refinement.parent.astype(np.int32),
+                                          "display_bary": refinement.bary.astype(np.float32)}),
+        "stretch": S.astype(np.float64),
+        **atlas.to_arrays(),
+        **tables.to_arrays(),
+    }
+    arrays["lensch_kernels"] = tables.kernels.astype(np.float16)
+    del arrays["lensch_kernel_taps"]  # recomputed from the atlas when loaded
+    meta = {
+        "proxy_vertices": int(len(proxy_v)), "proxy_triangles": int(len(proxy_t)),
+        "proxy_spacing": float(inputs.proxy_spacing), "atlas": [atlas.width, atlas.height],
+        "surface_texels": int(atlas.surface_count),
+        "border_texels": int(atlas.count - atlas.surface_count), "form_factors": int(len(tables.F_indices)),
+        "texel_mm": float(np.sqrt(np.median(atlas.area_mm2[:atlas.surface_count]))),
+        "atlas_seconds": round(t_atlas, 3), "seconds": round(time.perf_counter() - t0, 3),
+        "bytes": int(sum(a.nbytes for a in arrays.values())),
+    }
+    yield 1.0, "TEXTURE_SPACE: done"
+    return arrays, meta

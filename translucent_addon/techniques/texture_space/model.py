@@ -1,0 +1,185 @@
+"""TEXTURE_SPACE: the bake's arrays laid out for the GPU passes, and the CPU twin of a frame (pure).
+
+The passes (``texture_space.py``) draw points: one per texel for the illumination map and the
+filter, three per surface texel for the vertex gather. Tables that are longer than a texture row
+(kernels, the sparse throughput matrix) are wrapped into images ``TABLE_WIDTH`` texels wide;
+entry e sits at (e % width, e // width). Vertex quantities live in images ``VERTEX_WIDTH`` wide.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...core.geometry.mesh_measures import facing_side
+from .atlas import TexelAtlas
+from .proxy import carry_corners
+from .throughput import LenschBake, local_radiosity, vertex_radiosity
+
+TABLE_WIDTH = 4096
+# Row starts of F travel as two exact floats, start = hi * ROW_SPLIT + lo (a float holds integers below
+# 2^24 exactly); the form factors' table is TABLE_WIDTH texels wide and at most 16384 rows (the least
+# texture size OpenGL 4.5 guarantees). Beyond that the product runs on the CPU.
+ROW_SPLIT = 1 << 12
+GPU_PRODUCT_LIMIT = TABLE_WIDTH * 16384
+VERTEX_WIDTH = 256
+
+
+def wrap(table: np.ndarray, width: int = TABLE_WIDTH, channels: int = 4) -> np.ndarray:
+    """A flat table (n,) or (n, c) as an image (rows, width, channels), zero padded."""
+    table = np.asarray(table)
+    if table.ndim == 1:
+        table = table[:, None]
+    rows = max(1, -(-len(table) // width))
+    image = np.zeros((rows * width, channels), table.dtype)
+    image[:len(table), :table.shape[1]] = table
+    return image.reshape(rows, width, channels)
+
+
+@dataclasses.dataclass
+class GpuTables:
+    atlas_size: tuple
+    texel_count: int
+    surface_count: int
+    vertex_count: int
+    # Illumination points (every texel): atlas texel, surface point (object units), normal and
+    # the normal of its proxy triangle (turned to the normal's side).
+    texel: np.ndarray
+    position: np.ndarray
+    normal: np.ndarray
+    facet: np.ndarray
+    # Filter points (every texel): the source's texel, kernel row, barycentrics and vertices.
+    source_texel: np.ndarray
+    row: np.ndarray
+    bary: np.ndarray
+    verts: np.ndarray
+    # Gather points (three per surface texel).
+    gather_texel: np.ndarray
+    gather_target: np.ndarray
+    gather_dual: np.ndarray
+    gather_blend: np.ndarray
+    kernels: np.ndarray  # (rows, TABLE_WIDTH, 4) float16
+    local_half: int  # the local kernels are (2 local_half + 1)^2 texels
+    F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 2) int32: each row start as (hi, lo), see ROW_SPLIT
+    F_indices: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
+    F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
+    display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the drawn display
+    vertex_corner: np.ndarray  # (V,) int32: drawn display corner nearest each proxy vertex
+    # A refined proxy drawn in place of the display: each triangle's display triangle (T',) and corner
+    # barycentrics there (T', 3, 3) (None: the display is drawn with its own triangles).
+    display_parent: np.ndarray | None
+    display_bary: np.ndarray | None
+    form_factors: int
+
+    @property
+    def gpu_product(self) -> bool:
+        return self.F_indices is not None
+
+    @property
+    def vertex_size(self) -> tuple:
+        return VERTEX_WIDTH, max(1, -(-self.vertex_count // VERTEX_WIDTH))
+
+    def drawn_corners(self, display_corners: np.ndarray) -> np.ndarray:
+        """Per-corner display attributes (3T, c) at the corners that are drawn (3T', c)."""
+        if self.display_parent is None:
+            return np.asarray(display_corners)
+        return carry_corners(display_corners, self.display_parent, self.display_bary)
+
+    def fits(self, display_corner_count: int) -> bool:
+        """Whether the bake's display arrays belong to a display of this many corners."""
+        if self.display_parent is None:
+            return len(self.display_uv) == display_corner_count
+        return (len(self.display_uv) == 3 * len(self.display_parent)
+                and int(self.display_parent.max()) < display_corner_count // 3)
+
+
+def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
+    """The atlas and Lensch tables of a stored bake. Kernel taps are not stored: with ``taps`` they
+    are recomputed from the atlas (the CPU twin needs them, the GPU finds its taps itself)."""
+    from .throughput import _offsets, _taps
+
+    atlas = TexelAtlas.from_arrays(arrays)
+    fields = {f.name: arrays.get(f"lensch_{f.name}") for f in dataclasses.fields(LenschBake)}
+    fields["kernels"] = np.asarray(fields["kernels"], np.float32)
+    if fields["kernel_taps"] is None and taps:
+        offsets = _offsets(local_half(fields["kernels"]))
+        fields["kernel_taps"] = _taps(atlas, np.arange(atlas.surface_count), offsets)
+    return atlas, LenschBake(**fields)
+
+
+def split_rows(indptr: np.ndarray) -> np.ndarray:
+    """(V+1, 2) int32: the row starts of F as (hi, lo) with start = hi * ROW_SPLIT + lo, both exact in float32."""
+    indptr = np.asarray(indptr, np.int64)
+    return np.stack([indptr // ROW_SPLIT, indptr % ROW_SPLIT], axis=1).astype(np.int32)
+
+
+def local_half(kernels: np.ndarray) -> int:
+    """h of a bake's (2h+1)^2 local kernels (n, taps, 3)."""
+    side = int(round(np.sqrt(np.asarray(kernels).shape[1])))
+    return (side - 1) // 2
+
+
+def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
+    atlas, lensch = load(arrays, taps=False)
+    gpu_product = len(lensch.F_indices) <= GPU_PRODUCT_LIMIT
+    n, N = atlas.surface_count, atlas.count
+    # Back to object space: p = S^-1 x / mm, and normals n_o ~ S^T n (their transform is S^-T).
+    S = np.asarray(arrays.get("stretch", np.eye(3)), np.float64).reshape(3, 3)
+    position = atlas.position_mm.astype(np.float64) @ np.linalg.inv(S).T / float(mm_per_unit)
+    normal = atlas.normal.astype(np.float64) @ S
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+    tri = np.asarray(arrays["proxy_triangles"], np.int64)
+    p = np.asarray(arrays["proxy_vertices_mm"], np.float64)[tri[atlas.triangle]]
+    facet = facing_side(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) @ S, normal)
+    facet /= np.maximum(np.linalg.norm(facet, axis=1, keepdims=True), 1e-30)
+    verts = tri[atlas.triangle]
+    src = atlas.source
+    kernels = np.asarray(arrays["lensch_kernels"], np.float16)
+    rows = kernels.reshape(-1, 3)
+    return GpuTables(
+        atlas_size=(atlas.width, atlas.height), texel_count=N, surface_count=n, vertex_count=len(lensch.A_v),
+        texel=atlas.texel_xy.astype(np.float32),
+        position=position.astype(np.float32),
+        normal=normal.astype(np.float32),
+        facet=facet.astype(np.float32),
+        source_texel=atlas.texel_xy[src].astype(np.float32),
+        row=src.astype(np.float32),
+        bary=atlas.bary.astype(np.float32),
+        verts=verts.astype(np.float32),
+        gather_texel=np.repeat(atlas.texel_xy[:n], 3, axis=0).astype(np.float32),
+        gather_target=lensch.dual_vertices.reshape(-1).astype(np.float32),
+        gather_dual=lensch.dual_weights.reshape(-1).astype(np.float32),
+        gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
+        kernels=wrap(rows),
+        local_half=local_half(kernels),
+        F_indptr=wrap(split_rows(lensch.F_indptr), channels=2) if gpu_product else None,
+        F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1) if gpu_product else None,
+        F_data=wrap(np.asarray(lensch.F_data, np.float32)) if gpu_product else None,
+        form_factors=int(len(lensch.F_indices)),
+        display_uv=np.asarray(arrays["display_uv"], np.float32),
+        vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
+        display_parent=np.asarray(arrays["display_parent"], np.int64) if "display_parent" in arrays else None,
+        display_bary=(np.asarray(arrays["display_bary"], np.float32).reshape(-1, 3, 3)
+                      if "display_parent" in arrays else None),
+    )
+
+
+def vertex_image(values: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(V, 3) per-vertex values as an RGBA image VERTEX_WIDTH wide."""
+    return wrap(np.concatenate([values, np.ones((len(values), 1), values.dtype)], axis=1), VERTEX_WIDTH)
+
+
+def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None = None):
+    """CPU twin of the GPU passes: (B^l (N, 3), B^g / T_p interpolated (N, 3)) at every texel.
+
+    ``E`` (N, 3) is the illumination map at every texel (border texels hold their source's); a
+    border texel's outputs are its source's, as the filter pass draws them.
+    """
+    atlas, lensch = load(arrays)
+    n = atlas.surface_count
+    B_vertex = vertex_radiosity(lensch, np.asarray(E, np.float64)[:n])
+    if T_p_vertex is not None:
+        B_vertex /= np.maximum(T_p_vertex, 1e-4)
+    verts = np.asarray(arrays["proxy_triangles"], np.int64)[atlas.triangle]
+    B_global = np.einsum("nk,nkc->nc", atlas.bary.astype(np.float64), B_vertex[verts])
+    return local_radiosity(lensch, E)[atlas.source], B_global

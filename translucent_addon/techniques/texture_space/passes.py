@@ -1,0 +1,225 @@
+"""TEXTURE_SPACE: Lensch 2002 at run time, every step on the GPU (Blender-facing).
+
+Per frame, for each mesh with an up-to-date bake (Lensch Fig. 3):
+1. illumination map: one point per atlas texel, lit at its surface point with Fresnel and
+   shadows; the world term first, then one additive pass per emitter, inside the pipeline's
+   emitter loop so that each reuses that emitter's shadow atlas (``ts_illumination``);
+2. vertex gather (Eq. 10) and direct radiosity B^d (Sec. 5.4): three points per surface texel,
+   additive into per-vertex textures (``ts_gather``);
+3. global response F^0 E^g + B^d per vertex, divided by T_p (Eq. 11, 13): a fragment per vertex
+   walking its row of the sparse matrix (``ts_product``), or scipy.sparse on the CPU
+   (``Scene.translucent.texture_product``);
+4. local response, the 7x7 filter (Eq. 15), and the interpolated global response (Eq. 12): a
+   point per texel (``ts_filter``);
+5. display (Eq. 1, 14): the displayed mesh reads both maps through its atlas coordinates
+   (``ts_display``), over the base pass.
+The maths and layouts are in ``texture_space_data.py``, the GLSL in ``gpu_shaders/ts_*.glsl``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...core.physics.sh_irradiance import transmittance_kernel
+from ...gpu import bake_cache, shaders
+from ...gpu.bake_cache import Active
+from ...gpu.targets import new_target, screen_quad, texture_from_array
+from . import model as tsd
+from .throughput import global_product, throughput_matrices
+
+
+class Resources:
+    """Textures, point batches and render targets of one bake."""
+
+    def __init__(self, tables: tsd.GpuTables, arrays: dict):
+        from gpu_extras.batch import batch_for_shader
+
+        self.tables = t = tables
+        self.arrays = arrays  # for the CPU product and the tests' twin
+        self.kernels = texture_from_array(t.kernels, "RGBA16F")
+        if t.gpu_product:
+            self.F_indptr = texture_from_array(t.F_indptr, "RG32F")
+            self.F_indices = texture_from_array(t.F_indices, "R32F")
+            self.F_data = texture_from_array(t.F_data, "RGBA32F")
+        self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
+            "texel": t.texel, "pos": t.position, "nor": t.normal, "facet": t.facet,
+            "sky": np.ones(len(t.texel), np.float32)})
+        self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
+            "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
+        self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
+            "texel": t.texel, "source": t.source_texel, "row": t.row, "bary": t.bary, "verts": t.verts})
+        self.irradiance = new_target(t.atlas_size)
+        self.maps = new_target(t.atlas_size, attachments=2)  # local, global
+        self.vertex_in = new_target(t.vertex_size, attachments=2)  # E^g, B^d
+        self.vertex_out = new_target(t.vertex_size)
+        self.display = {}  # display batch by mesh key
+        self._sparse = None
+
+    def display_batch(self, mesh):
+        batch = self.display.get(mesh.key)
+        if batch is None:
+            from gpu_extras.batch import batch_for_shader
+
+            self.display.clear()
+            drawn = self.tables.drawn_corners
+            batch = self.display[mesh.key] = batch_for_shader(shaders.get("ts_display"), "TRIS", {
+                "pos": np.ascontiguousarray(drawn(mesh.positions), np.float32),
+                "nor": np.ascontiguousarray(drawn(mesh.normals), np.float32),
+                "col": np.ascontiguousarray(drawn(mesh.colors), np.float32),
+                "uv": self.tables.display_uv})
+        return batch
+
+    def sparse(self):
+        """F^0 per channel as scipy CSR matrices (the CPU product), built once."""
+        if self._sparse is None:
+            a = self.arrays
+            self._sparse = throughput_matrices(a["lensch_F_indptr"], a["lensch_F_indices"], a["lensch_F_data"])
+        return self._sparse
+
+
+def prepare(frame) -> list[Active]:
+    """The TEXTURE_SPACE meshes of a frame whose bake is loaded (on first use) and current."""
+    return bake_cache.prepare(
+        frame, "TEXTURE_SPACE",
+        lambda arrays, mesh: Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays),
+        lambda res, mesh: res.tables.fits(len(mesh.positions)))
+
+
+def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float,
+                      cosine_table) -> None:
+    """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
+    point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by ``cosine_table`` at the
+    point's cosine (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s) and for the
+    exitance its surface term takes over."""
+    import gpu
+
+    from ...pipeline import clear_target
+
+    with fb.bind():
+        if mode == 0:
+            clear_target(fb, depth=None)
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("ADDITIVE_PREMULT")
+        gpu.state.point_size_set(1.0)
+        shader = shaders.bind_lit("ts_illumination", frame_ubo, light_ubo, shadow_atlas, mode)
+        shader.uniform_block("object", obj_ubo)
+        shader.uniform_float("eta", float(eta))
+        shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
+        shader.uniform_float("atlas_size", tuple(float(x) for x in size))
+        shader.uniform_sampler("cosine_table", cosine_table)
+        points.draw(shader)
+        gpu.state.blend_set("NONE")
+
+
+def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline) -> None:
+    """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
+    for a in actives:
+        draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
+                          objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta,
+                          unit_texture(pipeline))
+
+
+def unit_texture(pipeline):
+    """One texel of 1 (RGBA32F), built once per pipeline: the illumination pass's neutral table."""
+    tex = pipeline.targets.get("unit_texture")
+    if tex is None:
+        tex = pipeline.targets["unit_texture"] = texture_from_array(np.ones((1, 1, 4), np.float32))
+    return tex
+
+
+def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
+    """Gather, product, filter and display; returns seconds per step (summed over meshes)."""
+    import gpu
+
+    from ...pipeline import clear_target, read_pixels
+
+    timings = {"ts_gather": 0.0, "ts_product": 0.0, "ts_filter": 0.0, "ts_display": 0.0}
+    for a in actives:
+        res, t = a.resources, a.resources.tables
+        product_here = product if t.gpu_product else "CPU"
+        if product_here != product:
+            frame.warnings.append(f"'{a.mesh.name}': {t.form_factors:,} form factors are more than the GPU product "
+                                  "indexes; F^0 E runs on the CPU (a smaller atlas makes fewer)")
+        t0 = time.perf_counter()
+        irr_fb, (irradiance,), _ = res.irradiance
+        vin_fb, (E_vertex, B_direct), _ = res.vertex_in
+        with vin_fb.bind():
+            clear_target(vin_fb, depth=None)
+            gpu.state.depth_test_set("NONE")
+            gpu.state.blend_set("ADDITIVE_PREMULT")
+            shader = shaders.get("ts_gather")
+            shader.bind()
+            shader.uniform_sampler("irradiance", irradiance)
+            shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+            shader.uniform_float("vertex_size", tuple(float(x) for x in t.vertex_size))
+            res.gather_points.draw(shader)
+            gpu.state.blend_set("NONE")
+            if product_here == "CPU":
+                E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
+                B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
+        t1 = time.perf_counter()
+        T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
+        vout_fb, (B_vertex,), _ = res.vertex_out
+        if product_here == "CPU":
+            B = global_product(res.sparse(), E_g, B_d) / np.maximum(T_p, 1e-4)
+            B_vertex = texture_from_array(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
+            res.cpu_vertex = B_vertex  # referenced until drawn
+        else:
+            T_p_texture = texture_from_array(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
+            with vout_fb.bind():
+                gpu.state.blend_set("NONE")
+                shader = shaders.get("ts_product")
+                shader.bind()
+                shader.uniform_sampler("F_indptr", res.F_indptr)
+                shader.uniform_sampler("F_indices", res.F_indices)
+                shader.uniform_sampler("F_data", res.F_data)
+                shader.uniform_sampler("E_vertex", E_vertex)
+                shader.uniform_sampler("B_direct", B_direct)
+                shader.uniform_sampler("T_p_vertex", T_p_texture)
+                shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+                shader.uniform_int("vertex_count", t.vertex_count)
+                shader.uniform_int("row_split", tsd.ROW_SPLIT)
+                screen_quad(pipeline, "ts_product").draw(shader)
+        t2 = time.perf_counter()
+        maps_fb, (local_map, global_map), _ = res.maps
+        with maps_fb.bind():
+            clear_target(maps_fb, depth=None)
+            gpu.state.blend_set("NONE")
+            shader = shaders.get("ts_filter")
+            shader.bind()
+            shader.uniform_sampler("irradiance", irradiance)
+            shader.uniform_sampler("kernels", res.kernels)
+            shader.uniform_sampler("B_vertex", B_vertex)
+            shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+            shader.uniform_int("local_half", t.local_half)
+            shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
+            res.filter_points.draw(shader)
+            if pipeline.capture is not None:
+                w, h = t.atlas_size
+                pipeline.capture.setdefault("texture_space", []).append({
+                    "name": a.mesh.name, "irradiance": None, "local": read_pixels(maps_fb, w, h, slot=0),
+                    "global": read_pixels(maps_fb, w, h, slot=1), "T_p_vertex": T_p, "arrays": res.arrays})
+        if pipeline.capture is not None:
+            with irr_fb.bind():
+                w, h = t.atlas_size
+                pipeline.capture["texture_space"][-1]["irradiance"] = read_pixels(irr_fb, w, h)
+        t3 = time.perf_counter()
+        with target_fb.bind():
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(False)
+            gpu.state.blend_set("NONE")
+            shader = shaders.get("ts_display")
+            shader.bind()
+            shader.uniform_block("frame", frame_ubo)
+            shader.uniform_block("object", objects[a.index])
+            shader.uniform_sampler("local_map", local_map)
+            shader.uniform_sampler("global_map", global_map)
+            shader.uniform_float("eta", float(a.mesh.medium.eta))
+            res.display_batch(a.mesh).draw(shader)
+            gpu.state.depth_mask_set(True)
+        t4 = time.perf_counter()
+        for key, dt in zip(timings, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+            timings[key] += dt
+    return timings
