@@ -12,6 +12,7 @@ import time
 import bpy
 
 from ..translucent_addon.blender.bake_inputs import gather
+from ..translucent_addon.blender.quality_apply import apply_auto
 from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
@@ -121,7 +122,6 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"ERROR"}, error)
             return None
         if ob.translucent.quality == "AUTO" and ob.translucent.method in BAKED_AUTO:
-            from ..translucent_addon.blender.quality_apply import apply_auto
 
             try:
                 choice = apply_auto(context, ob)

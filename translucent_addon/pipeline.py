@@ -29,6 +29,7 @@ import numpy as np
 
 from .core.frame import FrameInputs, MeshInstance
 from .gpu import blocks, shaders
+from .gpu.targets import clear_target, read_pixels, screen_quad
 from .techniques.caustics import passes as caustics
 from .techniques.geocube import passes as geocube
 from .techniques.grass import passes as grass
@@ -36,18 +37,6 @@ from .techniques.image_space import passes as image_space
 from .techniques.quadgraph import passes as quadgraph
 from .techniques.relief import passes as relief
 from .techniques.texture_space import passes as texture_space
-
-
-def clear_target(fb, color=(0.0, 0.0, 0.0, 0.0), depth: float | None = 1.0) -> None:
-    """Clear a bound framebuffer. Depth writes are enabled first: a depth clear obeys the depth
-    mask, and a pass that left it off would leave the last frame's depth in place."""
-    import gpu
-
-    gpu.state.depth_mask_set(True)
-    if depth is None:
-        fb.clear(color=color)
-    else:
-        fb.clear(color=color, depth=depth)
 
 
 class Pipeline:
@@ -232,8 +221,6 @@ class Pipeline:
         """The world image behind everything, where the world is an environment texture."""
         import gpu
 
-        from .gpu.targets import screen_quad
-
         chain, env_tex = geocube.environment(frame)
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
@@ -279,19 +266,6 @@ class Pipeline:
                     shadow.draw(shader)
 
 
-def read_pixels(fb, width: int, height: int, slot: int = 0) -> np.ndarray:
-    """RGBA float pixels (height, width, 4) of a bound framebuffer, row 0 at the bottom.
-
-    Read into a 1-D Buffer: NumPy views of multi-dimensional ``gpu.types.Buffer``
-    objects get wrong strides in Blender 5.0.
-    """
-    import gpu
-
-    buf = gpu.types.Buffer("FLOAT", width * height * 4)
-    fb.read_color(0, 0, width, height, 4, slot, "FLOAT", data=buf)
-    return np.asarray(buf, dtype=np.float32).reshape(height, width, 4).copy()
-
-
 def render_offscreen(pipeline: Pipeline, frame: FrameInputs) -> np.ndarray:
     """Draw a frame into an RGBA32F offscreen and return its linear pixels."""
     import gpu
@@ -305,3 +279,22 @@ def render_offscreen(pipeline: Pipeline, frame: FrameInputs) -> np.ndarray:
             return read_pixels(fb, cam.width, cam.height)
     finally:
         offscreen.free()
+
+
+def draw_to_region(pipeline: Pipeline, frame: FrameInputs, size, bind_display, unbind_display) -> None:
+    """The viewport: draw the frame into an RGBA16F offscreen the pipeline keeps (rebuilt when the region's
+    size changes), then onto the region between ``bind_display`` and ``unbind_display`` (the engine's
+    display-space shader: Blender's colour management)."""
+    import gpu
+    from gpu_extras.presets import draw_texture_2d
+
+    off = pipeline.targets.get("viewport_offscreen")
+    if off is None or (off.width, off.height) != tuple(size):
+        off = pipeline.targets["viewport_offscreen"] = gpu.types.GPUOffScreen(*size, format="RGBA16F")
+    with off.bind():
+        pipeline.draw(frame)
+    gpu.state.blend_set("ALPHA_PREMULT")
+    bind_display()
+    draw_texture_2d(off.texture_color, (0, 0), *size)
+    unbind_display()
+    gpu.state.blend_set("NONE")

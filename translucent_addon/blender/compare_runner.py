@@ -21,6 +21,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ..core import bake_store as store
 from ..core.geometry.camera import pixel_rays
 from ..core.metrics import median_relative_error, relative_rmse, ssim
 from ..core.reference import cache
@@ -34,9 +35,13 @@ from ..core.report.report import (
     speed_accuracy_chart,
     write_report,
 )
+from ..techniques import registry
 from ..techniques.texture_space.proxy import SPACING_TEXELS
+from . import engine as engine_mod
 from . import extract, twin_materials
+from .bake_inputs import gather
 from .bvh_tracer import BVHTracer
+from .quality_apply import apply_auto
 from .versions import EEVEE_IDS, eevee_engine_id
 
 
@@ -328,7 +333,6 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         for method in ("IMAGE_SPACE", "TEXTURE_SPACE"):
             yield step(f"Translucent Auto ({method}), target {target:g} ...")
             with method_applied(objects, method, quality="AUTO", target_error=target), scene_kept(scene):
-                from .quality_apply import apply_auto
 
                 choices = [apply_auto(bpy.context, ob) for ob in objects]
                 bake_seconds = bake_objects(objects, method, lambda text: None)[0] if method != "IMAGE_SPACE" else 0.0
@@ -378,9 +382,6 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
 
 def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict]]:
     """Bake each object with the given method (blocking, as in batch mode): (seconds, each bake's meta)."""
-    from ..core import bake_store as store
-    from ..techniques import registry
-    from .bake_inputs import gather
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     t0 = time.perf_counter()
@@ -523,8 +524,6 @@ def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 4
     discretisation.json and discretisation.png into output_dir.
     """
     import json
-
-    from . import engine as engine_mod
 
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -10,7 +10,8 @@ from __future__ import annotations
 import bpy
 
 from ..pipeline import Pipeline
-from . import extract
+from . import extract, preferences
+from .engine import LAST_TIMINGS
 
 _handle = None
 _overlay = None
@@ -49,9 +50,6 @@ def timing_lines(timings: dict) -> list[str]:
 def _draw_overlay():
     """Timing overlay (preferences): the last frame's milliseconds per pass, top left of the viewport."""
     import blf
-
-    from . import preferences
-    from .engine import LAST_TIMINGS
 
     prefs = preferences.get()
     if prefs is None or not prefs.timing_overlay:

@@ -6,7 +6,7 @@ import contextlib
 import bpy
 import numpy as np
 
-from ..pipeline import Pipeline, render_offscreen
+from ..pipeline import Pipeline, draw_to_region, render_offscreen
 from ..techniques.image_space import quality as image_space_auto
 from ..techniques.image_space.model import SamplingSettings
 from . import extract
@@ -52,7 +52,6 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._pipeline = None
-        self._viewport_offscreen = None
         self.last_frame = None
 
     def __del__(self):
@@ -60,7 +59,6 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         # removed the engine's struct already, at exit).
         with contextlib.suppress(ReferenceError):
             self._pipeline = None
-            self._viewport_offscreen = None
 
     def _get_pipeline(self) -> Pipeline:
         if self._pipeline is None:
@@ -128,9 +126,6 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pass
 
     def view_draw(self, context, depsgraph):
-        import gpu
-        from gpu_extras.presets import draw_texture_2d
-
         region, rv3d = context.region, context.region_data
         frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
         pipeline = self._get_pipeline()
@@ -141,18 +136,9 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline.coherence_key = "viewport" if depsgraph.scene.translucent.temporal_coherence else None
         pipeline.coherence_frame += 1
         pipeline.forget({m.key for m in frame.meshes})
-        size = (region.width, region.height)
-        off = self._viewport_offscreen
-        if off is None or (off.width, off.height) != size:
-            off = self._viewport_offscreen = gpu.types.GPUOffScreen(*size, format="RGBA16F")
-        with off.bind():
-            pipeline.draw(frame)
+        draw_to_region(pipeline, frame, (region.width, region.height),
+                       lambda: self.bind_display_space_shader(depsgraph.scene), self.unbind_display_space_shader)
         _keep_timings(pipeline, "viewport")
-        gpu.state.blend_set("ALPHA_PREMULT")
-        self.bind_display_space_shader(depsgraph.scene)
-        draw_texture_2d(off.texture_color, (0, 0), *size)
-        self.unbind_display_space_shader()
-        gpu.state.blend_set("NONE")
 
 
 classes = (TranslucentRenderEngine,)

@@ -2,8 +2,10 @@
 
 import bpy
 
-from ..core.physics.presets import load_presets
+from ..core import quality
+from ..core.physics.presets import USER_PREFIX, load_presets, load_user_presets
 from ..techniques import METHOD_DESCRIPTIONS, METHOD_IDS
+from . import preferences
 
 _METHOD_LABELS = {
     "OFF": "Off",
@@ -27,7 +29,6 @@ def user_presets_path():
 def refresh_preset_items() -> None:
     """Rebuild the preset list (after a user preset is saved or removed). Blender keeps pointers into these
     strings: the list object stays the same and stays alive."""
-    from ..core.physics.presets import USER_PREFIX, load_user_presets
 
     _PRESET_ITEMS.clear()
     _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand"))
@@ -44,7 +45,6 @@ def _preset_items(self, context):
 
 
 def _preset_material(name: str):
-    from ..core.physics.presets import USER_PREFIX, load_user_presets
 
     if name.startswith(USER_PREFIX):
         return load_user_presets(user_presets_path()).get(name[len(USER_PREFIX):])
@@ -83,8 +83,6 @@ def _on_coefficients(self, context):
 
 def _on_method(self, context):
     """A method chosen: its resolutions at the preferences' default quality."""
-    from ..core import quality
-    from . import preferences
 
     prefs = preferences.get(context)
     if prefs is not None and prefs.default_quality != "STANDARD":

@@ -3,8 +3,13 @@ from __future__ import annotations
 
 import bpy
 
+from ..core import bake_store as store
 from ..techniques import METHOD_DESCRIPTIONS
+from ..techniques.grass import bake as grass_btf
 from .bake_inputs import bake_status
+from .draw_handler import timing_lines
+from .engine import LAST_AUTO_OVERLAP, LAST_TIMINGS
+from .extract import grass_status
 from .versions import EEVEE_IDS
 
 _STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
@@ -61,7 +66,6 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
                 for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
                     box.label(text=line)
                 if s.method == "IMAGE_SPACE":
-                    from .engine import LAST_AUTO_OVERLAP
 
                     k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
                     if k is not None:
@@ -140,9 +144,6 @@ def _wrap(text: str, width: int) -> list[str]:
 
 def _grass_box(layout, ob) -> None:
     """Grass field: settings, BTF status and statistics, bake."""
-    from ..core import bake_store as store
-    from ..techniques.grass import bake as grass_btf
-    from .extract import grass_status
 
     s = ob.translucent
     box = layout.box()
@@ -181,7 +182,6 @@ def _length(mm: float) -> str:
 
 def _bake_statistics(layout, ob, method) -> None:
     """What the bake holds, from its metadata (read without loading the arrays)."""
-    from ..core import bake_store as store
 
     meta = store.read_meta(ob, method)
     if meta is None:
@@ -209,8 +209,6 @@ def _bake_statistics(layout, ob, method) -> None:
 
 def _last_frame(layout) -> None:
     """The last frame's milliseconds per pass (F12 or viewport)."""
-    from .draw_handler import timing_lines
-    from .engine import LAST_TIMINGS
 
     lines = timing_lines(LAST_TIMINGS)
     box = layout.box()
@@ -241,7 +239,6 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
         col.prop(s, "splat_threshold")
         col.prop(s, "splat_overlap")
         col.prop(s, "splat_max_grid")
-        from .engine import LAST_AUTO_OVERLAP
 
         if LAST_AUTO_OVERLAP:
             col.label(text=f"Last frame: overlap {LAST_AUTO_OVERLAP['overlap']:g}, {LAST_AUTO_OVERLAP['max_grid']} "

@@ -12,6 +12,7 @@ import dataclasses
 import numpy as np
 
 from .lights import Emitter
+from .physics.sh_irradiance import project_environment, uniform_coefficients
 
 
 @dataclasses.dataclass(frozen=True)
@@ -199,7 +200,6 @@ class FrameInputs:
     def world_sh(self) -> np.ndarray:
         """The world's radiance in SH bands 0-2, L_lm (9, 3): the environment image's (projected once per
         image), or the uniform colour's."""
-        from .physics.sh_irradiance import project_environment, uniform_coefficients
 
         if self.environment is None:
             return uniform_coefficients(self.world_color)

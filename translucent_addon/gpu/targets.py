@@ -40,3 +40,28 @@ def screen_quad(pipeline, shader_name: str):
         corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32)
         batch = pipeline.targets[key] = batch_for_shader(shaders.get(shader_name), "TRIS", {"corner": corners})
     return batch
+
+
+def clear_target(fb, color=(0.0, 0.0, 0.0, 0.0), depth: float | None = 1.0) -> None:
+    """Clear a bound framebuffer. Depth writes are enabled first: a depth clear obeys the depth
+    mask, and a pass that left it off would leave the last frame's depth in place."""
+    import gpu
+
+    gpu.state.depth_mask_set(True)
+    if depth is None:
+        fb.clear(color=color)
+    else:
+        fb.clear(color=color, depth=depth)
+
+
+def read_pixels(fb, width: int, height: int, slot: int = 0) -> np.ndarray:
+    """RGBA float pixels (height, width, 4) of a bound framebuffer, row 0 at the bottom.
+
+    Read into a 1-D Buffer: NumPy views of multi-dimensional ``gpu.types.Buffer``
+    objects get wrong strides in Blender 5.0.
+    """
+    import gpu
+
+    buf = gpu.types.Buffer("FLOAT", width * height * 4)
+    fb.read_color(0, 0, width, height, 4, slot, "FLOAT", data=buf)
+    return np.asarray(buf, dtype=np.float32).reshape(height, width, 4).copy()

@@ -28,6 +28,8 @@ import functools
 import numpy as np
 
 from ..data import DATA
+from .dipole import dipole_parameters, total_diffuse_reflectance
+from .fresnel import hemispherical_transmittance
 
 CALIBRATION_CSV = DATA / "cycles_random_walk_albedo.csv"
 
@@ -116,8 +118,6 @@ class RandomWalkInputs:
 
 def random_walk_inputs(sigma_a, sigma_s_prime, eta, g, mm_per_unit) -> RandomWalkInputs:
     """Principled random-walk inputs with our diffuse albedo and diffusion length (see module doc)."""
-    from .dipole import dipole_parameters, total_diffuse_reflectance
-    from .fresnel import hemispherical_transmittance
 
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)

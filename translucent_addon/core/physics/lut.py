@@ -10,7 +10,8 @@ import functools
 
 import numpy as np
 
-from .dipole import R_d, r_max
+from .dipole import R_d, R_d_disk, r_max, total_diffuse_reflectance
+from .multipole import Grid, Layer, layered_profiles, radial_profile
 from .quadrature import trapezoid
 
 
@@ -98,7 +99,6 @@ def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) ->
     Up to rho it is the closed-form disk integral R_d_disk(M rho) (substitute s = M r); the blend
     ring [rho, 2 rho] by quadrature.
     """
-    from .dipole import R_d_disk
 
     ring = np.linspace(rho_mm, 2 * rho_mm, 2049)[:, None]
     f = R_d(M * ring, sigma_a, sigma_s_prime, eta) * M * M * (1.0 - partition(ring, rho_mm)) * 2 * np.pi * ring
@@ -106,7 +106,6 @@ def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) ->
 
 
 def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
-    from .dipole import total_diffuse_reflectance
 
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)
@@ -156,7 +155,6 @@ def multipole_profile(top_sigma_a: tuple, top_sigma_s_prime: tuple, thickness_mm
     The layer must be at least as thick as its source depth z_r = 1 / sigma_t' (in every channel):
     thinner, the multipole's first source lies outside the layer and the model breaks down.
     """
-    from .multipole import Grid, Layer, layered_profiles, radial_profile
 
     z_r = max(1.0 / (a + s) for a, s in zip(top_sigma_a, top_sigma_s_prime))
     if thickness_mm < z_r:

@@ -25,6 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .diffusion import slab_reflectance
+from .dipole import A as internal_reflection
+from .fresnel import fresnel_dielectric
+
 TAU_MAX = 8.0  # optical depth the march covers along the view ray (exp(-8) = 3e-4 left out)
 SEGMENTS = 16  # march segments; nodes crowd the surface (t_k = t_max (k / N)^2)
 CHORD_FACTOR_MAX = 4.0  # the local multiple scattering's geometry factor is held below this
@@ -114,7 +118,6 @@ def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_t
     straight), T_o = 1 - F_r(mu_o) and T_i = 1 - F_0 (1 at eta = 1):
     T_o T_i alpha p(cos theta) mu_i / (mu_i + mu_t), times 1 - exp(-sigma_t H (1 / mu_t + 1 / mu_i)) for a
     slab of thickness H (the view ray leaves at H / mu_t)."""
-    from .fresnel import fresnel_dielectric
 
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
     mu_t = refracted_cosine(mu_o, eta)
@@ -128,7 +131,6 @@ def single_albedo(sigma_a, sigma_s_prime, g: float, eta: float, mu_i, n: int = 4
     E mu_i, without the entry transmittance T_i; the model ``qg_single`` draws (view ray refracted,
     light path straight, T_o = 1 - F_r(mu_o)). Gauss-Legendre in mu_o, uniform in azimuth.
     At eta = 1 and g = 0: (alpha / 2) (1 - mu_i ln(1 + 1 / mu_i)). Returns (len(mu_i), 3)."""
-    from .fresnel import fresnel_dielectric
 
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
     alpha = sigma_s / sigma_t
@@ -196,7 +198,6 @@ def multiple_half_space(alpha: float, mu_i, mu_o, eta: float = 1.0):
     entering per unit area is still T_i E mu_i, so the numerator keeps mu_i,
     T_o T_i alpha mu_i (H(mu_i,t) H(mu_o,t) - 1) / (4 pi (mu_i,t + mu_o,t)), with no 1 / eta^2 (as
     Jensen's single scattering; the index-matched H has no internal reflection either)."""
-    from .fresnel import fresnel_dielectric
 
     mu_i = np.asarray(mu_i, np.float64)
     mu_o = np.asarray(mu_o, np.float64)
@@ -224,7 +225,6 @@ def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
     table is the object's uniform material (veins and painted blur, which change kappa and mu per
     node, are not in it); at eta != 1 the surface term is the index-matched one at the refracted
     cosines, between Fresnel transmittances."""
-    from .diffusion import slab_reflectance
 
     R = slab_reflectance(np.asarray(sigma_a, np.float64), np.asarray(sigma_s_prime, np.float64), eta)
     return R[None, :]
@@ -242,8 +242,6 @@ def uniform_light_table(sigma_a, sigma_s_prime, eta: float, n: int = 33) -> np.n
     refracted cosine, A = (1 + F_dr) / (1 - F_dr) the diffusion's own internal reflection (the P1 radiance
     at the boundary, phi (1 + 3 mu / (2 A)), has 1 / A of the index-matched anisotropy): a model,
     continuous in eta, not judged against exact transport (the exact-transport bench is index-matched)."""
-    from .diffusion import slab_reflectance
-    from .dipole import A as internal_reflection
 
     sigma_a = np.asarray(sigma_a, np.float64)
     sigma_s_prime = np.asarray(sigma_s_prime, np.float64)

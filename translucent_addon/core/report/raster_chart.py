@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .png import write_png
+
 SUPERSAMPLE = 2  # canvas pixels per output pixel, each way; the font atlas is drawn for this
 TEXT = (0.1, 0.1, 0.1)
 FRAME = (0.2, 0.2, 0.2)
@@ -551,7 +553,6 @@ class Figure:
 
     def save(self, path) -> np.ndarray:
         """Render and write a PNG; returns the image."""
-        from .png import write_png
 
         image = self.render()
         write_png(path, image)

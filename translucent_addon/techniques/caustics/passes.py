@@ -24,8 +24,9 @@ import dataclasses
 import numpy as np
 
 from ...core.frame import CausticSettings, FrameInputs, MeshInstance
+from ...core.geometry.mesh_checks import check_mesh
 from ...gpu import blocks, shaders
-from ...gpu.targets import new_target, screen_quad
+from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad
 from .model import CausticError, caster_grid
 
 
@@ -53,7 +54,6 @@ def is_closed(mesh: MeshInstance) -> bool:
     """Whether the mesh (corners welded by position) is a closed manifold; cached per geometry key."""
     closed = _closed.get(mesh.key)
     if closed is None:
-        from ...core.geometry.mesh_checks import check_mesh
 
         vertices, triangles = np.unique(mesh.positions, axis=0, return_inverse=True)
         closed = _closed[mesh.key] = check_mesh(vertices, triangles.reshape(-1, 3)).closed_manifold
@@ -102,7 +102,6 @@ def _batch(pipeline, shader_name: str, mesh: MeshInstance, with_normals: bool):
 
 def _capture(pipeline, name: str, fb, size, slot: int = 0) -> None:
     if pipeline.capture is not None:
-        from ...pipeline import read_pixels
 
         pipeline.capture.setdefault(name, []).append(read_pixels(fb, size[0], size[1], slot))
 
@@ -112,8 +111,6 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
     """The caustics of every caster under one emitter, added to the bound target ``fb``; ``shadow_atlas``
     (this emitter's, from the shadow pass) drops grid vertices that another object hides from the light."""
     import gpu
-
-    from ...pipeline import clear_target
 
     s = plan.settings
     N = int(s.texels)

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from ...core.physics.slab_transfer import transfer_table
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
 from ...gpu.targets import texture_from_array
@@ -74,7 +75,6 @@ def environment(frame):
 
 def transfer(g: float):
     """(texture, log(1 + tau_max)) of the slab transfer fit for anisotropy g (Monte Carlo, ~1 s, cached)."""
-    from ...core.physics.slab_transfer import transfer_table
 
     key = round(float(g), 3)
     cached = _transfer_cache.get(key)

@@ -13,6 +13,7 @@ import dataclasses
 import numpy as np
 
 from ...gpu import bake_cache, shaders
+from ...gpu.targets import texture_from_array
 from . import bake as grass_btf
 from . import model as grass_data
 
@@ -35,7 +36,6 @@ class Active:
 
 
 def build(loaded) -> Resources:
-    from ...gpu.targets import texture_from_array
 
     arrays, meta = loaded
     cb = grass_btf.from_arrays(arrays, meta)

@@ -24,6 +24,7 @@ import numpy as np
 
 from ...core.frame import FrameInputs, MeshInstance
 from ...core.lights import DIRECTIONAL, Emitter
+from ...core.physics.dipole import r_max
 from ...core.physics.lut import (
     BLUR_MIN,
     TAIL_BLOCK,
@@ -229,7 +230,6 @@ def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
     if med.layer_thickness_mm is None:
         return image_space_tables(med.sigma_a, med.sigma_s_prime, med.eta, rho_mm, epsilon, FAR_SAMPLES,
                                   NEAR_SAMPLES)
-    from ...core.physics.dipole import r_max
 
     # The grid follows the materials: cells a quarter of the layer's shortest mean free path, wide
     # enough for the base's profile (1.5 r_max), at most 2048 cells a side.

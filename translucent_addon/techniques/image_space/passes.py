@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
 from ...gpu import blocks, shaders
-from ...gpu.targets import new_target, screen_quad, texture_from_array
+from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
 
 # Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
@@ -158,8 +158,6 @@ def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, 
     positions to skip what is peeled already."""
     import gpu
 
-    from ...pipeline import clear_target, read_pixels
-
     w = prepared.plan.world
     size = (w.grid, w.grid)
     targets = [_target(pipeline, f"world_samples_{i}", size, depth=True, attachments=2) for i in range(2)]
@@ -195,8 +193,6 @@ def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, 
 
 def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipeline) -> None:
     import gpu
-
-    from ...pipeline import clear_target, read_pixels
 
     p = prepared.plan
     cam = frame.camera

@@ -27,6 +27,7 @@ from ...core.geometry import world_visibility
 from ...core.geometry.mesh_measures import vertex_normals
 from . import graph as quadgraph
 from . import tetra
+from .deformation import embed
 
 PROXY_AT_K1 = 5000  # finest proxy triangles at K = 1
 K_EXPONENT = -0.56  # proxy triangles ~ K^-0.56 (N ~ K^-0.84, the paper's Fig. 11)
@@ -75,7 +76,6 @@ def display_normals_at(points, display_v, display_t, proxy_normals):
     (a subdivided low-poly proxy is flat inside each of the mesh's triangles; a decimated one has its
     own normals). Where the display's normal turns more than 90 degrees from the proxy's (a thin part
     whose other side is nearer), the proxy's is kept."""
-    from .deformation import embed
 
     e = embed(points, display_v, display_t)
     corner = vertex_normals(display_v, display_t, by_angle=True)[np.asarray(display_t)[e.triangle]]

@@ -19,6 +19,9 @@ import dataclasses
 
 import numpy as np
 
+from ...core.geometry.mesh_measures import vertex_normals
+from .tetra import TET_FACES, signed_volumes
+
 CANDIDATES = 8  # nearest triangles (by centroid) searched for a point's closest point
 
 
@@ -37,7 +40,6 @@ def point_frames(vertices: np.ndarray, triangles: np.ndarray, triangle: np.ndarr
     move with the mesh exactly under rotations and uniform scales. ``normals``: the mesh's
     ``vertex_normals``, when the caller already has them.
     """
-    from ...core.geometry.mesh_measures import vertex_normals
 
     v = np.asarray(vertices, np.float64)
     tri = np.asarray(triangles, np.int64)
@@ -146,8 +148,6 @@ def stiffness(points: np.ndarray, tets: np.ndarray):
     of nearly no volume stays finite: its volume is floored at 1e-9 of the median)."""
     from scipy.sparse import coo_matrix
 
-    from .tetra import TET_FACES, signed_volumes
-
     points = np.asarray(points, np.float64)
     tets = np.asarray(tets, np.int64)
     f = points[tets[:, TET_FACES]]  # (T, 4, 3, 3): face k opposite vertex k
@@ -186,7 +186,6 @@ class HarmonicInterpolation:
 
 def boundary_points(tets: np.ndarray, adjacency: np.ndarray, count: int) -> np.ndarray:
     """(count,) bool: the points on a boundary face (one with no tetrahedron across)."""
-    from .tetra import TET_FACES
 
     t, f = np.nonzero(adjacency < 0)
     mask = np.zeros(count, bool)

@@ -15,6 +15,7 @@ import dataclasses
 
 import numpy as np
 
+from ...core.geometry.mesh_measures import vertex_normals
 from . import tetra
 
 # Inner nodes stay inside their tetrahedron during relaxation: barycentric coordinates >= this.
@@ -150,7 +151,6 @@ def _surface_hits(origins, targets, surface_v, surface_t, surface_normals):
 
 def build(points, tets, surface_v, surface_t) -> QuadGraph:
     """QuadGraph of a tetrahedral mesh (Sec. 4.1); surface nodes on the surface mesh (surface_v, _t) [mm]."""
-    from ...core.geometry.mesh_measures import vertex_normals
 
     points = np.asarray(points, np.float64)
     tets = tetra.orient(points, tets)

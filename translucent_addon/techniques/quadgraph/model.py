@@ -11,9 +11,12 @@ import dataclasses
 
 import numpy as np
 
+from ...core.geometry.mesh_measures import vertex_normals
 from ...core.physics import diffusion as df
 from ...core.physics.lut import BLUR_MIN
-from .graph import TextureLayout, layout_for
+from . import deformation as vd
+from .graph import TextureLayout, layout_for, link_geometry
+from .tetra import face_adjacency, signed_volumes
 
 
 @dataclasses.dataclass
@@ -98,8 +101,6 @@ class LevelEmbedding:
     (``carry``). Built once per bake, when a pose or paint first needs it."""
 
     def __init__(self, rest: LevelTables, points, tets, inner_bary, rest_vertices, triangles):
-        from . import deformation as vd
-        from .tetra import face_adjacency, signed_volumes
 
         self.rest = rest
         self.points = np.asarray(points, np.float64)
@@ -118,9 +119,6 @@ class LevelEmbedding:
         """The level's tables with the surface at ``vertices`` (mm, the rest surface's triangles; ``normals``
         its vertex normals, computed here if not given); raises DeformationError when the pose folds the
         volume over (``volume_deformation.check_folds``)."""
-        from ...core.geometry.mesh_measures import vertex_normals
-        from . import deformation as vd
-        from .graph import link_geometry
 
         rest = self.rest
         S = rest.n_surface

@@ -42,8 +42,8 @@ from ...core.physics.dipole import A as internal_reflection
 from ...core.physics.fresnel import F_dr as diffuse_fresnel
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
-from ...gpu.targets import new_target, screen_quad, texture_from_array
-from ..texture_space.passes import draw_illumination, unit_texture
+from ...gpu.illumination import draw_illumination, unit_texture
+from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from . import model as qgd
 from .deformation import DeformationError
 
@@ -279,7 +279,6 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
                size) -> None:
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3),
     and the emitter's single scattering into the screen target (mode 0: its depth, zero colour)."""
-    from ...pipeline import clear_target
 
     for a in actives:
         m, res = a.mesh.medium, a.resources
@@ -321,8 +320,6 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
     switched off add none; the pipeline's QUADGRAPH output 2 or 3 keeps one of the two)."""
     import gpu
 
-    from ...pipeline import clear_target
-
     single, exit_ = single_target(pipeline, size), single_target(pipeline, size, "qg_exit")
     # (target drawn into, pass mode, target read as ``depths``)
     passes = ((single, 0, exit_), (exit_, 2, single)) if mode == 0 else ((single, 1, exit_),)
@@ -360,7 +357,6 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
 
 def _relative_change(fb_new, fb_old, size) -> float:
     """The convergence test of ``physics.diffusion.relative_change`` on two read-back phi targets."""
-    from ...pipeline import read_pixels
 
     with fb_new.bind():
         new = read_pixels(fb_new, *size)[..., :3]
@@ -372,8 +368,6 @@ def _relative_change(fb_new, fb_old, size) -> float:
 def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresolution: bool = True):
     """Relax every level coarse to fine; returns the finest level's current phi target index."""
     import gpu
-
-    from ...pipeline import clear_target
 
     res = a.resources
     tolerance = df.reachable_tolerance(tolerance)
@@ -435,8 +429,6 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
            max_iterations: int) -> dict:
     """Solve and display; returns seconds per step (summed over meshes)."""
     import gpu
-
-    from ...pipeline import read_pixels
 
     timings = {"qg_solve": 0.0, "qg_display": 0.0}
     for a in actives:

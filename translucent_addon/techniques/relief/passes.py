@@ -12,13 +12,13 @@ import hashlib
 import numpy as np
 
 from ...gpu import shaders
+from ...gpu.targets import texture_from_array
 
 _height_textures: dict = {}
 
 
 def height_texture(surface):
     """The R32F texture of a height map, cached by its key (image name and content)."""
-    from ...gpu.targets import texture_from_array
 
     tex = _height_textures.get(surface.key)
     if tex is None:

@@ -14,7 +14,7 @@ import numpy as np
 from ...core.geometry.mesh_measures import facing_side
 from .atlas import TexelAtlas
 from .proxy import carry_corners
-from .throughput import LenschBake, local_radiosity, vertex_radiosity
+from .throughput import LenschBake, _offsets, _taps, local_radiosity, vertex_radiosity
 
 TABLE_WIDTH = 4096
 # Row starts of F travel as two exact floats, start = hi * ROW_SPLIT + lo (a float holds integers below
@@ -96,7 +96,6 @@ class GpuTables:
 def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
     """The atlas and Lensch tables of a stored bake. Kernel taps are not stored: with ``taps`` they
     are recomputed from the atlas (the CPU twin needs them, the GPU finds its taps itself)."""
-    from .throughput import _offsets, _taps
 
     atlas = TexelAtlas.from_arrays(arrays)
     fields = {f.name: arrays.get(f"lensch_{f.name}") for f in dataclasses.fields(LenschBake)}

@@ -21,10 +21,10 @@ import time
 
 import numpy as np
 
-from ...core.physics.sh_irradiance import transmittance_kernel
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
-from ...gpu.targets import new_target, screen_quad, texture_from_array
+from ...gpu.illumination import draw_illumination, unit_texture
+from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from . import model as tsd
 from .throughput import global_product, throughput_matrices
 
@@ -86,33 +86,6 @@ def prepare(frame) -> list[Active]:
         lambda res, mesh: res.tables.fits(len(mesh.positions)))
 
 
-def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float,
-                      cosine_table) -> None:
-    """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
-    point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by ``cosine_table`` at the
-    point's cosine (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s) and for the
-    exitance its surface term takes over."""
-    import gpu
-
-    from ...pipeline import clear_target
-
-    with fb.bind():
-        if mode == 0:
-            clear_target(fb, depth=None)
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
-        gpu.state.blend_set("ADDITIVE_PREMULT")
-        gpu.state.point_size_set(1.0)
-        shader = shaders.bind_lit("ts_illumination", frame_ubo, light_ubo, shadow_atlas, mode)
-        shader.uniform_block("object", obj_ubo)
-        shader.uniform_float("eta", float(eta))
-        shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
-        shader.uniform_float("atlas_size", tuple(float(x) for x in size))
-        shader.uniform_sampler("cosine_table", cosine_table)
-        points.draw(shader)
-        gpu.state.blend_set("NONE")
-
-
 def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline) -> None:
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
     for a in actives:
@@ -121,19 +94,9 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
                           unit_texture(pipeline))
 
 
-def unit_texture(pipeline):
-    """One texel of 1 (RGBA32F), built once per pipeline: the illumination pass's neutral table."""
-    tex = pipeline.targets.get("unit_texture")
-    if tex is None:
-        tex = pipeline.targets["unit_texture"] = texture_from_array(np.ones((1, 1, 4), np.float32))
-    return tex
-
-
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
     """Gather, product, filter and display; returns seconds per step (summed over meshes)."""
     import gpu
-
-    from ...pipeline import clear_target, read_pixels
 
     timings = {"ts_gather": 0.0, "ts_product": 0.0, "ts_filter": 0.0, "ts_display": 0.0}
     for a in actives:

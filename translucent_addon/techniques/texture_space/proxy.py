@@ -21,6 +21,8 @@ import dataclasses
 import numpy as np
 
 from ...core.geometry.mesh_checks import triangle_areas
+from ...core.geometry.mesh_measures import vertex_normals
+from .atlas import texel_mm
 
 SPACING_TEXELS = 3.5  # the default proxy spacing
 # Longest-edge bisection leaves edges between half its bound and the bound, 0.7 of it on average:
@@ -55,8 +57,6 @@ def transfer_normals(display_vertices, display_triangles, display_normals, proxy
     i.e. whose normal is within 90 degrees of the proxy's own (a thin part's far side can be
     nearer); the proxy's own normal where there is none."""
     from scipy.spatial import cKDTree
-
-    from ...core.geometry.mesh_measures import vertex_normals
 
     t = np.asarray(display_triangles, np.int64).reshape(-1)
     n = np.zeros((len(display_vertices), 3))
@@ -99,7 +99,6 @@ def refine_for_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution:
                      spacing: float = SPACING_TEXELS) -> Refinement:
     """The display refined until no edge is longer than ``spacing`` x MAX_EDGE_RATIO texels of the
     atlas (about ``spacing`` on average), coarser if that would pass MAX_TRIANGLES."""
-    from .atlas import texel_mm
 
     max_edge = spacing * MAX_EDGE_RATIO * texel_mm(surface_area(vertices_mm, triangles), resolution)
     while True:

@@ -1,0 +1,43 @@
+"""The illumination map in texture space (Lensch Sec. 5.2, Fig. 3 step 1): one point per atlas texel lit at
+its surface point with Fresnel and shadows (``gpu_shaders/ts_illumination.glsl``). TEXTURE_SPACE draws its
+irradiance with it; QUADGRAPH its q(n_s) and the exitance its surface term takes over."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.physics.sh_irradiance import transmittance_kernel
+from . import shaders
+from .targets import clear_target, texture_from_array
+
+
+def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float,
+                      cosine_table) -> None:
+    """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
+    point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by ``cosine_table`` at the
+    point's cosine (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s) and for the
+    exitance its surface term takes over."""
+    import gpu
+
+    with fb.bind():
+        if mode == 0:
+            clear_target(fb, depth=None)
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("ADDITIVE_PREMULT")
+        gpu.state.point_size_set(1.0)
+        shader = shaders.bind_lit("ts_illumination", frame_ubo, light_ubo, shadow_atlas, mode)
+        shader.uniform_block("object", obj_ubo)
+        shader.uniform_float("eta", float(eta))
+        shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
+        shader.uniform_float("atlas_size", tuple(float(x) for x in size))
+        shader.uniform_sampler("cosine_table", cosine_table)
+        points.draw(shader)
+        gpu.state.blend_set("NONE")
+
+
+def unit_texture(pipeline):
+    """One texel of 1 (RGBA32F), built once per pipeline: the illumination pass's neutral table."""
+    tex = pipeline.targets.get("unit_texture")
+    if tex is None:
+        tex = pipeline.targets["unit_texture"] = texture_from_array(np.ones((1, 1, 4), np.float32))
+    return tex
