@@ -100,7 +100,7 @@ def exit_accuracy(mod, args) -> list[dict]:
         v = np.asarray(v, np.float64)
         v = (v - v.mean(axis=0)) * (100.0 / np.linalg.norm(v.max(0) - v.min(0)))
         t = np.asarray(t, np.int64)
-        tracer = geocube.default_tracer(v[t])
+        tracer = geocube.default_tracer(v[t], mod("blender.bvh_tracer").BVHTracer)
         pts, nrm, tri = geocube.area_samples(v, t, 5000, seed=5)
         rng = np.random.default_rng(0)
         d = -nrm + 0.6 * rng.normal(size=nrm.shape)  # spread like refracted rays (within ~40 degrees)

@@ -105,8 +105,8 @@ def main() -> int:
     import bpy
 
     mod = {name: importlib.import_module(f"{package}.translucent_addon.{name}") for name in (
-        "demo", "compare.runner", "compare.cache", "compare.metrics", "compare.report", "render.extract",
-        "compare.bvh_tracer", "props")}
+        "blender.demo", "blender.compare_runner", "core.reference.cache", "core.metrics", "core.report.report",
+        "blender.extract", "blender.bvh_tracer", "blender.props")}
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     rows, flicker = [], []
@@ -116,7 +116,7 @@ def main() -> int:
             flicker = flicker_case(args, mod, bpy, out)
         else:
             rows += accuracy_case(case, args, mod, bpy, out)
-    machine = {**mod["compare.runner"].machine_description(), "blender": bpy.app.version_string,
+    machine = {**mod["blender.compare_runner"].machine_description(), "blender": bpy.app.version_string,
                "total_seconds": round(time.perf_counter() - t_start, 1)}
     (out / "results.json").write_text(json.dumps({"machine": machine, "rows": rows, "flicker": flicker}, indent=2))
     (out / "summary.md").write_text(summary(rows, flicker, machine, args))
@@ -128,7 +128,7 @@ def stage(case: str, mod, bpy):
     """The case's scene: a scene of the set, its object resized (lights and camera follow) or replaced by
     a generated mesh, the camera's clipping scaled with it."""
     base, size, make_mesh, preset = CASES[case]
-    demo = mod["demo"]
+    demo = mod["blender.demo"]
     bpy.ops.wm.read_homefile(use_empty=True)
     saved = dict(demo.SCENES[base])
     demo.SCENES[base] = {**saved, "size": size, "preset": preset}
@@ -172,9 +172,9 @@ def draw(scene, subject, method: str, runner, w: int, h: int) -> tuple[np.ndarra
 
 
 def accuracy_case(case: str, args, mod, bpy, out: Path) -> list[dict]:
-    runner, cache, metrics, report = (mod[k] for k in ("compare.runner", "compare.cache", "compare.metrics",
-                                                         "compare.report"))
-    extract, bvh = mod["render.extract"], mod["compare.bvh_tracer"]
+    runner, cache, metrics, report = (mod[k] for k in ("blender.compare_runner", "core.reference.cache", "core.metrics",
+                                                         "core.report.report"))
+    extract, bvh = mod["blender.extract"], mod["blender.bvh_tracer"]
     print(f"== {case}", flush=True)
     scene, subject = stage(case, mod, bpy)
     w, h = args.width, args.height
@@ -242,8 +242,8 @@ def flicker_case(args, mod, bpy, out: Path) -> list[dict]:
     through the bunny: per method, the mean over frames of RMS(f[t+1] - 2 f[t] + f[t-1]) / mean(f) over
     the object's pixels (the second difference: a smooth change of light gives almost 0), and the same
     for the first difference (how much the light's motion changes the image at all)."""
-    runner, metrics = mod["compare.runner"], mod["compare.metrics"]
-    demo, extract, bvh = mod["demo"], mod["render.extract"], mod["compare.bvh_tracer"]
+    runner, metrics = mod["blender.compare_runner"], mod["core.metrics"]
+    demo, extract, bvh = mod["blender.demo"], mod["blender.extract"], mod["blender.bvh_tracer"]
     print("== flicker", flush=True)
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = demo.build_scene("bunny_backlit", bpy.context.scene)

@@ -35,7 +35,8 @@ def main() -> int:
     def mod(name):
         return importlib.import_module(f"{package}.translucent_addon.{name}")
 
-    demo, runner, report, metrics = mod("blender.demo"), mod("blender.compare_runner"), mod("core.report.report"), mod("core.metrics")
+    demo, runner = mod("blender.demo"), mod("blender.compare_runner")
+    report, metrics = mod("core.report.report"), mod("core.metrics")
     out = ROOT / "bench" / "results" / "image_space_world"
     out.mkdir(parents=True, exist_ok=True)
     size = int(sys.argv[1]) if len(sys.argv) > 1 else 256

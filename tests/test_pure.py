@@ -753,7 +753,8 @@ def test_raster_chart_draws_series_front_labels_and_text_where_the_log_axes_say(
 
     font = ROOT / "translucent_addon" / "core" / "report" / "chart_font.npz"
     assert font.stat().st_size < 60_000
-    assert (ROOT / "translucent_addon" / "core" / "report" / "chart_font_LICENSE.txt").read_text().count("Bitstream") > 2
+    licence = ROOT / "translucent_addon" / "core" / "report" / "chart_font_LICENSE.txt"
+    assert licence.read_text().count("Bitstream") > 2
     a = [(0.2, 0.3, "a1"), (0.5, 0.2, "a2"), (5.0, 0.02, "a3")]
     b = [(1.0, 0.1, "16 spp"), (2.0, 0.08, "64 spp")]
     entries = [report.Entry(series=name, engine="X", settings={"label": label}, seconds=t, reference="ref",

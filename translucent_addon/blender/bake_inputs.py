@@ -5,7 +5,14 @@ import numpy as np
 
 from ..core import bake_store as store
 from ..core.geometry.mesh_measures import stretch_of
+from ..core.geometry.mesh_subdivide import midpoint_subdivision
+from ..techniques.quadgraph.bake import proxy_triangles
+from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, needs_bake
+from ..techniques.texture_space.proxy import surface_area, target_triangles
+from .bvh_tracer import BVHTracer
+from .demo import mesh_from_arrays
+from .mesh_read import mesh_corner_arrays
 
 
 def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> BakeInputs:
@@ -38,19 +45,16 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         quadgraph_K=float(props.quadgraph_K),
         quadgraph_levels=int(props.quadgraph_levels),
         geocube_resolution=int(props.geocube_resolution),
+        tracer_factory=BVHTracer,  # GEOCUBE casts its rays through Blender's BVH
     )
     if for_bake and inputs.method == "GEOCUBE" and inputs.geocube_resolution == 0:
         inputs.screen_pixels = screen_pixels(ob_eval)  # the automatic cube resolution follows it
     if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):
-        from ..techniques.texture_space.proxy import surface_area, target_triangles
-
         target = target_triangles(surface_area(inputs.vertices * inputs.mm_per_unit, inputs.triangles),
                                   inputs.atlas_resolution, inputs.proxy_spacing)
         if target < 0.8 * len(inputs.triangles):
             inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
     if for_bake and inputs.method == "QUADGRAPH" and len(inputs.triangles):
-        from ..techniques.quadgraph.bake import proxy_triangles
-
         inputs.proxy_levels = [proxy_surface(inputs.vertices, inputs.triangles, n)
                                for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels,
                                                         len(inputs.triangles))]
@@ -69,8 +73,6 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False):
         mesh.loop_triangles.foreach_get("vertices", triangles)
         normals = None
         if corner_normals:
-            from .extract import mesh_corner_arrays
-
             normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
     finally:
         ob_eval.to_mesh_clear()
@@ -80,9 +82,6 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False):
 def object_view(ob_eval):
     """What AUTO quality needs of an object (``quality_auto.ObjectView``): its size in mm with its scale,
     its area, its material and its bounding-box diagonal on the camera's image."""
-    from ..techniques.quality_auto import ObjectView
-    from ..techniques.texture_space.proxy import surface_area
-
     props = ob_eval.original.translucent
     vertices, triangles, _ = mesh_arrays(ob_eval)
     if not len(triangles):
@@ -119,8 +118,6 @@ def proxy_surface(vertices: np.ndarray, triangles: np.ndarray, target: int):
     edges: the cow's largest from 0.98 to 0.56 at 7,370 triangles, its 90th percentile from 0.39 to
     0.33). Without the subdivision a mesh with fewer triangles than the target kept them, and K changed
     nothing on its surface."""
-    from ..core.geometry.mesh_subdivide import midpoint_subdivision
-
     n = len(triangles)
     if 0.8 * n <= target <= 1.25 * n:
         return vertices, triangles
@@ -136,8 +133,6 @@ def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
     removed afterwards.
     """
     import bpy
-
-    from .demo import mesh_from_arrays
 
     me = mesh_from_arrays("translucent_proxy", vertices, triangles)
     ob = bpy.data.objects.new("translucent_proxy", me)

@@ -27,7 +27,9 @@ from ..core.geometry.mesh_measures import uv_tangents
 from ..core.lights import emitters_from_light
 from ..core.physics.lut import BLUR_MIN
 from ..techniques import registry as bake_registry
+from ..techniques.grass import bake as grass_btf
 from .bake_inputs import bake_status
+from .mesh_read import mesh_corner_arrays
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -114,26 +116,6 @@ def equirect_mean(image: np.ndarray) -> np.ndarray:
     return (image * w).sum(axis=(0, 1)) / (w.sum() * image.shape[1])
 
 
-def mesh_corner_arrays(mesh):
-    """Positions, normals per triangle corner (object space), material index per triangle, and the
-    corner-to-loop and loop-to-vertex maps."""
-    mesh.calc_loop_triangles()
-    n_tri = len(mesh.loop_triangles)
-    tri_loops = np.empty(n_tri * 3, np.int32)
-    mesh.loop_triangles.foreach_get("loops", tri_loops)
-    mat_index = np.empty(n_tri, np.int32)
-    mesh.loop_triangles.foreach_get("material_index", mat_index)
-    loop_vert = np.empty(len(mesh.loops), np.int32)
-    mesh.loops.foreach_get("vertex_index", loop_vert)
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", co)
-    corner_normals = np.empty(len(mesh.loops) * 3, np.float32)
-    mesh.corner_normals.foreach_get("vector", corner_normals)
-    positions = co.reshape(-1, 3)[loop_vert[tri_loops]]
-    normals = corner_normals.reshape(-1, 3)[tri_loops]
-    return positions, normals, mat_index, tri_loops, loop_vert
-
-
 def vertex_group_weights(ob, mesh, names) -> dict[str, np.ndarray]:
     """Weights (V,) of the named vertex groups that exist on the object.
 
@@ -192,8 +174,6 @@ def caster_settings(s) -> Caster | None:
 
 def grass_status(ob) -> tuple[str, str | None]:
     """('OK' | 'STALE' | 'MISSING' | 'INVALID', hash or the settings' error) of an object's grass BTF."""
-    from ..techniques.grass import bake as grass_btf
-
     s = ob.translucent
     try:
         params = grass_btf.params_from_settings(s.grass_tile, s.grass_blade_height, s.grass_blades, s.grass_seed)
@@ -205,8 +185,6 @@ def grass_status(ob) -> tuple[str, str | None]:
 
 def grass_layer(original, frame_warnings) -> GrassLayer | None:
     """The grass field of an object, if it has one with a current BTF (else a warning says why not)."""
-    from ..techniques.grass import bake as grass_btf
-
     s = original.translucent
     if not s.grass:
         return None

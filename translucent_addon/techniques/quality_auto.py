@@ -29,22 +29,27 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 
-from ..core.data import DATA
-from ..core.physics.dipole import dipole_parameters, r_max
+from ..core.physics.dipole import dipole_parameters
+from ..core.physics.presets import load_presets
+from .geocube.bake import resolution_for
+from .image_space.quality import (  # IMAGE_SPACE's own; AUTO's users import them from here too
+    CURVES_JSON,
+    PIXEL_SAMPLES,  # noqa: F401
+    SPLAT_OVERLAP_RANGE,  # noqa: F401
+    ObjectView,
+    PowerLaw,
+    image_space_curve,
+    load_curves,
+    splat_overlap_for,
+)
+from .quadgraph.bake import proxy_triangles
+from .texture_space.throughput import Material, throughput_radius
 
-CURVES_JSON = DATA / "quality_curves.json"
 TARGET_DEFAULT = 0.05
-# IMAGE_SPACE: light-view samples per pixel of the object, at most. Measured: the cow's error at 512x512 still
-# fell from k = 32 to 48 (3 to 5 samples per pixel: 5.2 to 3.7 %), and a cap at 2 left it at 8.2 % for a 5 %
-# target (bench/results/auto); splat sums alias below a pixel, so the cap only bites where r_max nears a pixel.
-PIXEL_SAMPLES = 8.0
-SPLAT_OVERLAP_RANGE = (4.0, 64.0)
 ATLAS_CHOICES = (128, 192, 256, 384, 512, 768, 1024)
 SPACING_CHOICES = (3.5, 2.4)  # the default and the High tier's proxy spacing (texels)
 # TEXTURE_SPACE: proxy vertices per pixel of the object (along a side), at most. Measured: the back-lit cow at
@@ -58,32 +63,6 @@ GRASS_CHOICES = (64, 128, 256)
 # A mesh coarser than the proxy is refined by longest-edge bisection, which leaves more vertices than an
 # equilateral mesh of the same mean edge: the cow at atlas 512 had 2.0x (spacing 3.5) and 1.5x (2.4).
 REFINED_VERTEX_FACTOR = 1.75
-
-
-@dataclasses.dataclass(frozen=True)
-class ObjectView:
-    """What AUTO needs to know of an object: its size, its material and how large the camera sees it."""
-
-    diagonal_mm: float  # bounding-box diagonal, scale and mm_per_unit applied
-    area_mm2: float  # surface area
-    screen_pixels: float | None  # the bounding-box diagonal on the camera's image; None: no camera
-    sigma_a: tuple
-    sigma_s_prime: tuple
-    eta: float
-    triangles: int | None = None  # the mesh's: a proxy finer than the mesh is refined, not decimated
-
-    @property
-    def pixel_mm(self) -> float:
-        """Millimetres of the object one pixel covers (0 when no camera sees it: no cap)."""
-        if not self.screen_pixels or self.screen_pixels <= 0:
-            return 0.0
-        return self.diagonal_mm / self.screen_pixels
-
-    @property
-    def r_max_mm(self) -> float:
-        """The splat radius: r_max of the profile's slowest channel (Shah Eq. 6.16, epsilon 0.01)."""
-        return float(np.max(r_max(np.asarray(self.sigma_a, float), np.asarray(self.sigma_s_prime, float),
-                                  self.eta)))
 
 
 @dataclasses.dataclass
@@ -101,29 +80,6 @@ class Choice:
         parts = [f"{k} {v}" for k, v in {**self.settings, **self.scene_settings}.items()]
         err = "" if self.predicted_error is None else f"; predicted error {100 * self.predicted_error:.1f} %"
         return ", ".join(parts) + err + "".join(f"; {n}" for n in self.notes)
-
-
-@dataclasses.dataclass(frozen=True)
-class PowerLaw:
-    """error(x) = a x^p, fitted to measured (x, error) points."""
-
-    a: float
-    p: float
-    x_range: tuple  # the measured x, for saying when a choice extrapolates
-
-    def __call__(self, x):
-        return self.a * np.asarray(x, float) ** self.p
-
-    def inverse(self, error: float) -> float:
-        return float((error / self.a) ** (1.0 / self.p))
-
-    @classmethod
-    def envelope(cls, x, error) -> "PowerLaw":
-        """Least-squares slope in log-log, then the offset raised until no point lies above the line."""
-        lx, le = np.log(np.asarray(x, float)), np.log(np.asarray(error, float))
-        p = float(np.polyfit(lx, le, 1)[0])
-        log_a = float(np.max(le - p * lx))
-        return cls(math.exp(log_a), p, (float(np.min(x)), float(np.max(x))))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,18 +127,6 @@ class TextureSpaceModel:
 
 
 @functools.lru_cache(maxsize=2)
-def load_curves(path: str = str(CURVES_JSON)) -> dict:
-    return json.loads(Path(path).read_text())
-
-
-@functools.lru_cache(maxsize=2)
-def image_space_curve(path: str = str(CURVES_JSON)) -> PowerLaw:
-    """Error against 1 / k over every measured scene."""
-    rows = load_curves(path)["image_space"]
-    return PowerLaw.envelope([1.0 / r["k"] for r in rows], [r["rel_rmse"] for r in rows])
-
-
-@functools.lru_cache(maxsize=2)
 def texture_space_model(path: str = str(CURVES_JSON)) -> TextureSpaceModel:
     data = load_curves(path)
     return TextureSpaceModel.fit(data["texture_space"], data["scenes"], data["atlas_fill"])
@@ -192,8 +136,6 @@ def texture_space_model(path: str = str(CURVES_JSON)) -> TextureSpaceModel:
 def form_factor_calibration(path: str = str(CURVES_JSON)) -> float:
     """Measured form factors over ``texture_space_candidate``'s estimate, the median over the measured bakes."""
     data = load_curves(path)
-    from ..core.physics.presets import load_presets
-
     presets = load_presets()
     ratios = []
     for r in data["texture_space"]:
@@ -228,22 +170,6 @@ def choose(method: str, view: ObjectView, target: float = TARGET_DEFAULT, *, gra
     if grass_tile_mm is not None:
         choice.settings["grass_resolution"] = grass_resolution(view, grass_tile_mm)
     return choice
-
-
-def splat_overlap_for(view: ObjectView, target: float, curves: str = str(CURVES_JSON)) -> tuple[float, list]:
-    """IMAGE_SPACE's k: the curve's k for the target, at most PIXEL_SAMPLES samples per pixel of the object."""
-    curve = image_space_curve(curves)
-    k = 1.0 / curve.inverse(target)
-    notes = []
-    if view.pixel_mm > 0:
-        k_pixel = PIXEL_SAMPLES * view.r_max_mm / view.pixel_mm
-        if k_pixel < k:
-            k = k_pixel
-            notes.append(f"samples finer than an eighth of a pixel would not show: k capped at {k_pixel:.1f}")
-    lo, hi = SPLAT_OVERLAP_RANGE
-    if k > hi:
-        notes.append(f"the target needs k = {k:.0f}; k stops at {hi:g}")
-    return float(np.clip(round(k, 1), lo, hi)), notes
 
 
 def _image_space(view: ObjectView, target: float, curves: str) -> Choice:
@@ -282,8 +208,6 @@ def sigma_tr(view: ObjectView) -> np.ndarray:
 def _form_factors(view: ObjectView, vertices: float) -> float:
     """Throughput factors of a proxy of ``vertices``: each vertex keeps those within its reach (Lensch 6.2,
     ``bake.lensch.throughput_radius``), all of them on an object smaller than the reach."""
-    from .texture_space.throughput import Material, throughput_radius
-
     A_v = view.area_mm2 / vertices
     reach = throughput_radius(Material(tuple(view.sigma_a), tuple(view.sigma_s_prime), view.eta), A_v)
     return vertices * min(vertices, math.pi * reach * reach / A_v)
@@ -325,8 +249,6 @@ def _texture_space(view: ObjectView, target: float, curves: str) -> Choice:
 
 def quadgraph_surface_spacing_mm(view: ObjectView, K: float, mesh_triangles: int | None = None) -> float:
     """Mean edge of QUADGRAPH's finest proxy at density K (its triangle count, bake.quadgraph_bake)."""
-    from .quadgraph.bake import proxy_triangles
-
     n = proxy_triangles(K, 1, mesh_triangles)[-1]
     return math.sqrt(view.area_mm2 / (math.sqrt(3.0) / 4.0 * n))
 
@@ -351,8 +273,6 @@ def _quadgraph(view: ObjectView, target: float, curves: str) -> Choice:
 
 
 def _geocube(view: ObjectView, target: float, curves: str) -> Choice:
-    from .geocube.bake import resolution_for
-
     res = resolution_for(view.screen_pixels)
     return Choice("GEOCUBE", {"geocube_resolution": res}, {}, None, {"cube_texels": 6 * res * res},
                   ["one cube texel per two pixels of the object"])

@@ -8,12 +8,18 @@ cancelled bake leaves the object as it was.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
 from ..core import bake_store as store
 from ..core.geometry.mesh_checks import check_mesh, self_intersections
 from ..core.physics.presets import validate_coefficients
+from .geocube import bake as geocube_bake
+from .geocube.bake import GeocubeError
+from .quadgraph import bake as quadgraph_bake
+from .quadgraph.tetra import TetrahedraError
+from .texture_space import bake as texture_space_bake
 
 # method -> stage names, in order. The method issues append their stages.
 METHOD_STAGES = {
@@ -66,11 +72,13 @@ class BakeInputs:
     proxy_levels: list | None = None
     geocube_resolution: int = 0  # GEOCUBE cube face texels; 0: from screen_pixels
     screen_pixels: float | None = None  # GEOCUBE: the object's size on the camera's image
+    # GEOCUBE: makes the ray tracer from the triangles ((T, 3, 3), bake frame): Blender's BVH, which the
+    # Blender side passes in (blender/bake_inputs.py); None: brute force (core/geometry/raycast.py).
+    # Not part of the hash: any tracer finds the same hits.
+    tracer_factory: Callable | None = None
 
     def geocube_res(self) -> int:
-        from .geocube.bake import resolution_for
-
-        return int(self.geocube_resolution) or resolution_for(self.screen_pixels)
+        return int(self.geocube_resolution) or geocube_bake.resolution_for(self.screen_pixels)
 
     def stretch_matrix(self) -> np.ndarray:
         return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
@@ -159,14 +167,11 @@ def run(inputs: BakeInputs):
         yield i / len(stages), f"{inputs.method}: {stage}"
         if stage in ("texture_space", "quadgraph", "geocube"):
             if stage == "texture_space":
-                from .texture_space.bake import bake as stage_bake
+                stage_bake = texture_space_bake.bake
             elif stage == "quadgraph":
-                from .quadgraph.bake import bake as stage_bake
+                stage_bake = quadgraph_bake.bake
             else:
-                from .geocube.bake import bake as stage_bake
-
-            from .geocube.bake import GeocubeError
-            from .quadgraph.tetra import TetrahedraError
+                stage_bake = geocube_bake.bake
 
             job = stage_bake(inputs)
             try:

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ...techniques.caustics.model import refract
+from ..geometry.optics import refract
 from ..lights import DIRECTIONAL, Emitter
 from ..physics.fresnel import fresnel_dielectric
 

@@ -15,30 +15,10 @@ import math
 
 import numpy as np
 
+from ...core.geometry.optics import reflect, refract
 from ...core.lights import DIRECTIONAL, Emitter
+from ...core.physics.fresnel import fresnel_dielectric
 from ...gpu import blocks
-
-
-def refract(d: np.ndarray, n: np.ndarray, eta_ratio):
-    """Refracted unit directions (GLSL ``refract``): ``d`` travels toward the surface, ``n`` faces
-    against it, ``eta_ratio`` = n_from / n_to. Returns (t, ok); ok is False at total internal
-    reflection (t is zero there, as in GLSL)."""
-    d = np.asarray(d, np.float64)
-    n = np.asarray(n, np.float64)
-    eta = np.asarray(eta_ratio, np.float64)
-    cos_i = -np.sum(d * n, axis=-1)
-    k = 1.0 - eta**2 * (1.0 - cos_i**2)
-    ok = k >= 0.0
-    scale = eta[..., None] if eta.ndim else eta
-    t = scale * d + (eta * cos_i - np.sqrt(np.clip(k, 0.0, None)))[..., None] * n
-    return np.where(ok[..., None], t, 0.0), ok
-
-
-def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Mirror directions (GLSL ``reflect``)."""
-    d = np.asarray(d, np.float64)
-    n = np.asarray(n, np.float64)
-    return d - 2.0 * np.sum(d * n, axis=-1, keepdims=True) * n
 
 
 def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int, guard: bool = True,
@@ -228,8 +208,6 @@ def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_norma
     """The NumPy twin of ``caustic_trace.glsl`` (one channel, no dispersion, no occluder between the light
     and the caster: the shader's shadow-map test is left out): per grid texel the landing point
     (size, size, 3), its flux (size, size, 3) and validity (size, size)."""
-    from ...core.physics.fresnel import fresnel_dielectric
-
     G = grid.size
     covered = front_position[..., 3] > 0.5
     v = front_position[..., :3].reshape(-1, 3).astype(np.float64)

@@ -6,7 +6,8 @@ scale applied, its rotation and translation not), so that path lengths are physi
 world-to-bake transform is a scaled rotation.
 
 Ray casting goes through a ``tracer`` with ``closest_hit(origins, dirs) -> (t, tri, u, v)``: Blender's BVH
-when the bake runs inside Blender (``compare.bvh_tracer``), brute force otherwise (tests on small meshes).
+when the Blender side passes it in (``BakeInputs.tracer_factory``: ``blender/bvh_tracer.py``), brute force
+otherwise (tests on small meshes).
 
 Placement (the paper placed cubes by hand and called automatic placement an open art-gallery problem):
 candidate centres are the midpoints of inward rays from surface samples (points near the medial surface,
@@ -34,6 +35,7 @@ import numpy as np
 from ...core.geometry import cubemap
 from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import vertex_normals
+from ...core.geometry.raycast import BruteForceTracer
 
 GRAZING_COS = 0.15  # a centre covers a surface sample it sees at cos(angle to the normal) above this
 COVERAGE_SAMPLES = 6000  # area-uniform surface samples the placement must cover
@@ -413,16 +415,15 @@ def from_arrays(a: dict) -> GeocubeSet:
         start_cube=np.asarray(a["gc_start_cube"], np.int32), coverage=coverage, min_step=min_step, size=size)
 
 
-def default_tracer(tris: np.ndarray):
-    """Blender's BVH inside Blender, brute force elsewhere."""
-    try:
-        from ...blender.bvh_tracer import BVHTracer
-
-        return BVHTracer(tris)
-    except ImportError:
-        from ...core.geometry.raycast import BruteForceTracer
-
-        return BruteForceTracer(tris)
+def default_tracer(tris: np.ndarray, factory=None):
+    """The tracer ``factory`` makes of the triangles (the Blender side passes its BVH in, ``BakeInputs.
+    tracer_factory``), brute force when there is none or it cannot load (ImportError: no Blender)."""
+    if factory is not None:
+        try:
+            return factory(tris)
+        except ImportError:
+            pass
+    return BruteForceTracer(tris)
 
 
 def bake(inputs):
@@ -431,7 +432,7 @@ def bake(inputs):
     v = (inputs.stretch_matrix() @ np.asarray(inputs.vertices, np.float64).T).T * float(inputs.mm_per_unit)
     t = np.asarray(inputs.triangles, np.int64)
     res = inputs.geocube_res()
-    tracer = default_tracer(v[t])
+    tracer = default_tracer(v[t], inputs.tracer_factory)
     yield 0.0, f"geocube: {res}x{res}x6 cubes"
     job = build_steps(v, t, res, float(inputs.eta), tracer)
     while True:

@@ -2,7 +2,7 @@
 
 IMAGE_SPACE has nothing to bake: its one resolution is the splat overlap k (samples per splat radius in
 the light views, Shah Eq. 6.17), and what k an object needs depends on how large the camera sees it
-(``quality_auto.splat_overlap_for``: no finer than an eighth of a pixel). So for the objects whose
+(``splat_overlap_for``: no finer than an eighth of a pixel). So for the objects whose
 quality is AUTO, k follows the camera, in F12 and in the viewport, from the frame's own camera: a
 bunny that walks towards the camera gets more samples, one that walks away fewer.
 
@@ -13,20 +13,108 @@ quarter of an octave so that a camera moving smoothly does not change the sample
 from __future__ import annotations
 
 import dataclasses
+import functools
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 
+from ...core.data import DATA
 from ...core.frame import CameraView, FrameInputs, MeshInstance
 from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import stretch_of
-from ..quality_auto import SPLAT_OVERLAP_RANGE, ObjectView, splat_overlap_for
+from ...core.physics.dipole import r_max
 from .model import SamplingSettings
+
+CURVES_JSON = DATA / "quality_curves.json"  # the benchmark's measured curves (scripts/quality_curves.py)
+# IMAGE_SPACE: light-view samples per pixel of the object, at most. Measured: the cow's error at 512x512 still
+# fell from k = 32 to 48 (3 to 5 samples per pixel: 5.2 to 3.7 %), and a cap at 2 left it at 8.2 % for a 5 %
+# target (bench/results/auto); splat sums alias below a pixel, so the cap only bites where r_max nears a pixel.
+PIXEL_SAMPLES = 8.0
+SPLAT_OVERLAP_RANGE = (4.0, 64.0)
 
 STEPS_PER_OCTAVE = 4
 LARGE_GRID_ABOVE = 32.0  # past this k the light view needs 2048 texels a side (quality_auto._image_space)
 
 _SHAPES: dict = {}  # (mesh key, model, mm per unit) -> (diagonal mm, area mm^2, world bounding box corners)
+
+
+@dataclasses.dataclass(frozen=True)
+class ObjectView:
+    """What AUTO needs to know of an object: its size, its material and how large the camera sees it."""
+
+    diagonal_mm: float  # bounding-box diagonal, scale and mm_per_unit applied
+    area_mm2: float  # surface area
+    screen_pixels: float | None  # the bounding-box diagonal on the camera's image; None: no camera
+    sigma_a: tuple
+    sigma_s_prime: tuple
+    eta: float
+    triangles: int | None = None  # the mesh's: a proxy finer than the mesh is refined, not decimated
+
+    @property
+    def pixel_mm(self) -> float:
+        """Millimetres of the object one pixel covers (0 when no camera sees it: no cap)."""
+        if not self.screen_pixels or self.screen_pixels <= 0:
+            return 0.0
+        return self.diagonal_mm / self.screen_pixels
+
+    @property
+    def r_max_mm(self) -> float:
+        """The splat radius: r_max of the profile's slowest channel (Shah Eq. 6.16, epsilon 0.01)."""
+        return float(np.max(r_max(np.asarray(self.sigma_a, float), np.asarray(self.sigma_s_prime, float),
+                                  self.eta)))
+
+
+@dataclasses.dataclass(frozen=True)
+class PowerLaw:
+    """error(x) = a x^p, fitted to measured (x, error) points."""
+
+    a: float
+    p: float
+    x_range: tuple  # the measured x, for saying when a choice extrapolates
+
+    def __call__(self, x):
+        return self.a * np.asarray(x, float) ** self.p
+
+    def inverse(self, error: float) -> float:
+        return float((error / self.a) ** (1.0 / self.p))
+
+    @classmethod
+    def envelope(cls, x, error) -> "PowerLaw":
+        """Least-squares slope in log-log, then the offset raised until no point lies above the line."""
+        lx, le = np.log(np.asarray(x, float)), np.log(np.asarray(error, float))
+        p = float(np.polyfit(lx, le, 1)[0])
+        log_a = float(np.max(le - p * lx))
+        return cls(math.exp(log_a), p, (float(np.min(x)), float(np.max(x))))
+
+
+@functools.lru_cache(maxsize=2)
+def load_curves(path: str = str(CURVES_JSON)) -> dict:
+    return json.loads(Path(path).read_text())
+
+
+@functools.lru_cache(maxsize=2)
+def image_space_curve(path: str = str(CURVES_JSON)) -> PowerLaw:
+    """Error against 1 / k over every measured scene."""
+    rows = load_curves(path)["image_space"]
+    return PowerLaw.envelope([1.0 / r["k"] for r in rows], [r["rel_rmse"] for r in rows])
+
+
+def splat_overlap_for(view: ObjectView, target: float, curves: str = str(CURVES_JSON)) -> tuple[float, list]:
+    """IMAGE_SPACE's k: the curve's k for the target, at most PIXEL_SAMPLES samples per pixel of the object."""
+    curve = image_space_curve(curves)
+    k = 1.0 / curve.inverse(target)
+    notes = []
+    if view.pixel_mm > 0:
+        k_pixel = PIXEL_SAMPLES * view.r_max_mm / view.pixel_mm
+        if k_pixel < k:
+            k = k_pixel
+            notes.append(f"samples finer than an eighth of a pixel would not show: k capped at {k_pixel:.1f}")
+    lo, hi = SPLAT_OVERLAP_RANGE
+    if k > hi:
+        notes.append(f"the target needs k = {k:.0f}; k stops at {hi:g}")
+    return float(np.clip(round(k, 1), lo, hi)), notes
 
 
 def quantised(k: float) -> float:
@@ -70,7 +158,7 @@ def _shape(mesh: MeshInstance) -> tuple[float, float, np.ndarray]:
 
 
 def object_view(mesh: MeshInstance, camera: CameraView) -> ObjectView:
-    """``quality_auto.ObjectView`` of a drawn mesh, seen by this frame's camera."""
+    """``ObjectView`` of a drawn mesh, seen by this frame's camera."""
     diagonal, area, corners = _shape(mesh)
     m = mesh.medium
     return ObjectView(diagonal_mm=diagonal, area_mm2=area,
