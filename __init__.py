@@ -8,16 +8,15 @@ from .operators import demo as _op_demo
 from .operators import grass as _op_grass
 from .operators import paint as _op_paint
 from .operators import workflow as _op_workflow
+from .translucent_addon import techniques as _techniques
 from .translucent_addon.blender import draw_handler as _draw_handler
 from .translucent_addon.blender import engine as _engine
 from .translucent_addon.blender import preferences as _preferences
 from .translucent_addon.blender import props as _props
 from .translucent_addon.blender import ui as _ui
 from .translucent_addon.gpu import bake_cache as _bake_cache
+from .translucent_addon.gpu import environment as _environment
 from .translucent_addon.gpu import shaders as _shaders
-from .translucent_addon.techniques.geocube import passes as _geocube
-from .translucent_addon.techniques.image_space import passes as _image_space
-from .translucent_addon.techniques.relief import passes as _relief
 
 _classes = (
     *_preferences.classes,
@@ -47,10 +46,9 @@ def unregister():
     import bpy
 
     _draw_handler.unregister()
-    _image_space.clear_history()
+    _techniques.clear_caches()
     _bake_cache.clear()
-    _geocube.clear_caches()
-    _relief.clear_cache()
+    _environment.clear_cache()
     _shaders.free_all()
     _ui.unregister_compat_panels()
     _props.unregister_pointers()

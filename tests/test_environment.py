@@ -9,8 +9,8 @@ import time
 import numpy as np
 import pytest
 
+from translucent_addon.core import environment as env
 from translucent_addon.core.geometry import cubemap
-from translucent_addon.techniques.geocube import environment as env
 
 TABLE1 = {2: 4.6, 4: 10.5, 8: 21.6, 16: 43.4, 32: 86.9, 64: 173.7}  # Chan & Wang Table 1 (omega 0.02)
 

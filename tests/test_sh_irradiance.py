@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 
+from translucent_addon.core.environment import sample_equirect
 from translucent_addon.core.physics.fresnel import fresnel_dielectric, hemispherical_transmittance
 from translucent_addon.core.physics.sh_irradiance import (
     equirect_directions,
@@ -14,7 +15,6 @@ from translucent_addon.core.physics.sh_irradiance import (
     sh_basis,
     transmittance_kernel,
 )
-from translucent_addon.techniques.geocube.environment import sample_equirect
 
 
 def _sphere(n: int = 400):

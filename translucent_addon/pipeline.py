@@ -1,25 +1,17 @@
 """The one GPU render pipeline: a sequence of passes drawing a FrameInputs.
 
-Both callers share it: ``RenderEngine.render`` (F12, batch; into an RGBA32F
-offscreen) and the viewport (``view_draw`` and the SpaceView3D draw handler;
-into the bound framebuffer). Passes:
+Both callers share it: ``RenderEngine.render`` (F12, batch; into an RGBA32F offscreen) and the viewport
+(``view_draw`` and the SpaceView3D draw handler; into the bound framebuffer). Passes:
 
 1. base, world term: clear to the world colour (or draw the world's environment image), rho * L_world, depth;
-2. per emitter: shadow distances into an R32F cube atlas (``shadow_distance``),
-   then rho / pi * E * V added (``base_lighting``, additive blending);
-3. method passes: IMAGE_SPACE (``methods/image_space.py``) adds the near field of the profile in
-   the lighting pass above (objects with a subsurface slot) and splats the far field after it;
-   TEXTURE_SPACE (``methods/texture_space.py``) lights its illumination maps in the world pass
-   and in each emitter's pass (reusing its shadow atlas), then filters, gathers and draws its
-   objects over the base; QUADGRAPH (``methods/quadgraph.py``) lights q(n_s) at its surface nodes in
-   the same passes, relaxes the diffusion equation coarse to fine and draws its objects over the
-   base; GEOCUBE (``methods/geocube.py``) draws its objects' refraction of the world over the base;
-   caustics (``caustics.py``, Shah ch. 5) follow each emitter's lighting pass and add the light
-   that casters refract or mirror onto the receivers; grass fields (``grass.py``, Shah ch. 4) are
-   drawn right after the base in the world pass and in each emitter's pass, writing the depth of
-   the blades; meshes with a height field (``relief.py``, Shah ch. 3) are drawn by their own pass
-   instead of the base, in the same world and emitter passes, writing the displaced depth;
-   an object whose method draws nothing yet keeps the base.
+   then each technique's ``world`` hook;
+2. per emitter: shadow distances into an R32F atlas (``shadow_distance``), then rho / pi * E * V added
+   (``base_lighting``, additive blending) and each technique's ``emitter_surface`` hook into the target, then
+   each technique's ``emitter`` hook with that emitter's shadow atlas;
+3. each technique's ``finish``: what it draws over the base.
+
+The pipeline names no technique: it loops over ``techniques.REGISTRY`` (``techniques/protocol.py`` says what
+each hook is for). An object whose method draws nothing yet keeps the base.
 """
 from __future__ import annotations
 
@@ -29,14 +21,10 @@ import numpy as np
 
 from .core.frame import FrameInputs, MeshInstance
 from .gpu import blocks, shaders
+from .gpu.environment import environment
+from .gpu.frame_context import FrameContext
 from .gpu.targets import clear_target, read_pixels, screen_quad
-from .techniques.caustics import passes as caustics
-from .techniques.geocube import passes as geocube
-from .techniques.grass import passes as grass
-from .techniques.image_space import passes as image_space
-from .techniques.quadgraph import passes as quadgraph
-from .techniques.relief import passes as relief
-from .techniques.texture_space import passes as texture_space
+from .techniques import REGISTRY
 
 
 class Pipeline:
@@ -47,17 +35,7 @@ class Pipeline:
         self._atlas = None  # (texels, color texture, depth texture, framebuffer)
         self.targets: dict = {}  # method render targets by (name, size), reused across frames
         self.last_timings: dict[str, float] = {}
-        self.sampling = image_space.SamplingSettings()
-        self.capture = None  # a dict to receive read-backs of intermediate passes (tests)
-        # Frame-to-frame sample coherence (IMAGE_SPACE, Shah 6.5.2): a key naming the sequence (None:
-        # off) and the frame number; samples of frame f - 1 are reused in frame f.
-        self.coherence_key = None
-        self.coherence_frame = 0
-        self.texture_product = "GPU"  # TEXTURE_SPACE: F^0 E on the GPU or with scipy.sparse ("CPU")
-        self.quadgraph_solver = (2e-5, 1000)  # QUADGRAPH: (relative change per step, iteration cap per level)
-        self.quadgraph_mode = 0  # QUADGRAPH output: 0 colour; 1 diffusion; 2 single; 3 local multiple scattering
-        self.relief_mode = 0  # height-field output: 0 colour; 1 hit uv, depth, refinements (tests)
-        self.geocube_mode = 0  # GEOCUBE output: 0 colour; 1-3 intermediate values for tests (gc_refract.glsl)
+        self.capture = None  # read-backs of intermediate passes for the last frame (frame.settings.capture)
 
     def free(self) -> None:
         self._batches.clear()
@@ -111,6 +89,7 @@ class Pipeline:
 
         t0 = time.perf_counter()
         timings = {}
+        self.capture = {} if frame.settings.capture else None
         fb = gpu.state.active_framebuffer_get()
         cam = frame.camera
         frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color,
@@ -123,22 +102,17 @@ class Pipeline:
         if not frame.meshes:
             self.last_timings = {"total": time.perf_counter() - t0}
             return
-        batches = [self._batch(m) for m in frame.meshes]
-        subsurface = image_space.prepare(frame, self.sampling)
-        textured = texture_space.prepare(frame)
-        graphs = quadgraph.prepare(frame)
-        glass = geocube.prepare(frame)
-        caustic_plan = caustics.prepare(frame)
-        fields = grass.prepare(frame)
-        reliefs = relief.indices(frame)
-        slots = subsurface.plan.slot_of if subsurface.plan else {}
-        objects = [
-            gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
-            for k, m in enumerate(frame.meshes)
-        ]
-        centre, radius = frame.bounds()
         texels = int(frame.shadow_resolution)
         atlas = self._shadow_atlas(texels)
+        ctx = FrameContext(frame, fb, frame_ubo, [], [self._batch(m) for m in frame.meshes], atlas[1], self)
+        states = [(t, t.prepare(ctx)) for t in REGISTRY]
+        active = [(t, state) for t, state in states if state is not None]
+        lighting = [t.base_lighting(state) for t, state in active]
+        materials_ubo, near_lut, slots = next(x for x in lighting if x is not None)
+        ctx.objects[:] = [gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
+                          for k, m in enumerate(frame.meshes)]
+        skip = set().union(*(t.replaces_base(state) for t, state in active))
+        centre, radius = frame.bounds()
         timings["setup"] = time.perf_counter() - t0
 
         gpu.state.face_culling_set("NONE")
@@ -147,71 +121,46 @@ class Pipeline:
         gpu.state.blend_set("NONE")
         # A light block is bound in every mode; the world pass ignores it.
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
-        base_inputs = (batches, objects, frame_ubo, subsurface.materials, subsurface.near_lut, atlas[1])
-        self._draw_base(*base_inputs, placeholder, mode=0, skip=reliefs)
-        if reliefs:
-            relief.draw(frame, reliefs, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
-        if fields:
-            grass.draw(fields, self, frame_ubo, objects, placeholder, atlas[1], mode=0)
-        if textured:
-            texture_space.illuminate(textured, objects, frame_ubo, placeholder, atlas[1], mode=0, pipeline=self)
-        if graphs:
-            quadgraph.illuminate(graphs, objects, frame_ubo, placeholder, atlas[1], mode=0, pipeline=self,
-                                 size=(cam.width, cam.height))
+        base_inputs = (ctx.batches, ctx.objects, frame_ubo, materials_ubo, near_lut, atlas[1])
+        self._draw_base(*base_inputs, placeholder, mode=0, skip=skip)
+        for t, state in active:
+            t.world(ctx, state, placeholder)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
-        t_shadow = t_light = t_caustics = 0.0
+        spent = {"shadow_maps": 0.0, "lights": 0.0}
         for e in frame.emitters:
             t1 = time.perf_counter()
-            with_caustics = caustic_plan is not None and e.caustics
-            faces, origin, n_faces, tan_half = blocks.shadow_faces(e, centre, radius, fit_spot=not with_caustics)
+            unfitted = any(t.unfitted_shadow(state, e) for t, state in active)
+            faces, origin, n_faces, tan_half = blocks.shadow_faces(e, centre, radius, fit_spot=not unfitted)
             face_texels = blocks.face_texels(texels, n_faces)
             light_ubo = gpu.types.GPUUniformBuf(blocks.light_block(e, faces, origin, face_texels, radius,
                                                                    tan_half=tan_half))
-            self._draw_shadow(n_faces, face_texels, batches, objects, light_ubo, atlas)
+            self._draw_shadow(n_faces, face_texels, ctx.batches, ctx.objects, light_ubo, atlas)
             t2 = time.perf_counter()
+            spent["shadow_maps"] += t2 - t1
             # The shadow pass bound the atlas: bind the target explicitly for the light pass.
             with fb.bind():
                 gpu.state.depth_mask_set(False)
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
-                self._draw_base(*base_inputs, light_ubo, mode=1, skip=reliefs)
-                if reliefs:
-                    relief.draw(frame, reliefs, self, frame_ubo, objects, light_ubo, atlas[1], mode=1)
-                if fields:
-                    grass.draw(fields, self, frame_ubo, objects, light_ubo, atlas[1], mode=1)
+                self._draw_base(*base_inputs, light_ubo, mode=1, skip=skip)
+                for t, state in active:
+                    t.emitter_surface(ctx, state, light_ubo)
                 gpu.state.blend_set("NONE")
                 gpu.state.depth_mask_set(True)
-            if textured:
-                texture_space.illuminate(textured, objects, frame_ubo, light_ubo, atlas[1], mode=1, pipeline=self)
-            if graphs:
-                quadgraph.illuminate(graphs, objects, frame_ubo, light_ubo, atlas[1], mode=1, pipeline=self,
-                                     size=(cam.width, cam.height))
-            t3 = time.perf_counter()
-            if with_caustics:
-                caustics.draw_emitter(caustic_plan, frame, e, light_ubo, batches, objects, frame_ubo, fb, self,
-                                      atlas[1])
-            t_shadow += t2 - t1
-            t_light += t3 - t2
-            t_caustics += time.perf_counter() - t3
-        timings["shadow_maps"] = t_shadow
-        timings["lights"] = t_light
-        if caustic_plan is not None:
-            timings["caustics"] = t_caustics
-        if subsurface.plan is not None:
+            spent["lights"] += time.perf_counter() - t2
+            for t, state in active:
+                t3 = time.perf_counter()
+                t.emitter(ctx, state, e, light_ubo)
+                spent[t.emitter_timing] = spent.get(t.emitter_timing, 0.0) + time.perf_counter() - t3
+        timings.update(spent)
+        for t, state in active:
             t1 = time.perf_counter()
-            image_space.draw(subsurface, frame, batches, objects, frame_ubo, fb, self)
-            timings["IMAGE_SPACE"] = time.perf_counter() - t1
-        if textured:
-            t1 = time.perf_counter()
-            timings.update(texture_space.finish(textured, frame, frame_ubo, objects, fb, self, self.texture_product))
-            timings["TEXTURE_SPACE"] = time.perf_counter() - t1
-        if graphs:
-            t1 = time.perf_counter()
-            timings.update(quadgraph.finish(graphs, frame, frame_ubo, objects, fb, self, *self.quadgraph_solver))
-            timings["QUADGRAPH"] = time.perf_counter() - t1
-        if glass:
-            timings.update(geocube.draw(glass, frame, frame_ubo, objects, fb, self))
+            steps = t.finish(ctx, state)
+            if steps is not None:
+                timings.update(steps)
+                if t.timing:
+                    timings[t.timing] = time.perf_counter() - t1
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         timings["total"] = time.perf_counter() - t0
@@ -221,7 +170,7 @@ class Pipeline:
         """The world image behind everything, where the world is an environment texture."""
         import gpu
 
-        chain, env_tex = geocube.environment(frame)
+        chain, env_tex = environment(frame)
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         gpu.state.blend_set("NONE")

@@ -2,11 +2,14 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 
 import bpy
 import numpy as np
 
+from ..core.frame import DrawSettings
 from ..pipeline import Pipeline, draw_to_region, render_offscreen
+from ..techniques import REGISTRY
 from ..techniques.image_space import quality as image_space_auto
 from ..techniques.image_space.model import SamplingSettings
 from . import extract
@@ -29,9 +32,7 @@ def _keep_timings(pipeline, source: str) -> None:
 def sampling_settings(scene, frame=None) -> SamplingSettings:
     """The scene's IMAGE_SPACE sampling; with a frame, k as its AUTO objects need it seen by its camera
     (``image_space_auto``), what they asked for kept in LAST_AUTO_OVERLAP for the panel."""
-    s = scene.translucent
-    manual = SamplingSettings(epsilon=s.splat_threshold, overlap=s.splat_overlap, max_grid=s.splat_max_grid,
-                              world_layers=s.splat_world_layers, world_overlap=s.splat_world_overlap)
+    manual = technique_settings(scene)["IMAGE_SPACE"]
     if frame is None:
         return manual
     sampling, asked = image_space_auto.frame_sampling(frame, manual)
@@ -39,6 +40,22 @@ def sampling_settings(scene, frame=None) -> SamplingSettings:
     if asked:
         LAST_AUTO_OVERLAP.update(objects=asked, overlap=sampling.overlap, max_grid=sampling.max_grid)
     return sampling
+
+
+def technique_settings(scene) -> dict:
+    """Each registered technique's settings, made from the Scene.translucent properties it declares."""
+    s = scene.translucent
+    return {t.id: t.settings({name: getattr(s, name) for name in t.scene_properties}) for t in REGISTRY
+            if t.scene_properties}
+
+
+def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, capture: bool) -> DrawSettings:
+    """What travels with the frame: the techniques' settings (IMAGE_SPACE's k chosen for this frame's
+    camera), the sample-coherence sequence (when the scene asks for it) and whether to read passes back."""
+    techniques = technique_settings(scene)
+    techniques["IMAGE_SPACE"] = sampling_settings(scene, frame)
+    return DrawSettings(techniques, coherence_key if scene.translucent.temporal_coherence else None,
+                        coherence_frame, capture)
 
 
 class TranslucentRenderEngine(bpy.types.RenderEngine):
@@ -52,6 +69,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._pipeline = None
+        self._viewport_frame = 0  # the viewport's frames, for IMAGE_SPACE's sample coherence
         self.last_frame = None
 
     def __del__(self):
@@ -93,17 +111,9 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             return
         frame = extract.frame_inputs(depsgraph, camera)
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
+        frame = dataclasses.replace(frame, settings=draw_settings(
+            scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes))
         pipeline = self._get_pipeline()
-        pipeline.sampling = sampling_settings(scene, frame)
-        pipeline.texture_product = scene.translucent.texture_product
-        pipeline.quadgraph_solver = (scene.translucent.quadgraph_tolerance, scene.translucent.quadgraph_iterations)
-        pipeline.capture = {} if scene.translucent.capture_passes else None
-        pipeline.geocube_mode = scene.translucent.geocube_output
-        pipeline.relief_mode = scene.translucent.relief_output
-        pipeline.quadgraph_mode = scene.translucent.quadgraph_output
-        # Coherent with the previous F12 only when it drew the previous frame of the same scene.
-        pipeline.coherence_key = f"F12:{scene.name}" if scene.translucent.temporal_coherence else None
-        pipeline.coherence_frame = scene.frame_current
         pixels = render_offscreen(pipeline, frame)
         _keep_timings(pipeline, "F12")
         for message in frame.warnings:  # after drawing: the passes add their own
@@ -128,13 +138,10 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
     def view_draw(self, context, depsgraph):
         region, rv3d = context.region, context.region_data
         frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
+        self._viewport_frame += 1
+        frame = dataclasses.replace(frame, settings=draw_settings(
+            depsgraph.scene, frame, "viewport", self._viewport_frame, capture=False))
         pipeline = self._get_pipeline()
-        pipeline.sampling = sampling_settings(depsgraph.scene, frame)
-        pipeline.texture_product = depsgraph.scene.translucent.texture_product
-        pipeline.quadgraph_solver = (depsgraph.scene.translucent.quadgraph_tolerance,
-                                     depsgraph.scene.translucent.quadgraph_iterations)
-        pipeline.coherence_key = "viewport" if depsgraph.scene.translucent.temporal_coherence else None
-        pipeline.coherence_frame += 1
         pipeline.forget({m.key for m in frame.meshes})
         draw_to_region(pipeline, frame, (region.width, region.height),
                        lambda: self.bind_display_space_shader(depsgraph.scene), self.unbind_display_space_shader)

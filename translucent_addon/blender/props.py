@@ -2,19 +2,10 @@
 
 import bpy
 
+from .. import techniques
 from ..core import quality
 from ..core.physics.presets import USER_PREFIX, load_presets, load_user_presets
-from ..techniques import METHOD_DESCRIPTIONS, METHOD_IDS
 from . import preferences
-
-_METHOD_LABELS = {
-    "OFF": "Off",
-    "IMAGE_SPACE": "Image Space",
-    "TEXTURE_SPACE": "Texture Space",
-    "QUADGRAPH": "QuadGraph",
-    "GEOCUBE": "Geocube",
-}
-
 
 _PRESET_ITEMS: list = []
 
@@ -93,14 +84,19 @@ def _on_preset(self, context):
     apply_preset(self, self.preset)
 
 
+def _method_property():
+    """Object.translucent.method with the registry's methods; each keeps its number, which files store."""
+    return bpy.props.EnumProperty(name="Method", description="How this object's translucency is rendered",
+                                  items=techniques.method_items(), default="OFF", update=_on_method)
+
+
+def refresh_methods() -> None:
+    """Rebuild the method property after the registry changed (a technique registered at run time)."""
+    TranslucentObjectSettings.method = _method_property()
+
+
 class TranslucentObjectSettings(bpy.types.PropertyGroup):
-    method: bpy.props.EnumProperty(
-        name="Method",
-        description="How this object's translucency is rendered",
-        items=[(m, _METHOD_LABELS[m], METHOD_DESCRIPTIONS[m]) for m in METHOD_IDS],
-        default="OFF",
-        update=_on_method,
-    )
+    method: _method_property()
     preset: bpy.props.EnumProperty(
         name="Preset",
         description="Measured material coefficients (Jensen et al. 2001)",
@@ -465,12 +461,15 @@ classes = (TranslucentObjectSettings, TranslucentLightSettings, TranslucentScene
 
 
 def register_pointers() -> None:
+    techniques._listeners.append(refresh_methods)
     bpy.types.Object.translucent = bpy.props.PointerProperty(type=TranslucentObjectSettings)
     bpy.types.Scene.translucent = bpy.props.PointerProperty(type=TranslucentSceneSettings)
     bpy.types.Light.translucent = bpy.props.PointerProperty(type=TranslucentLightSettings)
 
 
 def unregister_pointers() -> None:
+    if refresh_methods in techniques._listeners:
+        techniques._listeners.remove(refresh_methods)
     del bpy.types.Light.translucent
     del bpy.types.Scene.translucent
     del bpy.types.Object.translucent

@@ -1,6 +1,6 @@
 """Pure description of one frame: what the GPU pipeline and the CPU references draw.
 
-Blender data is turned into this by ``render.extract`` (the only bpy-facing step), so
+Blender data is turned into this by ``blender.extract`` (the only bpy-facing step), so
 the GPU pipeline and the NumPy reference renderers see exactly the same inputs.
 Conventions: right-handed world space in Blender units, matrices column-vector
 (``p_world = model @ p_object``), OpenGL clip space, image row 0 at the bottom.
@@ -182,6 +182,22 @@ class Environment:
     mean: np.ndarray  # (3,) its solid-angle-weighted average: the uniform world the base pass uses
 
 
+@dataclasses.dataclass(frozen=True)
+class DrawSettings:
+    """The scene's drawing settings for one frame, read by the Blender layer (``Scene.translucent``): each
+    technique's own settings by its id (what its ``settings`` made of the properties it declares), IMAGE_SPACE's
+    frame-to-frame sample coherence, and whether the passes read back their intermediate targets (tests)."""
+
+    techniques: dict = dataclasses.field(default_factory=dict)  # technique id -> its settings object
+    coherence_key: str | None = None  # the name of a sequence of frames whose samples are reused; None: off
+    coherence_frame: int = 0  # this frame's number in that sequence
+    capture: bool = False
+
+    def of(self, technique_id: str, default=None):
+        """One technique's settings (``default`` where the frame has none for it)."""
+        return self.techniques.get(technique_id, default)
+
+
 @dataclasses.dataclass
 class FrameInputs:
     """Everything one frame needs, in plain arrays."""
@@ -195,6 +211,7 @@ class FrameInputs:
     shadow_resolution: int = 1024  # texels per shadow-map face
     caustics: CausticSettings = dataclasses.field(default_factory=CausticSettings)
     warnings: list[str] = dataclasses.field(default_factory=list)
+    settings: DrawSettings = dataclasses.field(default_factory=DrawSettings)
     _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     def world_sh(self) -> np.ndarray:

@@ -1,14 +1,90 @@
-"""The techniques, one folder each with the same file names: ``model.py`` (the pure twin), ``bake.py``,
-``passes.py`` (its GPU passes), ``quality.py``; the paper's name is in each docstring, not in file names.
-Here: the object methods' ids, labels and order (the registry of the ``method`` property)."""
+"""The techniques and their registry: the ids, labels and order the pipeline, the ``method`` property,
+``unregister`` and the shader table loop over.
+
+Each technique is a folder with the same file names: ``model.py`` (the pure twin), ``bake.py``, ``passes.py``
+(its GPU passes and its ``Technique``, see ``protocol.py``), ``quality.py``; the paper's name is in each
+docstring, not in file names. Adding one is a folder and one line in ``REGISTRY`` (or ``register`` at run
+time, as the tests' constant-colour technique does).
+"""
 from __future__ import annotations
 
-METHOD_IDS = ("OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
+from ..gpu import shaders
+from .caustics import passes as _caustics
+from .geocube import passes as _geocube
+from .grass import passes as _grass
+from .image_space import passes as _image_space
+from .protocol import Technique
+from .quadgraph import passes as _quadgraph
+from .relief import passes as _relief
+from .texture_space import passes as _texture_space
 
-METHOD_DESCRIPTIONS = {
-    "OFF": "Opaque: base colour with Lambert shading and shadows",
-    "IMAGE_SPACE": "Image-space splatting of the dipole (Shah 2007): no bake, deforming objects",
-    "TEXTURE_SPACE": "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects",
-    "QUADGRAPH": "Diffusion equation on a tetrahedral QuadGraph (Wang 2010): thin parts, veins; edit without re-baking",
-    "GEOCUBE": "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering",
-}
+OFF = ("OFF", "Off", "Opaque: base colour with Lambert shading and shadows", 0)
+
+# Every technique the pipeline draws, in the order its hooks run within each pass: height fields and grass
+# replace or follow the base; maps lit in texture space before the caustics of the same emitter; IMAGE_SPACE,
+# TEXTURE_SPACE, QUADGRAPH, then GEOCUBE drawn over the base.
+REGISTRY: list[Technique] = [_image_space.TECHNIQUE, _relief.TECHNIQUE, _grass.TECHNIQUE, _texture_space.TECHNIQUE,
+                             _quadgraph.TECHNIQUE, _caustics.TECHNIQUE, _geocube.TECHNIQUE]
+
+METHOD_IDS: tuple[str, ...] = ()
+METHOD_LABELS: dict[str, str] = {}
+METHOD_DESCRIPTIONS: dict[str, str] = {}
+_listeners: list = []  # called after the registry changes (the Blender layer rebuilds the method property)
+
+
+def method_items() -> list[tuple[str, str, str, int]]:
+    """(id, label, description, stable number) of every method an object can choose, OFF first: the numbers
+    are what .blend files store, so a technique keeps its number for good."""
+    methods = sorted((t for t in REGISTRY if t.method_number is not None), key=lambda t: t.method_number)
+    return [OFF] + [(t.id, t.label, t.description, t.method_number) for t in methods]
+
+
+for _t in REGISTRY:
+    shaders.add_specs(_t.shader_specs)
+
+
+def _refresh() -> None:
+    global METHOD_IDS
+    items = method_items()
+    METHOD_IDS = tuple(i[0] for i in items)
+    METHOD_LABELS.clear()
+    METHOD_LABELS.update({i[0]: i[1] for i in items})
+    METHOD_DESCRIPTIONS.clear()
+    METHOD_DESCRIPTIONS.update({i[0]: i[2] for i in items})
+
+
+def get(technique_id: str) -> Technique | None:
+    return next((t for t in REGISTRY if t.id == technique_id), None)
+
+
+def register(technique: Technique) -> None:
+    """Add a technique after the others (its shaders join the table; a method appears in the property)."""
+    if get(technique.id) is not None:
+        raise ValueError(f"a technique {technique.id!r} is already registered")
+    numbers = {t.method_number for t in REGISTRY} | {OFF[3]}
+    if technique.method_number is not None and technique.method_number in numbers:
+        raise ValueError(f"method number {technique.method_number} is taken")
+    shaders.add_specs(technique.shader_specs)
+    REGISTRY.append(technique)
+    _refresh()
+    for listener in _listeners:
+        listener()
+
+
+def unregister(technique: Technique) -> None:
+    """Remove a technique registered at run time, its shaders and its caches."""
+    REGISTRY.remove(technique)
+    shaders.remove_specs(technique.shader_specs)
+    technique.clear_caches()
+    _refresh()
+    for listener in _listeners:
+        listener()
+
+
+def clear_caches() -> None:
+    """Every technique's caches (when the extension is disabled)."""
+    for t in REGISTRY:
+        t.clear_caches()
+
+
+_refresh()

@@ -26,8 +26,60 @@ import numpy as np
 from ...core.frame import CausticSettings, FrameInputs, MeshInstance
 from ...core.geometry.mesh_checks import check_mesh
 from ...gpu import blocks, shaders
+from ...gpu.frame_context import FrameContext
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad
+from ..protocol import Technique
 from .model import CausticError, caster_grid
+
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "caustic_receiver": shaders.ShaderSpec(
+        source="caustic_receiver.glsl",
+        vertex_in=(("VEC3", "pos"),),
+        varyings=(("smooth", "VEC3", "v_world"),),
+        uniform_blocks=((2, "LightData", "light"), (1, "ObjectData", "object")),
+        push_constants=(("INT", "face"),),
+        fragment_out=((0, "VEC4", "out_position"),),
+    ),
+    "caustic_caster": shaders.ShaderSpec(
+        source="caustic_caster.glsl",
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
+        uniform_blocks=((1, "ObjectData", "object"), (4, "CausticData", "caustic")),
+        fragment_out=((0, "VEC4", "out_position"), (1, "VEC4", "out_normal")),
+    ),
+    "caustic_trace": shaders.ShaderSpec(
+        source="caustic_trace.glsl",
+        libraries=shaders.SHADOW_LIBS + ("caustic_lookup.glsl",),
+        vertex_in=(("VEC2", "corner"),),
+        uniform_blocks=((2, "LightData", "light"), (4, "CausticData", "caustic")),
+        samplers=((0, "FLOAT_2D", "front_position"), (1, "FLOAT_2D", "front_normal"),
+                  (2, "FLOAT_2D", "back_position"), (3, "FLOAT_2D", "back_normal"),
+                  (4, "FLOAT_2D", "receiver_atlas"), (5, "FLOAT_2D", "shadow_atlas")),
+        fragment_out=((0, "VEC4", "out_landing"), (1, "VEC4", "out_flux")),
+    ),
+    "caustic_splat": shaders.ShaderSpec(
+        source="caustic_splat.glsl",
+        libraries=shaders.LIGHT_LIBS + ("caustic_lookup.glsl",),
+        vertex_in=(("VEC2", "corner"),),
+        varyings=(("flat", "VEC3", "v_flux"), ("flat", "VEC2", "v_centre"), ("flat", "FLOAT", "v_sigma"),
+                  ("flat", "VEC2", "v_tile")),
+        uniform_blocks=((2, "LightData", "light"), (4, "CausticData", "caustic")),
+        samplers=((0, "FLOAT_2D", "trace_landing"), (1, "FLOAT_2D", "trace_flux")),
+        fragment_out=((0, "VEC4", "out_flux"),),
+    ),
+    "caustic_apply": shaders.ShaderSpec(
+        source="caustic_apply.glsl",
+        libraries=shaders.LIGHT_LIBS + ("caustic_lookup.glsl",),
+        vertex_in=shaders.SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),
+                        (4, "CausticData", "caustic")),
+        samplers=((0, "FLOAT_2D", "caustic_atlas"), (1, "FLOAT_2D", "receiver_atlas")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+}
 
 
 @dataclasses.dataclass
@@ -220,3 +272,27 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
             batches[k][0].draw(apply)
         gpu.state.blend_set("NONE")
         gpu.state.depth_mask_set(True)
+
+
+class Caustics(Technique):
+    """Shah ch. 5: after each emitter's lighting, the light its casters refract or mirror onto the
+    receivers; its shadow maps cover the scene sphere, not a fitted spot cone."""
+
+    shader_specs = SHADER_SPECS
+    id, label = "CAUSTICS", "Caustics"
+    description = "Refractive and reflective caustics by caustic mapping (Shah 2007, ch. 5)"
+    emitter_timing = "caustics"
+
+    def prepare(self, ctx: FrameContext):
+        return prepare(ctx.frame)
+
+    def unfitted_shadow(self, state, emitter) -> bool:
+        return bool(emitter.caustics)
+
+    def emitter(self, ctx: FrameContext, state, emitter, light_ubo) -> None:
+        if emitter.caustics:
+            draw_emitter(state, ctx.frame, emitter, light_ubo, ctx.batches, ctx.objects, ctx.frame_ubo, ctx.target,
+                         ctx.resources, ctx.shadow_atlas)
+
+
+TECHNIQUE = Caustics()

@@ -5,7 +5,7 @@ Per frame, for each mesh with an up-to-date bake, one pass over its front faces 
 the base pass: Fresnel reflection of the world, refraction in, the cone-propelled exit search through
 the object's geocubes (``gc_common.glsl``, twin of ``geocube_data``), refraction out or one total internal
 reflection, then the world in the leaving direction from the key filtered environment chain
-(``techniques/geocube/environment.py``) at the blur of the slab transfer fit for the path's scattering depth
+(``core/environment.py``) at the blur of the slab transfer fit for the path's scattering depth
 (``core/physics/slab_transfer.py``), with coloured Beer absorption. The refracted scene is the world only:
 other objects behind a glass object are not seen through it (the paper's environment-map model).
 The GPU data of the world and of each anisotropy g are built once and cached.
@@ -19,13 +19,28 @@ import numpy as np
 from ...core.physics.slab_transfer import transfer_table
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
+from ...gpu.environment import environment
+from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
-from . import environment as env_chain
+from ..protocol import Technique
 from . import model as gcd
 from .bake import from_arrays
 
-ENV_RES_RANGE = (16, 256)
-_env_cache: dict = {}
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "gc_refract": shaders.ShaderSpec(
+        source="gc_refract.glsl",
+        libraries=("translucent_common.glsl", "cube_atlas.glsl", "gc_common.glsl"),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("FLOAT", "start_cube")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("flat", "INT", "v_cube")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "GeocubeData", "gc")),
+        samplers=((0, "FLOAT_2D", "gc_cones"), (1, "FLOAT_2D", "gc_normals"), (2, "FLOAT_2D", "gc_centres"),
+                  (3, "FLOAT_2D", "env_atlas"), (4, "FLOAT_2D", "transfer_table")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+}
+
 _transfer_cache: dict = {}
 
 
@@ -56,23 +71,6 @@ class Resources:
         return b
 
 
-def environment(frame):
-    """(EnvironmentChain, atlas texture) of the frame's world, built once per world image."""
-    env = frame.environment
-    key = env.key if env is not None else "uniform:" + ",".join(f"{c:.6g}" for c in frame.world_color)
-    cached = _env_cache.get(key)
-    if cached is None:
-        if env is None:
-            chain = env_chain.EnvironmentChain.uniform(np.asarray(frame.world_color, np.float64))
-        else:
-            w = env.image.shape[1]
-            res = int(np.clip(2 ** int(np.round(np.log2(max(w, 4) / 4))), *ENV_RES_RANGE))
-            chain = env_chain.EnvironmentChain.from_equirect(env.image, res)
-        _env_cache.clear()
-        cached = _env_cache[key] = (chain, texture_from_array(chain.atlas))
-    return cached
-
-
 def transfer(g: float):
     """(texture, log(1 + tau_max)) of the slab transfer fit for anisotropy g (Monte Carlo, ~1 s, cached)."""
 
@@ -101,13 +99,13 @@ def block_for(a: Active, frame, mode: int = 0) -> bytes:
                         log_max, mode)
 
 
-def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline) -> dict:
+def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, mode: int = 0) -> dict:
     """The refraction pass of every GEOCUBE mesh over the base; returns seconds spent."""
     import gpu
 
     t0 = time.perf_counter()
     _, env_tex = environment(frame)
-    mode = int(getattr(pipeline, "geocube_mode", 0))
+    mode = int(mode)
     with target_fb.bind():
         gpu.state.depth_test_set("LESS_EQUAL")
         gpu.state.depth_mask_set(False)
@@ -132,5 +130,29 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline) 
 
 
 def clear_caches() -> None:
-    _env_cache.clear()
     _transfer_cache.clear()
+
+
+class Geocube(Technique):
+    """Chan & Wang 2005: each glass mesh's refraction of the world drawn over the base."""
+
+    shader_specs = SHADER_SPECS
+    id, label, method_number = "GEOCUBE", "Geocube", 4
+    description = "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering"
+    scene_properties = ("geocube_output",)
+
+    def settings(self, values: dict) -> int:
+        return int(values["geocube_output"])
+
+    def prepare(self, ctx: FrameContext):
+        return prepare(ctx.frame) or None
+
+    def finish(self, ctx: FrameContext, state) -> dict:
+        return draw(state, ctx.frame, ctx.frame_ubo, ctx.objects, ctx.target, ctx.resources,
+                    mode=ctx.frame.settings.of(self.id, 0))
+
+    def clear_caches(self) -> None:
+        clear_caches()
+
+
+TECHNIQUE = Geocube()

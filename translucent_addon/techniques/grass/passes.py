@@ -13,9 +13,30 @@ import dataclasses
 import numpy as np
 
 from ...gpu import bake_cache, shaders
+from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
+from ..protocol import Technique
 from . import bake as grass_btf
 from . import model as grass_data
+
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "grass_btf": shaders.ShaderSpec(
+        source="grass_btf.glsl",
+        libraries=shaders.SHADOW_LIBS,
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC2", "v_uv"),
+                  ("smooth", "VEC3", "v_tangent")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),
+                        (4, "GrassData", "grass")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "btf_basis"), (2, "FLOAT_2D", "btf_coeffs"),
+                  (3, "FLOAT_2D", "btf_depth"), (4, "FLOAT_2D", "btf_tables")),
+        push_constants=(("INT", "mode"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+        depth_write="ANY",
+    ),
+}
 
 
 @dataclasses.dataclass
@@ -102,3 +123,23 @@ def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_
         shader.uniform_sampler("btf_depth", r.depth)
         shader.uniform_sampler("btf_tables", r.tables)
         _batch(pipeline, a.mesh).draw(shader)
+
+
+class Grass(Technique):
+    """Shah ch. 4: grass fields drawn right after the base in the world pass and each emitter's."""
+
+    shader_specs = SHADER_SPECS
+    id, label = "GRASS", "Grass"
+    description = "Grass fields from a compressed BTF with silhouettes (Shah 2007, ch. 4)"
+
+    def prepare(self, ctx: FrameContext):
+        return prepare(ctx.frame) or None
+
+    def world(self, ctx: FrameContext, state, light_ubo) -> None:
+        draw(state, ctx.resources, ctx.frame_ubo, ctx.objects, light_ubo, ctx.shadow_atlas, mode=0)
+
+    def emitter_surface(self, ctx: FrameContext, state, light_ubo) -> None:
+        draw(state, ctx.resources, ctx.frame_ubo, ctx.objects, light_ubo, ctx.shadow_atlas, mode=1)
+
+
+TECHNIQUE = Grass()

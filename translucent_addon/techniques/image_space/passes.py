@@ -17,8 +17,71 @@ import numpy as np
 
 from ...core.physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
 from ...gpu import blocks, shaders
+from ...gpu.frame_context import FrameContext
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
+from ..protocol import Technique
 from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
+
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "is_world_samples": shaders.ShaderSpec(
+        source="is_world_samples.glsl",
+        libraries=("translucent_common.glsl", "translucent_world_sh.glsl"),
+        vertex_in=shaders.SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
+                  ("smooth", "VEC3", "v_tint")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),
+        samplers=((0, "FLOAT_2D", "previous_pos_id"),),
+        push_constants=(("MAT4", "view_proj"), ("INT", "layer"), ("FLOAT", "depth_epsilon"), ("FLOAT", "texel_area")),
+        fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
+    ),
+    "is_gbuffer": shaders.ShaderSpec(
+        source="is_gbuffer.glsl",
+        vertex_in=(("VEC3", "pos"),),
+        varyings=(("smooth", "VEC3", "v_world"),),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
+        fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_normal")),
+    ),
+    "is_samples": shaders.ShaderSpec(
+        source="is_samples.glsl",
+        libraries=shaders.LIGHT_LIBS,
+        vertex_in=shaders.SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
+                  ("smooth", "VEC3", "v_tint")),
+        uniform_blocks=((1, "ObjectData", "object"), (2, "LightData", "light"), (3, "MaterialsData", "materials")),
+        push_constants=(("INT", "face"),),
+        fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
+    ),
+    "is_splat": shaders.ShaderSpec(
+        source="is_splat.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        varyings=(("flat", "VEC3", "v_xi"), ("flat", "VEC4", "v_flux"), ("flat", "FLOAT", "v_slot")),
+        uniform_blocks=((0, "FrameData", "frame"), (3, "MaterialsData", "materials")),
+        samplers=((0, "FLOAT_2D", "sample_pos_id"), (1, "FLOAT_2D", "sample_flux"), (2, "FLOAT_2D", "gbuffer"),
+                  (3, "FLOAT_2D", "far_lut"), (4, "FLOAT_2D", "gbuffer_normal")),
+        push_constants=(("INT", "samples_per_row"), ("INT", "world_pass"), ("INT", "tail_pass"),
+                        ("FLOAT", "tail_reach"), ("FLOAT", "tail_start"), ("INT", "tail_block")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+    "is_temporal": shaders.ShaderSpec(
+        source="is_temporal.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        uniform_blocks=((0, "TemporalData", "temporal"),),
+        samplers=((0, "FLOAT_2D", "scatter"), (1, "FLOAT_2D", "gbuffer"), (2, "FLOAT_2D", "previous_accum"),
+                  (3, "FLOAT_2D", "previous_gbuffer")),
+        push_constants=(("FLOAT", "blend"),),
+        fragment_out=((0, "VEC4", "out_accum"),),
+    ),
+    "is_composite": shaders.ShaderSpec(
+        source="is_composite.glsl",
+        vertex_in=shaders.SURFACE_IN,
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),
+        samplers=((0, "FLOAT_2D", "scatter"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+}
 
 # Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
 # camera and object matrices (two targets of each, used in turn). Module level, because every F12
@@ -69,12 +132,13 @@ TEMPORAL_BLEND = 0.3  # weight of the current frame in the accumulated far field
 
 def _history_for(pipeline, frame, p: ImageSpacePlan, size):
     """This sequence's temporal history (created or reset as needed), or None when coherence is off."""
-    if pipeline.coherence_key is None:
+    key = frame.settings.coherence_key
+    if key is None:
         return None
     signature = (tuple(size), tuple(sorted((frame.meshes[k].name, slot) for k, slot in p.slot_of.items())))
-    history = _history.get(pipeline.coherence_key)
+    history = _history.get(key)
     if history is None or history["signature"] != signature:
-        history = _history[pipeline.coherence_key] = {
+        history = _history[key] = {
             "signature": signature, "parity": 0, "frame": None, "view_proj": None, "models": None,
             "gbuffer": [new_target(size, depth=True, attachments=2) for _ in range(2)],
             "accum": [new_target(size, depth=False) for _ in range(2)],
@@ -92,7 +156,7 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
     for k, slot in p.slot_of.items():
         models[slot] = frame.meshes[k].model
         inverse[slot] = np.linalg.inv(frame.meshes[k].model)
-    valid = history["frame"] == pipeline.coherence_frame - 1 and history["view_proj"] is not None
+    valid = history["frame"] == frame.settings.coherence_frame - 1 and history["view_proj"] is not None
     previous_models = history["models"] if valid else models
     data = np.concatenate([
         np.concatenate([m.T.ravel() for m in inverse]), np.concatenate([m.T.ravel() for m in previous_models]),
@@ -114,7 +178,7 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
         shader.uniform_sampler("previous_gbuffer", previous_gbuffer if valid else gbuf)
         shader.uniform_float("blend", TEMPORAL_BLEND if valid else 1.0)
         quad.draw(shader)
-    history.update(parity=1 - parity, frame=pipeline.coherence_frame, view_proj=frame.camera.view_proj,
+    history.update(parity=1 - parity, frame=frame.settings.coherence_frame, view_proj=frame.camera.view_proj,
                    models=models)
     return out
 
@@ -281,3 +345,37 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
                 full.draw(composite)
         gpu.state.blend_set("NONE")
         gpu.state.depth_mask_set(True)
+
+
+class ImageSpace(Technique):
+    """Shah ch. 6-7: its prepare always answers (the base pass reads its materials and near-field LUT, with
+    placeholders when no mesh uses it); it draws only when a mesh does."""
+
+    shader_specs = SHADER_SPECS
+    id, label, method_number, timing = "IMAGE_SPACE", "Image Space", 1, "IMAGE_SPACE"
+    description = "Image-space splatting of the dipole (Shah 2007): no bake, deforming objects"
+    scene_properties = ("splat_threshold", "splat_overlap", "splat_max_grid", "splat_world_layers",
+                        "splat_world_overlap")
+
+    def settings(self, values: dict) -> SamplingSettings:
+        return SamplingSettings(epsilon=values["splat_threshold"], overlap=values["splat_overlap"],
+                                max_grid=values["splat_max_grid"], world_layers=values["splat_world_layers"],
+                                world_overlap=values["splat_world_overlap"])
+
+    def prepare(self, ctx: FrameContext) -> Prepared:
+        return prepare(ctx.frame, ctx.frame.settings.of(self.id) or SamplingSettings())
+
+    def base_lighting(self, state: Prepared):
+        return state.materials, state.near_lut, (state.plan.slot_of if state.plan else {})
+
+    def finish(self, ctx: FrameContext, state: Prepared):
+        if state.plan is None:
+            return None
+        draw(state, ctx.frame, ctx.batches, ctx.objects, ctx.frame_ubo, ctx.target, ctx.resources)
+        return {}
+
+    def clear_caches(self) -> None:
+        clear_history()
+
+
+TECHNIQUE = ImageSpace()

@@ -30,6 +30,7 @@ maths is in ``core/physics/diffusion.py``; the CPU twin in ``quadgraph_data``.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -42,10 +43,62 @@ from ...core.physics.dipole import A as internal_reflection
 from ...core.physics.fresnel import F_dr as diffuse_fresnel
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
+from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
+from ..protocol import Technique
 from . import model as qgd
 from .deformation import DeformationError
+
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "qg_relax": shaders.ShaderSpec(
+        source="qg_relax.glsl",
+        libraries=("qg_common.glsl",),
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "phi"), (1, "FLOAT_2D", "incident"), (2, "FLOAT_2D", "links_map"),
+                  (3, "FLOAT_2D", "weights_map"), (4, "FLOAT_2D", "node_kappa"), (5, "FLOAT_2D", "node_mu"),
+                  (6, "FLOAT_2D", "q_factor")),
+        push_constants=(("INT", "blocks_per_row"), ("INT", "n_surface"), ("INT", "inner_start"),
+                        ("INT", "inner_end"), ("FLOAT", "A")),
+        fragment_out=((0, "VEC4", "out_phi"),),
+    ),
+    "qg_upsample": shaders.ShaderSpec(
+        source="qg_upsample.glsl",
+        libraries=("qg_common.glsl",),
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "coarse_phi"), (1, "FLOAT_2D", "up_index0"), (2, "FLOAT_2D", "up_index1"),
+                  (3, "FLOAT_2D", "up_weight0"), (4, "FLOAT_2D", "up_weight1")),
+        push_constants=(("INT", "coarse_blocks_per_row"),),
+        fragment_out=((0, "VEC4", "out_phi"),),
+    ),
+    "qg_display": shaders.ShaderSpec(
+        source="qg_display.glsl",
+        libraries=("translucent_common.glsl", "qg_common.glsl"),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC4", "links"), ("VEC4", "link_weights"), ("FLOAT", "mask")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_radiosity"),
+                  ("smooth", "VEC3", "v_world_local"), ("smooth", "FLOAT", "v_mask"), ("smooth", "VEC3", "v_factor")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
+        samplers=((0, "FLOAT_2D", "phi"), (1, "FLOAT_2D", "q_factor"), (2, "FLOAT_2D", "single"),
+                  (3, "FLOAT_2D", "loss"), (4, "FLOAT_2D", "loss_world"), (5, "FLOAT_2D", "world_law"),
+                  (6, "FLOAT_2D", "loss_scale")),
+        push_constants=(("INT", "blocks_per_row"), ("FLOAT", "eta"), ("FLOAT", "F_dr"), ("INT", "display_output")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+    "qg_single": shaders.ShaderSpec(
+        source="qg_single.glsl",
+        libraries=shaders.SHADOW_LIBS,
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "corner")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_corner")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "depths"), (2, "FLOAT_2D", "h_table"),
+                  (3, "FLOAT_2D", "terminator_table")),
+        push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("FLOAT", "g"), ("VEC4", "sigma_a"), ("VEC4", "sigma_s"),
+                        ("VEC4", "terminator_rho"), ("INT", "segments"), ("FLOAT", "tau_max"), ("INT", "terms")),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+}
 
 CHECK_EVERY = 16
 
@@ -276,7 +329,7 @@ def prepare(frame) -> list[Active]:
 
 
 def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline,
-               size) -> None:
+               size, output: int = 0) -> None:
     """Add one emitter's (mode 1) or the world's (mode 0, clears first) q(n_s) at every level (Eq. 3),
     and the emitter's single scattering into the screen target (mode 0: its depth, zero colour)."""
 
@@ -299,7 +352,7 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
         elif m.single_scattering:
             draw_illumination(res.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
-    draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size)
+    draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size, output)
 
 
 def single_target(pipeline, size, name: str = "qg_single"):
@@ -313,7 +366,8 @@ def single_target(pipeline, size, name: str = "qg_single"):
     return found[1]
 
 
-def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline, size) -> None:
+def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline, size,
+                output: int = 0) -> None:
     """mode 0: clear the targets, lay down the nearest QUADGRAPH surface (depth, eye distance), then the
     next surface behind it (the view ray's exit, mode 2); mode 1: add one emitter's surface term on the
     nearest surface, single scattering L^(1) and local multiple scattering L^(ms) (objects with the term
@@ -335,7 +389,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
             shader.uniform_sampler("depths", depths)
             shader.uniform_int("segments", ss.SEGMENTS)
             shader.uniform_float("tau_max", ss.TAU_MAX)
-            shader.uniform_int("terms", {2: 1, 3: 2}.get(int(pipeline.quadgraph_mode), 3))
+            shader.uniform_int("terms", {2: 1, 3: 2}.get(int(output), 3))
             for a in actives:
                 m = a.mesh.medium
                 if pass_mode == 1 and not m.single_scattering:
@@ -426,7 +480,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
 
 
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, tolerance: float,
-           max_iterations: int) -> dict:
+           max_iterations: int, output: int = 0) -> dict:
     """Solve and display; returns seconds per step (summed over meshes)."""
     import gpu
 
@@ -468,7 +522,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
-            shader.uniform_int("display_output", int(pipeline.quadgraph_mode))
+            shader.uniform_int("display_output", int(output))
             a.resources.display_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
@@ -476,3 +530,47 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         timings["qg_solve"] += t1 - t0
         timings["qg_display"] += t2 - t1
     return timings
+
+
+@dataclasses.dataclass(frozen=True)
+class QuadgraphSettings:
+    tolerance: float = 2e-5  # relative change per Jacobi step at which a level stops
+    iterations: int = 1000  # cap on the steps per level
+    output: int = 0  # 0 colour; 1 diffusion; 2 single; 3 local multiple scattering (tests)
+
+
+class Quadgraph(Technique):
+    """Wang 2010: q(n_s) lit at the surface nodes in the world pass and each emitter's, relaxed coarse to
+    fine and displayed over the base."""
+
+    shader_specs = SHADER_SPECS
+    id, label, method_number, timing = "QUADGRAPH", "QuadGraph", 3, "QUADGRAPH"
+    description = ("Diffusion equation on a tetrahedral QuadGraph (Wang 2010): thin parts, veins; edit without "
+                   "re-baking")
+    scene_properties = ("quadgraph_tolerance", "quadgraph_iterations", "quadgraph_output")
+
+    def settings(self, values: dict) -> QuadgraphSettings:
+        return QuadgraphSettings(values["quadgraph_tolerance"], values["quadgraph_iterations"],
+                                 int(values["quadgraph_output"]))
+
+    def _settings(self, ctx) -> QuadgraphSettings:
+        return ctx.frame.settings.of(self.id) or QuadgraphSettings()
+
+    def prepare(self, ctx: FrameContext):
+        return prepare(ctx.frame) or None
+
+    def world(self, ctx: FrameContext, state, light_ubo) -> None:
+        illuminate(state, ctx.objects, ctx.frame_ubo, light_ubo, ctx.shadow_atlas, mode=0, pipeline=ctx.resources,
+                   size=ctx.size, output=self._settings(ctx).output)
+
+    def emitter(self, ctx: FrameContext, state, emitter, light_ubo) -> None:
+        illuminate(state, ctx.objects, ctx.frame_ubo, light_ubo, ctx.shadow_atlas, mode=1, pipeline=ctx.resources,
+                   size=ctx.size, output=self._settings(ctx).output)
+
+    def finish(self, ctx: FrameContext, state) -> dict:
+        s = self._settings(ctx)
+        return finish(state, ctx.frame, ctx.frame_ubo, ctx.objects, ctx.target, ctx.resources, s.tolerance,
+                      s.iterations, output=s.output)
+
+
+TECHNIQUE = Quadgraph()

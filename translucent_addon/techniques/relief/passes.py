@@ -12,7 +12,28 @@ import hashlib
 import numpy as np
 
 from ...gpu import shaders
+from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
+from ..protocol import Technique
+
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "relief": shaders.ShaderSpec(
+        source="relief.glsl",
+        libraries=shaders.SHADOW_LIBS + ("interval_search.glsl", "translucent_world_sh.glsl"),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC2", "uv"), ("VEC3", "tangent_u"),
+                   ("VEC3", "tangent_v")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_tangent_u"),
+                  ("smooth", "VEC3", "v_tangent_v"), ("smooth", "VEC2", "v_uv"), ("smooth", "VEC3", "v_color")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),
+                        (5, "ReliefData", "relief")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "height_map")),
+        push_constants=(("INT", "mode"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+        depth_write="ANY",
+    ),
+}
 
 _height_textures: dict = {}
 
@@ -61,12 +82,13 @@ def indices(frame) -> list[int]:
     return [k for k, m in enumerate(frame.meshes) if getattr(m, "relief", None) is not None]
 
 
-def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shadow_atlas, mode: int) -> None:
+def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shadow_atlas, mode: int,
+         output: int = 0) -> None:
     """Draw the height-field meshes into the bound target (the caller sets blending and depth writes)."""
     import gpu
 
     shader = shaders.bind_lit("relief", frame_ubo, light_ubo, shadow_atlas, mode)
-    output = int(getattr(pipeline, "relief_mode", 0))
+    output = int(output)
     keep = []
     for k in which:
         mesh = frame.meshes[k]
@@ -76,3 +98,36 @@ def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shado
         shader.uniform_block("relief", ubo)
         shader.uniform_sampler("height_map", height_texture(mesh.relief))
         _batch(pipeline, mesh).draw(shader)
+
+
+class Relief(Technique):
+    """Shah ch. 3: meshes with a height field drawn by their own pass instead of the base, in the world pass
+    and each emitter's, writing the displaced depth."""
+
+    shader_specs = SHADER_SPECS
+    id, label = "RELIEF", "Height field"
+    description = "Per-pixel height fields by interval mapping (Shah 2007, ch. 3)"
+    scene_properties = ("relief_output",)
+
+    def settings(self, values: dict) -> int:
+        return int(values["relief_output"])
+
+    def prepare(self, ctx: FrameContext):
+        return indices(ctx.frame) or None
+
+    def replaces_base(self, state) -> set[int]:
+        return set(state)
+
+    def world(self, ctx: FrameContext, state, light_ubo) -> None:
+        draw(ctx.frame, state, ctx.resources, ctx.frame_ubo, ctx.objects, light_ubo, ctx.shadow_atlas, mode=0,
+             output=ctx.frame.settings.of(self.id, 0))
+
+    def emitter_surface(self, ctx: FrameContext, state, light_ubo) -> None:
+        draw(ctx.frame, state, ctx.resources, ctx.frame_ubo, ctx.objects, light_ubo, ctx.shadow_atlas, mode=1,
+             output=ctx.frame.settings.of(self.id, 0))
+
+    def clear_caches(self) -> None:
+        clear_cache()
+
+
+TECHNIQUE = Relief()

@@ -23,10 +23,52 @@ import numpy as np
 
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
+from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
+from ..protocol import Technique
 from . import model as tsd
 from .throughput import global_product, throughput_matrices
+
+# The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
+# shader table by the registry.
+SHADER_SPECS = {
+    "ts_gather": shaders.ShaderSpec(
+        source="ts_gather.glsl",
+        vertex_in=(("VEC2", "texel"), ("FLOAT", "target"), ("FLOAT", "dual"), ("VEC3", "blend")),
+        varyings=(("flat", "VEC3", "v_eg"), ("flat", "VEC3", "v_bd")),
+        samplers=((0, "FLOAT_2D", "irradiance"),),
+        push_constants=(("INT", "vertex_width"), ("VEC2", "vertex_size")),
+        fragment_out=((0, "VEC4", "out_eg"), (1, "VEC4", "out_bd")),
+    ),
+    "ts_product": shaders.ShaderSpec(
+        source="ts_product.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "F_indptr"), (1, "FLOAT_2D", "F_indices"), (2, "FLOAT_2D", "F_data"),
+                  (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex")),
+        push_constants=(("INT", "vertex_width"), ("INT", "vertex_count"), ("INT", "row_split")),
+        fragment_out=((0, "VEC4", "out_vertex"),),
+    ),
+    "ts_filter": shaders.ShaderSpec(
+        source="ts_filter.glsl",
+        vertex_in=(("VEC2", "texel"), ("VEC2", "source"), ("FLOAT", "row"), ("VEC3", "bary"), ("VEC3", "verts")),
+        varyings=(("flat", "VEC2", "v_source"), ("flat", "FLOAT", "v_row"), ("flat", "VEC3", "v_bary"),
+                  ("flat", "VEC3", "v_verts")),
+        samplers=((0, "FLOAT_2D", "irradiance"), (1, "FLOAT_2D", "kernels"), (2, "FLOAT_2D", "B_vertex")),
+        push_constants=(("INT", "vertex_width"), ("INT", "local_half"), ("VEC2", "atlas_size")),
+        fragment_out=((0, "VEC4", "out_local"), (1, "VEC4", "out_global")),
+    ),
+    "ts_display": shaders.ShaderSpec(
+        source="ts_display.glsl",
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC2", "uv")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
+                  ("smooth", "VEC2", "v_uv")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
+        samplers=((0, "FLOAT_2D", "local_map"), (1, "FLOAT_2D", "global_map")),
+        push_constants=(("FLOAT", "eta"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
+}
 
 
 class Resources:
@@ -186,3 +228,32 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         for key, dt in zip(timings, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
             timings[key] += dt
     return timings
+
+
+class TextureSpace(Technique):
+    """Lensch 2002: maps lit in texture space in the world pass and each emitter's, then gather, product,
+    filter and display over the base."""
+
+    shader_specs = SHADER_SPECS
+    id, label, method_number, timing = "TEXTURE_SPACE", "Texture Space", 2, "TEXTURE_SPACE"
+    description = "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects"
+    scene_properties = ("texture_product",)
+
+    def settings(self, values: dict) -> str:
+        return values["texture_product"]
+
+    def prepare(self, ctx: FrameContext):
+        return prepare(ctx.frame) or None
+
+    def world(self, ctx: FrameContext, state, light_ubo) -> None:
+        illuminate(state, ctx.objects, ctx.frame_ubo, light_ubo, ctx.shadow_atlas, mode=0, pipeline=ctx.resources)
+
+    def emitter(self, ctx: FrameContext, state, emitter, light_ubo) -> None:
+        illuminate(state, ctx.objects, ctx.frame_ubo, light_ubo, ctx.shadow_atlas, mode=1, pipeline=ctx.resources)
+
+    def finish(self, ctx: FrameContext, state) -> dict:
+        return finish(state, ctx.frame, ctx.frame_ubo, ctx.objects, ctx.target, ctx.resources,
+                      ctx.frame.settings.of(self.id, "GPU"))
+
+
+TECHNIQUE = TextureSpace()

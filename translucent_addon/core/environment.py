@@ -30,7 +30,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ...core.geometry import cubemap
+from .geometry import cubemap
 
 #: Kernel support, in standard deviations (the truncated weight is exp(-8) = 3e-4 of the total).
 KERNEL_CUTOFF = 4.0
