@@ -15,7 +15,8 @@ names no technique: each frame it asks every registered technique, in registry o
 LUT); ``unfitted_shadow`` asks for a shadow map over the whole scene sphere (caustics need the receivers).
 The Blender layer reads the ``scene_properties`` a technique declares from ``Scene.translucent`` and hands
 them to ``settings``, whose result travels in the frame (``FrameInputs.settings``); ``shader_specs`` joins the
-shader table; ``clear_caches`` runs when the extension is disabled.
+shader table; ``bake`` runs its ``bake_stages`` (``registry.run``); ``auto_quality`` is its Auto quality
+(``quality_auto.choose``); ``clear_caches`` runs when the extension is disabled.
 """
 from __future__ import annotations
 
@@ -32,10 +33,23 @@ class Technique:
     scene_properties: tuple[str, ...] = ()
     shader_specs: dict = {}
     timing: str | None = None  # the key of the last frame's timings its ``finish`` is counted under
+    bake_stages: tuple[str, ...] = ()  # named steps of its bake (none: it needs no bake)
+    bake_errors: tuple[type, ...] = ()  # its bake's refusals, shown as one line (BakeInputError)
+    no_bake_reason: str = ""  # why Bake does nothing for it, where it needs none
     emitter_timing: str = "lights"  # the key its ``emitter`` hook is counted under
 
     def settings(self, values: dict):
         """This technique's frame settings from its ``scene_properties`` values (name -> value)."""
+        return None
+
+    def bake(self, inputs, stage: str):
+        """Generator for one of its ``bake_stages``: yields (fraction, text); returns (arrays, meta) to store
+        (``registry.run``)."""
+        raise NotImplementedError(f"{self.id} has no bake")
+
+    def auto_quality(self, view, target: float, curves: str):
+        """Auto quality (``quality_auto.choose``): the resolutions that reach ``target`` at the least cost for
+        ``view`` (``core.quality_model.ObjectView``), as a ``Choice``; None where it has none."""
         return None
 
     def prepare(self, ctx: FrameContext):

@@ -15,25 +15,22 @@ import numpy as np
 from ..core import bake_store as store
 from ..core.geometry.mesh_checks import check_mesh, self_intersections
 from ..core.physics.presets import validate_coefficients
+from . import get
 from .geocube import bake as geocube_bake
-from .geocube.bake import GeocubeError
-from .quadgraph import bake as quadgraph_bake
-from .quadgraph.tetra import TetrahedraError
-from .texture_space import bake as texture_space_bake
 
-# method -> stage names, in order. The method issues append their stages.
-METHOD_STAGES = {
-    "OFF": (),
-    "IMAGE_SPACE": (),
-    "TEXTURE_SPACE": ("texture_space",),
-    "QUADGRAPH": ("quadgraph",),
-    "GEOCUBE": ("geocube",),
-}
 
-NO_BAKE_REASON = {
-    "OFF": "method is Off: choose a translucency method first",
-    "IMAGE_SPACE": "IMAGE_SPACE needs no bake: it splats the dipole every frame",
-}
+def method_stages(method: str) -> tuple[str, ...]:
+    """The named steps of a method's bake, from its technique (none for Off and for unknown ids)."""
+    technique = get(method)
+    return tuple(technique.bake_stages) if technique is not None else ()
+
+
+def no_bake_reason(method: str) -> str:
+    if method == "OFF":
+        return "method is Off: choose a translucency method first"
+    technique = get(method)
+    return (technique.no_bake_reason if technique is not None else "") or "unknown method"
+
 
 # Triangle count above which a bake refuses the mesh and asks for a proxy.
 MAX_BAKE_TRIANGLES = 2_000_000
@@ -111,7 +108,7 @@ class BakeInputs:
             geometry,
             {
                 "method": self.method,
-                "stages": list(METHOD_STAGES.get(self.method, ())),
+                "stages": list(method_stages(self.method)),
                 "mm_per_unit": self.mm_per_unit,
                 **material,
                 **extra,
@@ -120,13 +117,13 @@ class BakeInputs:
 
 
 def needs_bake(method: str) -> bool:
-    return bool(METHOD_STAGES.get(method))
+    return bool(method_stages(method))
 
 
 def validate(inputs: BakeInputs) -> list[str]:
     """Raise BakeInputError for input no bake can use; return warnings for the rest."""
     if not needs_bake(inputs.method):
-        raise BakeInputError(f"'{inputs.name}': nothing to bake, {NO_BAKE_REASON.get(inputs.method, 'unknown method')}")
+        raise BakeInputError(f"'{inputs.name}': nothing to bake, {no_bake_reason(inputs.method)}")
     if len(inputs.triangles) == 0:
         raise BakeInputError(f"'{inputs.name}': the mesh is empty (no faces), nothing to bake")
     if len(inputs.triangles) > MAX_BAKE_TRIANGLES:
@@ -159,33 +156,25 @@ def validate(inputs: BakeInputs) -> list[str]:
 
 
 def run(inputs: BakeInputs):
-    """Generator: yields (fraction, text); returns (arrays, meta)."""
-    stages = METHOD_STAGES[inputs.method]
+    """Generator: yields (fraction, text); returns (arrays, meta). Each stage is the technique's bake; its
+    declared refusals become one-line BakeInputErrors."""
+    technique = get(inputs.method)
+    stages = method_stages(inputs.method)
     arrays: dict[str, np.ndarray] = {}
     meta_extra: dict = {}
     for i, stage in enumerate(stages):
         yield i / len(stages), f"{inputs.method}: {stage}"
-        if stage in ("texture_space", "quadgraph", "geocube"):
-            if stage == "texture_space":
-                stage_bake = texture_space_bake.bake
-            elif stage == "quadgraph":
-                stage_bake = quadgraph_bake.bake
-            else:
-                stage_bake = geocube_bake.bake
-
-            job = stage_bake(inputs)
-            try:
-                while True:
-                    fraction, text = next(job)
-                    yield (i + fraction) / len(stages), text
-            except StopIteration as done:
-                stage_arrays, stage_meta = done.value
-            except (TetrahedraError, GeocubeError) as err:
-                raise BakeInputError(f"'{inputs.name}': {err}") from None
-            arrays.update(stage_arrays)
-            meta_extra.update(stage_meta)
-        else:  # pragma: no cover - a stage name without an implementation is a programming error
-            raise KeyError(stage)
+        job = technique.bake(inputs, stage)
+        try:
+            while True:
+                fraction, text = next(job)
+                yield (i + fraction) / len(stages), text
+        except StopIteration as done:
+            stage_arrays, stage_meta = done.value
+        except technique.bake_errors as err:
+            raise BakeInputError(f"'{inputs.name}': {err}") from None
+        arrays.update(stage_arrays)
+        meta_extra.update(stage_meta)
     yield 1.0, f"{inputs.method}: done"
     meta = {"stages": list(stages), "vertices": int(len(inputs.vertices)), "triangles": int(len(inputs.triangles)),
             **meta_extra}

@@ -23,8 +23,10 @@ from ...gpu.environment import environment
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
 from ..protocol import Technique
+from . import bake as geocube_bake
 from . import model as gcd
-from .bake import from_arrays
+from . import quality as geocube_quality
+from .bake import GeocubeError, from_arrays
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -140,9 +142,16 @@ class Geocube(Technique):
     id, label, method_number = "GEOCUBE", "Geocube", 4
     description = "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering"
     scene_properties = ("geocube_output",)
+    bake_stages, bake_errors = ("geocube",), (GeocubeError,)
+
+    def bake(self, inputs, stage: str):
+        return geocube_bake.bake(inputs)
 
     def settings(self, values: dict) -> int:
         return int(values["geocube_output"])
+
+    def auto_quality(self, view, target: float, curves: str):
+        return geocube_quality.auto(view, target, curves)
 
     def prepare(self, ctx: FrameContext):
         return prepare(ctx.frame) or None

@@ -20,6 +20,7 @@ from ...gpu import blocks, shaders
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
+from . import quality as image_space_quality
 from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
@@ -354,6 +355,7 @@ class ImageSpace(Technique):
     shader_specs = SHADER_SPECS
     id, label, method_number, timing = "IMAGE_SPACE", "Image Space", 1, "IMAGE_SPACE"
     description = "Image-space splatting of the dipole (Shah 2007): no bake, deforming objects"
+    no_bake_reason = "IMAGE_SPACE needs no bake: it splats the dipole every frame"
     scene_properties = ("splat_threshold", "splat_overlap", "splat_max_grid", "splat_world_layers",
                         "splat_world_overlap")
 
@@ -361,6 +363,9 @@ class ImageSpace(Technique):
         return SamplingSettings(epsilon=values["splat_threshold"], overlap=values["splat_overlap"],
                                 max_grid=values["splat_max_grid"], world_layers=values["splat_world_layers"],
                                 world_overlap=values["splat_world_overlap"])
+
+    def auto_quality(self, view, target: float, curves: str):
+        return image_space_quality.auto(view, target, curves)
 
     def prepare(self, ctx: FrameContext) -> Prepared:
         return prepare(ctx.frame, ctx.frame.settings.of(self.id) or SamplingSettings())

@@ -14,20 +14,16 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 
-from ...core.data import DATA
 from ...core.frame import CameraView, FrameInputs, MeshInstance
 from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import stretch_of
-from ...core.physics.dipole import r_max
+from ...core.quality_model import CURVES_JSON, Choice, ObjectView, PowerLaw, load_curves
 from .model import SamplingSettings
 
-CURVES_JSON = DATA / "quality_curves.json"  # the benchmark's measured curves (scripts/quality_curves.py)
 # IMAGE_SPACE: light-view samples per pixel of the object, at most. Measured: the cow's error at 512x512 still
 # fell from k = 32 to 48 (3 to 5 samples per pixel: 5.2 to 3.7 %), and a cap at 2 left it at 8.2 % for a 5 %
 # target (bench/results/auto); splat sums alias below a pixel, so the cap only bites where r_max nears a pixel.
@@ -38,60 +34,6 @@ STEPS_PER_OCTAVE = 4
 LARGE_GRID_ABOVE = 32.0  # past this k the light view needs 2048 texels a side (quality_auto._image_space)
 
 _SHAPES: dict = {}  # (mesh key, model, mm per unit) -> (diagonal mm, area mm^2, world bounding box corners)
-
-
-@dataclasses.dataclass(frozen=True)
-class ObjectView:
-    """What AUTO needs to know of an object: its size, its material and how large the camera sees it."""
-
-    diagonal_mm: float  # bounding-box diagonal, scale and mm_per_unit applied
-    area_mm2: float  # surface area
-    screen_pixels: float | None  # the bounding-box diagonal on the camera's image; None: no camera
-    sigma_a: tuple
-    sigma_s_prime: tuple
-    eta: float
-    triangles: int | None = None  # the mesh's: a proxy finer than the mesh is refined, not decimated
-
-    @property
-    def pixel_mm(self) -> float:
-        """Millimetres of the object one pixel covers (0 when no camera sees it: no cap)."""
-        if not self.screen_pixels or self.screen_pixels <= 0:
-            return 0.0
-        return self.diagonal_mm / self.screen_pixels
-
-    @property
-    def r_max_mm(self) -> float:
-        """The splat radius: r_max of the profile's slowest channel (Shah Eq. 6.16, epsilon 0.01)."""
-        return float(np.max(r_max(np.asarray(self.sigma_a, float), np.asarray(self.sigma_s_prime, float),
-                                  self.eta)))
-
-
-@dataclasses.dataclass(frozen=True)
-class PowerLaw:
-    """error(x) = a x^p, fitted to measured (x, error) points."""
-
-    a: float
-    p: float
-    x_range: tuple  # the measured x, for saying when a choice extrapolates
-
-    def __call__(self, x):
-        return self.a * np.asarray(x, float) ** self.p
-
-    def inverse(self, error: float) -> float:
-        return float((error / self.a) ** (1.0 / self.p))
-
-    @classmethod
-    def envelope(cls, x, error) -> "PowerLaw":
-        """Least-squares slope in log-log, then the offset raised until no point lies above the line."""
-        lx, le = np.log(np.asarray(x, float)), np.log(np.asarray(error, float))
-        p = float(np.polyfit(lx, le, 1)[0])
-        log_a = float(np.max(le - p * lx))
-        return cls(math.exp(log_a), p, (float(np.min(x)), float(np.max(x))))
-
-
-@functools.lru_cache(maxsize=2)
-def load_curves(path: str = str(CURVES_JSON)) -> dict:
-    return json.loads(Path(path).read_text())
 
 
 @functools.lru_cache(maxsize=2)
@@ -180,3 +122,14 @@ def frame_sampling(frame: FrameInputs, manual: SamplingSettings) -> tuple[Sampli
         k = max(k, manual.overlap)
     grid = max(manual.max_grid, 2048 if k > LARGE_GRID_ABOVE else 1024)
     return dataclasses.replace(manual, overlap=k, max_grid=grid), asked
+
+
+def auto(view: ObjectView, target: float, curves: str) -> Choice:
+    k, notes = splat_overlap_for(view, target, curves)
+    curve = image_space_curve(curves)
+    if 1.0 / k > curve.x_range[1] or 1.0 / k < curve.x_range[0]:
+        notes.append("outside the measured k (extrapolated)")
+    samples = (k * view.diagonal_mm / view.r_max_mm) ** 2  # samples on the object (bench: 0.8-1.1x this)
+    # Past k = 32 the light view needs more than the default 1024 texels a side (the benchmark's k = 48: 2048).
+    scene = {"splat_overlap": k, "splat_max_grid": 2048 if k > 32 else 1024}
+    return Choice("IMAGE_SPACE", {}, scene, float(curve(1.0 / k)), {"light_view_samples": int(samples)}, notes)

@@ -47,8 +47,11 @@ from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
+from . import bake as quadgraph_bake
 from . import model as qgd
+from . import quality as quadgraph_quality
 from .deformation import DeformationError
+from .tetra import TetrahedraError
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -548,6 +551,10 @@ class Quadgraph(Technique):
     description = ("Diffusion equation on a tetrahedral QuadGraph (Wang 2010): thin parts, veins; edit without "
                    "re-baking")
     scene_properties = ("quadgraph_tolerance", "quadgraph_iterations", "quadgraph_output")
+    bake_stages, bake_errors = ("quadgraph",), (TetrahedraError,)
+
+    def bake(self, inputs, stage: str):
+        return quadgraph_bake.bake(inputs)
 
     def settings(self, values: dict) -> QuadgraphSettings:
         return QuadgraphSettings(values["quadgraph_tolerance"], values["quadgraph_iterations"],
@@ -555,6 +562,9 @@ class Quadgraph(Technique):
 
     def _settings(self, ctx) -> QuadgraphSettings:
         return ctx.frame.settings.of(self.id) or QuadgraphSettings()
+
+    def auto_quality(self, view, target: float, curves: str):
+        return quadgraph_quality.auto(view, target, curves)
 
     def prepare(self, ctx: FrameContext):
         return prepare(ctx.frame) or None

@@ -27,7 +27,9 @@ from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
+from . import bake as texture_space_bake
 from . import model as tsd
+from . import quality as texture_space_quality
 from .throughput import global_product, throughput_matrices
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
@@ -238,9 +240,16 @@ class TextureSpace(Technique):
     id, label, method_number, timing = "TEXTURE_SPACE", "Texture Space", 2, "TEXTURE_SPACE"
     description = "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects"
     scene_properties = ("texture_product",)
+    bake_stages = ("texture_space",)
+
+    def bake(self, inputs, stage: str):
+        return texture_space_bake.bake(inputs)
 
     def settings(self, values: dict) -> str:
         return values["texture_product"]
+
+    def auto_quality(self, view, target: float, curves: str):
+        return texture_space_quality.auto(view, target, curves)
 
     def prepare(self, ctx: FrameContext):
         return prepare(ctx.frame) or None
