@@ -166,3 +166,19 @@ def test_a_planted_bad_import_is_caught(planted, message):
     if message == "import cycle":
         graph[target] = [*graph[target], (module, False)]
     assert any(message in line for line in violations(graph)), message
+
+
+def test_every_public_function_of_core_is_annotated():
+    """core/ is what everything else builds on: each public function and method says what it takes and
+    returns (``self``/``cls`` aside; ``__init__`` needs no return type)."""
+    missing = []
+    for path in sorted((ROOT / "translucent_addon" / "core").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) or node.name.startswith("_") \
+                    and node.name != "__init__":
+                continue
+            args = [a for a in (*node.args.posonlyargs, *node.args.args, *node.args.kwonlyargs,
+                                node.args.vararg, node.args.kwarg) if a is not None and a.arg not in ("self", "cls")]
+            if any(a.annotation is None for a in args) or (node.returns is None and node.name != "__init__"):
+                missing.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name}")
+    assert not missing, "\n".join(missing)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,7 @@ class BakeRecord:
     arrays: dict[str, np.ndarray]
 
 
-def write(idblock, method: str, digest: str, arrays: dict[str, np.ndarray], meta: dict | None = None) -> None:
+def write(idblock: Any, method: str, digest: str, arrays: dict[str, np.ndarray], meta: dict | None = None) -> None:
     """Store (replace) one method's bake on the ID."""
     group = {"arrays": {}, "shapes": {}, "dtypes": {}}
     for name, a in arrays.items():
@@ -77,7 +78,7 @@ def _as_array(value, dtype: str, shape) -> np.ndarray:
     return a.reshape(tuple(shape))
 
 
-def read(idblock, method: str) -> BakeRecord | None:
+def read(idblock: Any, method: str) -> BakeRecord | None:
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None
     g = idblock[BAKE_KEY][method]
@@ -90,7 +91,7 @@ def read(idblock, method: str) -> BakeRecord | None:
     return BakeRecord(method, str(g["inputs_hash"]), json.loads(g["meta"]), arrays)
 
 
-def read_meta(idblock, method: str) -> dict | None:
+def read_meta(idblock: Any, method: str) -> dict | None:
     """A bake's metadata without reading its arrays (None when there is no bake of this format)."""
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None
@@ -98,14 +99,14 @@ def read_meta(idblock, method: str) -> dict | None:
     return json.loads(g["meta"]) if int(g.get("format", 0)) == FORMAT_VERSION else None
 
 
-def stored_hash(idblock, method: str) -> str | None:
+def stored_hash(idblock: Any, method: str) -> str | None:
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None
     g = idblock[BAKE_KEY][method]
     return str(g["inputs_hash"]) if int(g.get("format", 0)) == FORMAT_VERSION else None
 
 
-def status(idblock, method: str, current_hash: str) -> str:
+def status(idblock: Any, method: str, current_hash: str) -> str:
     """'MISSING', 'STALE' (inputs changed since the bake) or 'OK'."""
     h = stored_hash(idblock, method)
     if h is None:
@@ -113,7 +114,7 @@ def status(idblock, method: str, current_hash: str) -> str:
     return "OK" if h == current_hash else "STALE"
 
 
-def clear(idblock, method: str | None = None) -> bool:
+def clear(idblock: Any, method: str | None = None) -> bool:
     """Remove one method's bake (or all); True if something was removed."""
     if BAKE_KEY not in idblock:
         return False

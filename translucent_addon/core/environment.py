@@ -25,10 +25,12 @@ Pure (NumPy / SciPy).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .geometry import cubemap
 
@@ -44,7 +46,7 @@ MIN_SOURCE_RES = 16
 # Equirectangular images (Blender / Cycles convention)
 # --------------------------------------------------------------------------------------------
 
-def equirect_direction_to_uv(d):
+def equirect_direction_to_uv(d: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(u, v) in [0, 1] of directions for Blender's Environment Texture (equirectangular).
 
     Cycles ``direction_to_equirectangular``: ``u = -atan2(d.y, d.x) / (2 pi) + 0.5``,
@@ -57,7 +59,7 @@ def equirect_direction_to_uv(d):
     return u, v
 
 
-def sample_equirect(image, d):
+def sample_equirect(image: ArrayLike, d: ArrayLike) -> np.ndarray:
     """Bilinear lookup of an equirectangular image at directions ``d``: (..., C).
 
     ``image`` is (H, W, C) with row 0 at the bottom (Blender's ``Image.pixels`` order); pixel
@@ -155,12 +157,12 @@ class EnvironmentChain:
         return self.res >> level
 
     @classmethod
-    def from_equirect(cls, image, res: int = 128, omega: float = 0.02) -> "EnvironmentChain":
+    def from_equirect(cls, image: ArrayLike, res: int = 128, omega: float = 0.02) -> "EnvironmentChain":
         """Chain of an equirectangular (H, W, C) image, row 0 at the bottom."""
         return build_chain(np.asarray(image), res, omega)
 
     @classmethod
-    def uniform(cls, color) -> "EnvironmentChain":
+    def uniform(cls, color: ArrayLike) -> "EnvironmentChain":
         """A constant world: a single level of 1 x 1 faces."""
         c = np.zeros(4, np.float32)
         rgb = np.broadcast_to(np.asarray(color, np.float64).ravel()[:3], (3,))
@@ -177,11 +179,11 @@ def _rgb(values: np.ndarray) -> np.ndarray:
     return values[..., :3]
 
 
-def _face_lookup_nearest(faces: np.ndarray):
+def _face_lookup_nearest(faces: np.ndarray) -> Callable[[ArrayLike], np.ndarray]:
     """Direction -> value of the nearest texel of unbordered (6, n, n, C) faces."""
     n = faces.shape[1]
 
-    def look(d):
+    def look(d: ArrayLike) -> np.ndarray:
         f, s, t = cubemap.direction_to_face_st(d)
         i = np.clip(np.floor((t + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
         j = np.clip(np.floor((s + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
@@ -255,7 +257,8 @@ def _gaussian_filter(src_dirs, src_vals, src_omega, out_dirs, sigma: float):
                     axis=1) / wsum[:, None]
 
 
-def build_chain(source, res: int, omega: float = 0.02) -> EnvironmentChain:
+def build_chain(source: np.ndarray | Callable[[np.ndarray], ArrayLike], res: int,
+                omega: float = 0.02) -> EnvironmentChain:
     """Build the key filtered chain (Chan & Wang Sec. 3.2 / Table 1) at base face resolution ``res``.
 
     ``source``: an equirectangular (H, W, C) image (row 0 at the bottom), unbordered cube faces
@@ -307,7 +310,7 @@ def build_chain(source, res: int, omega: float = 0.02) -> EnvironmentChain:
 # Lookup (CPU twin of the shader)
 # --------------------------------------------------------------------------------------------
 
-def fractional_level(sigma, theta_bar):
+def fractional_level(sigma: ArrayLike, theta_bar: ArrayLike) -> np.ndarray | float:
     """Fractional level of blur width ``theta_bar`` (radians): piecewise linear in ``sigma``.
 
     ``f = l + (theta_bar - sigma[l]) / (sigma[l + 1] - sigma[l])`` for sigma[l] <= theta_bar <
@@ -320,7 +323,7 @@ def fractional_level(sigma, theta_bar):
     return np.interp(theta, sigma, np.arange(len(sigma), dtype=np.float64))
 
 
-def sample(chain: EnvironmentChain, d, theta_bar=0.0):
+def sample(chain: EnvironmentChain, d: ArrayLike, theta_bar: ArrayLike = 0.0) -> np.ndarray:
     """Environment colour (..., 3) in directions ``d`` blurred by ``theta_bar`` (radians).
 
     ``f = fractional_level(chain.sigma, theta_bar)``, ``l0 = floor(f)``, ``l1 = min(l0 + 1,

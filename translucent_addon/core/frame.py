@@ -8,6 +8,8 @@ Conventions: right-handed world space in Blender units, matrices column-vector
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -97,7 +99,7 @@ class BakeHandle:
     """An up-to-date bake of a drawn object: ``key`` names it (object and inputs hash), ``load()``
     reads its arrays (only when the GPU data of that key is not cached yet)."""
 
-    def __init__(self, key: str, load):
+    def __init__(self, key: str, load: Callable[[], Any]):
         self.key = key
         self.load = load
 
@@ -122,7 +124,7 @@ class MeshInstance:
     relief: ReliefSurface | None = None  # a height field displaces this mesh per pixel (drawn by its pass)
     auto_target: float | None = None  # AUTO quality's target error (IMAGE_SPACE chooses k per frame); None: manual
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         n = len(self.positions)
         if n % 3 or self.normals.shape != (n, 3) or self.colors.shape != (n, 3):
             raise ValueError(f"{self.name}: corner arrays must be (3T, 3) and of equal length")
@@ -193,7 +195,7 @@ class DrawSettings:
     coherence_frame: int = 0  # this frame's number in that sequence
     capture: bool = False
 
-    def of(self, technique_id: str, default=None):
+    def of(self, technique_id: str, default: Any = None) -> Any:
         """One technique's settings (``default`` where the frame has none for it)."""
         return self.techniques.get(technique_id, default)
 

@@ -20,6 +20,7 @@ import dataclasses
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 DIRECTIONAL = 0
 POINT = 1
@@ -78,8 +79,8 @@ def _area_sample_offsets(shape: str, size_x: float, size_y: float, n: int) -> np
 def emitters_from_light(
     name: str,
     light_type: str,
-    matrix_world,
-    color,
+    matrix_world: ArrayLike,
+    color: ArrayLike,
     energy: float,
     *,
     spot_size: float = math.pi / 4,
@@ -115,12 +116,13 @@ def emitters_from_light(
     raise ValueError(f"light '{name}': unsupported type {light_type}")
 
 
-def smoothstep01(x):
+def smoothstep01(x: ArrayLike) -> np.ndarray | float:
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
 
 
-def unshadowed_irradiance(e: Emitter, points: np.ndarray, normals: np.ndarray):
+def unshadowed_irradiance(e: Emitter, points: np.ndarray,
+                          normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Irradiance from one emitter at surface points, without occlusion.
 
     Returns (E, to_light, distance): E (N, 3) in W/m^2, unit directions to the

@@ -1,14 +1,17 @@
 """Image error metrics over an object's pixels, in linear radiance. Pure NumPy/SciPy."""
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def _rgb(img):
     return np.asarray(img, dtype=np.float64)[..., :3]
 
 
-def relative_rmse(image, reference, mask) -> float:
+def relative_rmse(image: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> float:
     """sqrt(mean |I - R|^2) / sqrt(mean |R|^2) over the masked pixels and the three channels."""
     mask = np.asarray(mask, dtype=bool)
     if not mask.any():
@@ -20,7 +23,7 @@ def relative_rmse(image, reference, mask) -> float:
     return float(np.sqrt(np.mean(diff**2)) / norm)
 
 
-def block_relative_rmse(image, reference, mask, block: int = 8) -> float:
+def block_relative_rmse(image: np.ndarray, reference: np.ndarray, mask: np.ndarray, block: int = 8) -> float:
     """relative_rmse of the means over the masked pixels of each block x block tile (tiles with no masked
     pixel skipped; a partial tile at the image's edge dropped): the error in what a texture of blades
     looks like from further away, blind to where each blade lies within its tile."""
@@ -31,7 +34,7 @@ def block_relative_rmse(image, reference, mask, block: int = 8) -> float:
     if h == 0 or w == 0:
         raise ValueError(f"the image is smaller than one {block} x {block} block")
 
-    def tiles(x):
+    def tiles(x: np.ndarray) -> np.ndarray:
         return x[:h, :w].reshape(h // block, block, w // block, block, *x.shape[2:]).sum(axis=(1, 3))
 
     m = mask[:h, :w].astype(np.float64)
@@ -41,7 +44,7 @@ def block_relative_rmse(image, reference, mask, block: int = 8) -> float:
     return relative_rmse(means[0], means[1], keep)
 
 
-def mean_noise(samples, mask) -> float:
+def mean_noise(samples: ArrayLike, mask: np.ndarray) -> float:
     """The relative RMSE that the mean of n independent renders (n, h, w, c) keeps from their noise:
     sqrt(mean over the masked pixels and channels of s^2 / n) / sqrt(mean of the mean's square), s^2 the
     unbiased variance across the renders (for two, half the relative RMSE between them)."""
@@ -55,17 +58,17 @@ def mean_noise(samples, mask) -> float:
     return float(np.sqrt(np.mean(var / n)) / norm)
 
 
-def median_relative_error(image, reference, mask) -> float:
+def median_relative_error(image: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> float:
     """Median over the masked pixels of |I - R| / mean(R) (luminance): robust to fireflies."""
     return float(np.median(relative_error_image(image, reference, mask)[np.asarray(mask, bool)]))
 
 
-def luminance(img) -> np.ndarray:
+def luminance(img: np.ndarray) -> np.ndarray:
     rgb = _rgb(img)
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
-def ssim(image, reference, mask, sigma: float = 1.5) -> float:
+def ssim(image: np.ndarray, reference: np.ndarray, mask: np.ndarray, sigma: float = 1.5) -> float:
     """Mean SSIM (Wang et al. 2004, Gaussian window) of linear luminance over the masked pixels.
 
     The dynamic range L is the reference's maximum over the mask (linear HDR has no fixed range).
@@ -84,7 +87,7 @@ def ssim(image, reference, mask, sigma: float = 1.5) -> float:
     return float(s[mask].mean())
 
 
-def relative_error_image(image, reference, mask) -> np.ndarray:
+def relative_error_image(image: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Per-pixel |I - R| / mean(R) (luminance), zero outside the mask."""
     mask = np.asarray(mask, dtype=bool)
     err = np.abs(luminance(image) - luminance(reference))
@@ -92,7 +95,7 @@ def relative_error_image(image, reference, mask) -> np.ndarray:
     return np.where(mask, err / scale, 0.0)
 
 
-def display(img, exposure: float = 1.0) -> np.ndarray:
+def display(img: np.ndarray, exposure: float = 1.0) -> np.ndarray:
     """Linear radiance to 8-bit sRGB for looking (Reinhard on luminance-free RGB, then sRGB)."""
     x = np.clip(_rgb(img) * exposure, 0.0, None)
     x = x / (1.0 + x)
@@ -100,7 +103,7 @@ def display(img, exposure: float = 1.0) -> np.ndarray:
     return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)
 
 
-def flicker(frames, masks) -> float:
+def flicker(frames: Sequence[np.ndarray], masks: Sequence[np.ndarray]) -> float:
     """Temporal noise of an animation: mean over t of sum |I_t - (I_{t-1} + I_{t+1}) / 2| / sum I_t
     (luminance), over the pixels inside the object in all three frames.
 

@@ -5,6 +5,8 @@ with *Apply Quality*; every value stays editable afterwards. Standard is the def
 """
 from __future__ import annotations
 
+from typing import Any
+
 TIERS = ("DRAFT", "STANDARD", "HIGH")
 
 OBJECT = {  # Object.translucent
@@ -26,7 +28,7 @@ SCENE = {  # Scene.translucent
 }
 
 
-def apply(settings, table: dict, tier: str) -> list[str]:
+def apply(settings: Any, table: dict, tier: str) -> list[str]:
     """Set the tier's values on a settings group; returns the names set."""
     if tier not in table:
         raise ValueError(f"unknown quality '{tier}': choose one of {', '.join(TIERS)}")

@@ -10,6 +10,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .data import DATA
 from .physics.dipole import r_max
@@ -51,14 +52,14 @@ class PowerLaw:
     p: float
     x_range: tuple  # the measured x, for saying when a choice extrapolates
 
-    def __call__(self, x):
+    def __call__(self, x: ArrayLike) -> np.ndarray | float:
         return self.a * np.asarray(x, float) ** self.p
 
     def inverse(self, error: float) -> float:
         return float((error / self.a) ** (1.0 / self.p))
 
     @classmethod
-    def envelope(cls, x, error) -> "PowerLaw":
+    def envelope(cls, x: ArrayLike, error: ArrayLike) -> "PowerLaw":
         """Least-squares slope in log-log, then the offset raised until no point lies above the line."""
         lx, le = np.log(np.asarray(x, float)), np.log(np.asarray(error, float))
         p = float(np.polyfit(lx, le, 1)[0])

@@ -13,10 +13,12 @@ names no technique: each frame it asks every registered technique, in registry o
 ``replaces_base`` names meshes the technique draws instead of the base pass (height fields);
 ``base_lighting`` lets one technique give the base pass its near-field inputs (IMAGE_SPACE's materials and
 LUT); ``unfitted_shadow`` asks for a shadow map over the whole scene sphere (caustics need the receivers).
-The Blender layer reads the ``scene_properties`` a technique declares from ``Scene.translucent`` and hands
-them to ``settings``, whose result travels in the frame (``FrameInputs.settings``); ``shader_specs`` joins the
-shader table; ``bake`` runs its ``bake_stages`` (``registry.run``); ``auto_quality`` is its Auto quality
-(``quality_auto.choose``); ``clear_caches`` runs when the extension is disabled.
+Its own properties (``object_props``, ``scene_props``, ``light_props``) join ``Object``, ``Scene`` and
+``Light.translucent``. The Blender layer reads the ``scene_properties`` a technique names from
+``Scene.translucent`` and hands them to ``settings``, whose result travels in the frame
+(``FrameInputs.settings``); ``shader_specs`` joins the shader table; ``bake`` runs its ``bake_stages``
+(``registry.run``); ``auto_quality`` is its Auto quality (``quality_auto.choose``); ``clear_caches`` runs when
+the extension is disabled.
 """
 from __future__ import annotations
 
@@ -30,7 +32,11 @@ class Technique:
     label: str = ""
     description: str = ""
     method_number: int | None = None  # its stable value in Object.translucent.method; None: not a method
-    scene_properties: tuple[str, ...] = ()
+    scene_properties: tuple[str, ...] = ()  # the Scene.translucent properties its ``settings`` reads
+    # Its own properties (``core.properties.Prop``), joined to Object/Scene/Light.translucent by the Blender layer.
+    object_props: tuple = ()
+    scene_props: tuple = ()
+    light_props: tuple = ()
     shader_specs: dict = {}
     timing: str | None = None  # the key of the last frame's timings its ``finish`` is counted under
     bake_stages: tuple[str, ...] = ()  # named steps of its bake (none: it needs no bake)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def pixel_rays(view_proj: np.ndarray, width: int, height: int):
+def pixel_rays(view_proj: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """World-space rays through the centres of a width x height image.
 
     Row 0 is the bottom row (OpenGL and Blender images). Works for perspective
@@ -16,7 +16,7 @@ def pixel_rays(view_proj: np.ndarray, width: int, height: int):
     ys = (np.arange(height) + 0.5) / height * 2.0 - 1.0
     x, y = np.meshgrid(xs, ys)  # (H, W)
     inv = np.linalg.inv(view_proj)
-    def unproject(z):
+    def unproject(z: float) -> np.ndarray:
         clip = np.stack([x, y, np.full_like(x, z), np.ones_like(x)], axis=-1)
         p = clip @ inv.T
         return p[..., :3] / p[..., 3:4]

@@ -41,7 +41,7 @@ def face_st_to_direction(face: np.ndarray, s: np.ndarray, t: np.ndarray) -> np.n
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def direction_to_face_st(d: np.ndarray):
+def direction_to_face_st(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Face index and s, t in [-1, 1] of directions (need not be unit)."""
     d = np.asarray(d, np.float64)
     a = np.abs(d)
@@ -76,7 +76,7 @@ def texel_solid_angles(res: int) -> np.ndarray:
     """Solid angle of every (unbordered) texel, (6, res, res); they sum to 4 pi."""
     edges = 2.0 * np.arange(res + 1) / res - 1.0
 
-    def corner(x, y):  # integral of the solid-angle density from the face centre
+    def corner(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # integral of the solid-angle density from the face centre
         return np.arctan2(x * y, np.sqrt(x * x + y * y + 1.0))
 
     t, s = np.meshgrid(edges, edges, indexing="ij")

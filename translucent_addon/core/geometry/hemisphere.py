@@ -12,13 +12,15 @@ barycentric weights. The GPU reads them from a table over that disk (``direction
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 VIEW_RINGS = ((0.0, 1), (15.0, 6), (30.0, 12), (45.0, 18), (60.0, 20), (75.0, 24))
 LIGHT_RINGS = ((0.0, 1), (25.0, 5), (50.0, 7), (75.0, 8))
 
 
-def ring_directions(rings) -> np.ndarray:
+def ring_directions(rings: Iterable[tuple[float, int]]) -> np.ndarray:
     """Unit directions (N, 3), z up, ring by ring; each ring starts at phi = 0 (odd rings offset by
     half a step, so that neighbouring rings interleave)."""
     out = []

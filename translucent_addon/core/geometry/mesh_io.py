@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 
-def load_obj(path) -> tuple[np.ndarray, np.ndarray]:
+def load_obj(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (V, 3) float32 and triangles (T, 3) int32 of an OBJ (polygons fanned, 1-based, v/vt/vn ok)."""
     verts, tris = [], []
     with open(path) as f:
@@ -24,7 +24,7 @@ def load_obj(path) -> tuple[np.ndarray, np.ndarray]:
     return v, t
 
 
-def save_npz(path, vertices: np.ndarray, triangles: np.ndarray) -> None:
+def save_npz(path: str | Path, vertices: np.ndarray, triangles: np.ndarray) -> None:
     np.savez_compressed(path, vertices=vertices.astype(np.float32), triangles=triangles.astype(np.int32))
 
 

@@ -45,7 +45,7 @@ def vertex_normals(vertices: np.ndarray, triangles: np.ndarray, by_angle: bool =
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
 
-def facing_side(facet_normals, normals):
+def facing_side(facet_normals: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Facet normals turned to the side of the interpolated normals (whatever the winding)."""
     return facet_normals * np.where(np.einsum("ij,ij->i", facet_normals, normals) < 0, -1.0, 1.0)[:, None]
 

@@ -6,9 +6,10 @@ Shared by the caustics technique (``techniques/caustics/model.py``) and the exac
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def refract(d: np.ndarray, n: np.ndarray, eta_ratio):
+def refract(d: np.ndarray, n: np.ndarray, eta_ratio: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Refracted unit directions (GLSL ``refract``): ``d`` travels toward the surface, ``n`` faces
     against it, ``eta_ratio`` = n_from / n_to. Returns (t, ok); ok is False at total internal
     reflection (t is zero there, as in GLSL)."""

@@ -14,7 +14,8 @@ def _chunk_size(n_tris: int, budget: int = 4_000_000) -> int:
     return max(1, budget // max(n_tris, 1))
 
 
-def closest_hit(origins: np.ndarray, dirs: np.ndarray, tris: np.ndarray, t_min: float = 0.0):
+def closest_hit(origins: np.ndarray, dirs: np.ndarray, tris: np.ndarray,
+                t_min: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Nearest hit of each ray.
 
     origins, dirs: (R, 3); tris: (T, 3, 3) world-space corners.
@@ -70,8 +71,9 @@ class BruteForceTracer:
     def __init__(self, tris: np.ndarray):
         self.tris = np.asarray(tris, dtype=np.float64).reshape(-1, 3, 3)
 
-    def closest_hit(self, origins, dirs):
+    def closest_hit(self, origins: np.ndarray,
+                    dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return closest_hit(origins, dirs, self.tris)
 
-    def occluded(self, origins, dirs, t_max):
+    def occluded(self, origins: np.ndarray, dirs: np.ndarray, t_max: np.ndarray) -> np.ndarray:
         return occluded(origins, dirs, t_max, self.tris)

@@ -30,7 +30,7 @@ class Occupancy:
         return ok & self.inside[ijk[..., 0], ijk[..., 1], ijk[..., 2]]
 
 
-def occupancy(vertices, triangles, resolution: int = 96) -> Occupancy:
+def occupancy(vertices: np.ndarray, triangles: np.ndarray, resolution: int = 96) -> Occupancy:
     """Voxels of a closed triangle surface: the longest side of its bounds in ``resolution`` cells (one
     cell of margin around), a voxel inside where a vertical line through its centre has crossed the
     surface an odd number of times below it."""
@@ -87,7 +87,8 @@ def hemisphere_directions(count: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u)], axis=1)
 
 
-def cosine_visibility(points, normals, occ: Occupancy, directions: int = 32, chunk: int = 4096) -> np.ndarray:
+def cosine_visibility(points: np.ndarray, normals: np.ndarray, occ: Occupancy, directions: int = 32,
+                      chunk: int = 4096) -> np.ndarray:
     """V per point, (N,): the fraction of ``directions`` cosine-weighted rays about its normal that leave
     the grid without entering a voxel inside. Rays start two voxels out along the normal (the point's
     own voxels are the surface) and step half a voxel."""

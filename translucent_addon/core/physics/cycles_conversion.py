@@ -26,6 +26,7 @@ import dataclasses
 import functools
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..data import DATA
 from .dipole import dipole_parameters, total_diffuse_reflectance
@@ -38,7 +39,7 @@ def _poly(g, coeffs):
     return sum(c * g**k for k, c in enumerate(coeffs))
 
 
-def cycles_single_scattering_albedo(A, g: float = 0.0):
+def cycles_single_scattering_albedo(A: ArrayLike, g: float = 0.0) -> np.ndarray | float:
     """alpha = f(A, g): Cycles' multiple-scattering (Base Color) to single-scattering albedo."""
     A = np.asarray(A, dtype=np.float64)
     a = _poly(g, (1.8260523782, -1.28451056436, -1.79904629312, 9.19393289202, -22.8215585862, 32.0234874259,
@@ -60,7 +61,7 @@ def cycles_single_scattering_albedo(A, g: float = 0.0):
     return np.clip(alpha, 0.0, 0.999999)
 
 
-def base_color_for_albedo(alpha, g: float = 0.0, iterations: int = 60):
+def base_color_for_albedo(alpha: ArrayLike, g: float = 0.0, iterations: int = 60) -> np.ndarray | float:
     """Inverse of ``cycles_single_scattering_albedo`` in A over [0, 1], by bisection."""
     alpha = np.asarray(alpha, dtype=np.float64)
     lo, hi = np.zeros_like(alpha), np.ones_like(alpha)
@@ -83,7 +84,7 @@ def random_walk_calibration() -> dict[float, tuple[np.ndarray, np.ndarray]]:
     return table
 
 
-def random_walk_base_color(rho, eta: float):
+def random_walk_base_color(rho: ArrayLike, eta: float) -> np.ndarray | float:
     """Base Color A for which Cycles' random walk renders diffuse albedo rho (clamped to its range)."""
     table = random_walk_calibration()
     etas = np.array(sorted(table))
@@ -92,7 +93,7 @@ def random_walk_base_color(rho, eta: float):
     lo = hi - 1
     t = (eta - etas[lo]) / (etas[hi] - etas[lo])
 
-    def invert(e):
+    def invert(e: float) -> np.ndarray | float:
         A, r = table[float(e)]
         # np.interp needs rising x: break the plateau ties at the top by keeping the first A.
         keep = np.concatenate([[True], np.diff(r) > 0])
@@ -116,7 +117,8 @@ class RandomWalkInputs:
     target_albedo: tuple  # rho the medium has; Cycles renders min(rho, its maximum)
 
 
-def random_walk_inputs(sigma_a, sigma_s_prime, eta, g, mm_per_unit) -> RandomWalkInputs:
+def random_walk_inputs(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, g: float,
+                       mm_per_unit: float) -> RandomWalkInputs:
     """Principled random-walk inputs with our diffuse albedo and diffusion length (see module doc)."""
 
     sa = np.asarray(sigma_a, dtype=np.float64)
@@ -140,7 +142,8 @@ class VolumeInputs:
     ior: float
 
 
-def volume_inputs(sigma_a, sigma_s_prime, eta, g, mm_per_unit) -> VolumeInputs:
+def volume_inputs(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, g: float,
+                  mm_per_unit: float) -> VolumeInputs:
     """Volume Scatter (sigma_s = density x colour) and Volume Absorption (sigma_a = density x (1 - colour))."""
     sigma_s = np.asarray(sigma_s_prime, dtype=np.float64) / (1.0 - g) * mm_per_unit
     sigma_a = np.asarray(sigma_a, dtype=np.float64) * mm_per_unit

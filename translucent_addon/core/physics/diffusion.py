@@ -28,29 +28,37 @@ Conventions, derived here because the paper's printed equations disagree with ea
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .dipole import A as internal_reflection
 from .fresnel import F_dr as diffuse_fresnel
 
+if TYPE_CHECKING:
+    from scipy.sparse import csr_matrix
 
-def kappa(sigma_a, sigma_s_prime):
+
+def kappa(sigma_a: ArrayLike, sigma_s_prime: ArrayLike) -> np.ndarray | float:
     """Diffusion coefficient kappa = 1 / (3 (mu + sigma_s')) [mm] (mu = sigma_a)."""
     return 1.0 / (3.0 * (np.asarray(sigma_a, np.float64) + np.asarray(sigma_s_prime, np.float64)))
 
 
-def kappa_as_printed(sigma_a, sigma_s_prime):
+def kappa_as_printed(sigma_a: ArrayLike, sigma_s_prime: ArrayLike) -> np.ndarray | float:
     """The paper's printed kappa = 1 / (3 mu + sigma_s') (Sec. 3), kept to show that it is wrong."""
     return 1.0 / (3.0 * np.asarray(sigma_a, np.float64) + np.asarray(sigma_s_prime, np.float64))
 
 
-def radiosity(phi_s, eta):
+def radiosity(phi_s: ArrayLike, eta: ArrayLike) -> np.ndarray | float:
     """The exitance B = (1 - F_dr) J_out, J_out = phi(n_s) / (2 (1 + F_dr)): L_o = F_t(w_o) / pi B."""
     F = diffuse_fresnel(eta)
     return (1.0 - F) * np.asarray(phi_s) / (2.0 * (1.0 + F))
 
 
-def slab_reflectance(sigma_a, sigma_s_prime, eta, kappa_of=kappa):
+def slab_reflectance(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike,
+                     kappa_of: Callable[[np.ndarray, ArrayLike], np.ndarray | float] = kappa) -> np.ndarray | float:
     """Fraction of the light entering a semi-infinite slab that leaves it, for the continuous model.
 
     A point source q at depth z_0 = 3 kappa (one transport mean free path), sigma_tr = sqrt(mu / kappa),
@@ -66,7 +74,7 @@ def slab_reflectance(sigma_a, sigma_s_prime, eta, kappa_of=kappa):
     return np.exp(-sigma_tr * 3.0 * k) / (1.0 + 2.0 * A * k * sigma_tr)
 
 
-def held_source_gain(kappa_nodes, mu_nodes, d_surface):
+def held_source_gain(kappa_nodes: np.ndarray, mu_nodes: np.ndarray, d_surface: np.ndarray) -> np.ndarray:
     """R_graph / R per surface node, (S, C): how much more the graph reflects of the light entering at a
     node whose link is shorter than z_0, where ``source_split`` holds the source at the inner node, at
     depth d instead of z_0.
@@ -84,7 +92,8 @@ def held_source_gain(kappa_nodes, mu_nodes, d_surface):
     return np.exp(np.sqrt(mu / k) * np.maximum(z0 - d, 0.0))
 
 
-def slab_transfer(sigma_a, sigma_s_prime, eta, thickness):
+def slab_transfer(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float,
+                  thickness: float) -> tuple[np.ndarray, np.ndarray]:
     """(R, T), each (C,): the continuous model's exitance from the lit face and from the far face of a
     slab of ``thickness`` mm over the light entering, a point source at z_0 = 3 kappa (at most the
     thickness) with phi - 2 A kappa phi' = 0 on both faces. Index-matched, a random walk through
@@ -121,7 +130,7 @@ def _point_source_1d(k, mu, h, L, z0):
 
 
 def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float, thickness: float,
-                 centre: float, modes: int = 120):
+                 centre: float, modes: int = 120) -> tuple[float, float]:
     """(R, T): the continuous model of ``slab_transfer`` in a box width x width x thickness [mm] lit
     uniformly over one square face, exitance over the centre square |x|, |y| < centre of the lit and the
     far face. Across the box phi is a sum of the Robin eigenmodes cos(k_m x), k tan(k w / 2) = 1 / h
@@ -156,7 +165,7 @@ def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float,
 # slab's exact surface flux at any spacing.
 
 
-def link_factors(x):
+def link_factors(x: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(e1, e2) = (x / sinh x, x / tanh x), with their series near 0."""
     x = np.asarray(x, np.float64)
     small = x < 1e-3
@@ -166,7 +175,8 @@ def link_factors(x):
     return e1, e2
 
 
-def surface_link(kappa_nodes, mu_nodes, d_surface):
+def surface_link(kappa_nodes: np.ndarray, mu_nodes: np.ndarray,
+                 d_surface: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(e1, e2) of every surface link, (S, C), from the surface node's own sigma_tr = sqrt(mu / kappa)."""
     S = len(d_surface)
     k = np.asarray(kappa_nodes, np.float64)[:S]
@@ -184,7 +194,8 @@ def _sinh_ratio(a, b):
     return np.where(small, a / np.where(small, np.maximum(b, 1e-300), 1.0), ratio)
 
 
-def source_split(kappa_nodes, mu_nodes, d_surface):
+def source_split(kappa_nodes: np.ndarray, mu_nodes: np.ndarray,
+                 d_surface: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(w_s, w_k), (S, C): the shares of light entering at a surface node, a point source at depth
     z_0 = 3 kappa_s (1 / sigma_t') on its link of length d to its inner node, that the fitted link's
     Green's function carries to the surface node's end and to the inner node's:
@@ -203,7 +214,7 @@ def source_split(kappa_nodes, mu_nodes, d_surface):
     return _sinh_ratio(sigma_tr * (d - z0), sigma_tr * d), _sinh_ratio(sigma_tr * z0, sigma_tr * d)
 
 
-def edge_kappa(kappa_nodes, neighbours):
+def edge_kappa(kappa_nodes: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
     """Conductance of each link: the harmonic mean of its two ends' kappa, (N, 4, C); 0 where unlinked."""
     k = np.asarray(kappa_nodes, np.float64)
     kj = k[np.maximum(neighbours, 0)]
@@ -211,7 +222,8 @@ def edge_kappa(kappa_nodes, neighbours):
     return np.where((neighbours >= 0)[..., None], 2.0 * ki * kj / np.maximum(ki + kj, 1e-300), 0.0)
 
 
-def matrix(neighbours, weights, d_surface, kappa_nodes, mu_nodes, eta, channel: int):
+def matrix(neighbours: np.ndarray, weights: np.ndarray, d_surface: np.ndarray, kappa_nodes: np.ndarray,
+           mu_nodes: np.ndarray, eta: float, channel: int) -> csr_matrix:
     """Sparse M with M phi = b for one colour channel (rows: surface nodes, Eq. 6; inner nodes, Eq. 5)."""
     from scipy.sparse import csr_matrix
 
@@ -237,7 +249,8 @@ def matrix(neighbours, weights, d_surface, kappa_nodes, mu_nodes, eta, channel: 
     return csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(N, N))
 
 
-def right_hand_side(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta):
+def right_hand_side(neighbours: np.ndarray, weights: np.ndarray, d_surface: np.ndarray, kappa_nodes: np.ndarray,
+                    mu_nodes: np.ndarray, q: ArrayLike, eta: float) -> np.ndarray:
     """b of M phi = b, (N, C): the light entering, a source one mean free path deep in each surface
     link (``source_split``): 2 A d w_s q on surface rows; on an inner row, a d w_k q over its links to
     surface nodes (a d: the link face's area over the inner node's volume)."""
@@ -250,7 +263,8 @@ def right_hand_side(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, et
     return b
 
 
-def inner_source(neighbours, weights, d_surface, share):
+def inner_source(neighbours: np.ndarray, weights: np.ndarray, d_surface: np.ndarray,
+                 share: np.ndarray) -> np.ndarray:
     """Per inner node, sum over its links to surface nodes s of a_ks d_s share_s, (T, C)."""
     S = len(d_surface)
     nb = neighbours[S:]
@@ -260,7 +274,8 @@ def inner_source(neighbours, weights, d_surface, share):
     return per_link.sum(axis=1)
 
 
-def solve_direct(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta):
+def solve_direct(neighbours: np.ndarray, weights: np.ndarray, d_surface: np.ndarray, kappa_nodes: np.ndarray,
+                 mu_nodes: np.ndarray, q: ArrayLike, eta: float) -> np.ndarray:
     """phi (N, C) by a sparse LU factorisation, per channel: the reference for the relaxation."""
     from scipy.sparse.linalg import splu
 
@@ -272,7 +287,8 @@ def solve_direct(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta):
     return phi
 
 
-def relax(neighbours, weights, d_surface, kappa_nodes, mu_nodes, q, eta, phi, iterations: int):
+def relax(neighbours: np.ndarray, weights: np.ndarray, d_surface: np.ndarray, kappa_nodes: np.ndarray,
+          mu_nodes: np.ndarray, q: ArrayLike, eta: float, phi: ArrayLike, iterations: int) -> np.ndarray:
     """``iterations`` Jacobi steps (Eq. 8 for inner nodes, Eq. 9 for surface nodes, with the fitted surface
     link), all nodes at once
     from the previous iterate, as the GPU pass does. The CPU twin of ``qg_relax.glsl``."""
@@ -312,12 +328,12 @@ def reachable_tolerance(tolerance: float) -> float:
     return max(float(tolerance), FLOAT32_TOLERANCE)
 
 
-def relative_change(new, old) -> float:
+def relative_change(new: np.ndarray, old: np.ndarray) -> float:
     """max |new - old| / max |new|: the convergence test of the relaxation (Sec. 5.2)."""
     scale = float(np.abs(new).max())
     return float(np.abs(new - old).max() / scale) if scale > 0 else 0.0
 
 
-def upsample(phi_coarse, link_index, link_weight):
+def upsample(phi_coarse: ArrayLike, link_index: np.ndarray, link_weight: np.ndarray) -> np.ndarray:
     """Initial phi at the finer level from the coarser solution (Eq. 10)."""
     return np.einsum("nb,nbc->nc", link_weight, np.asarray(phi_coarse)[link_index])

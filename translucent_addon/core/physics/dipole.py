@@ -6,17 +6,20 @@ coefficients of shape (3,) against distances of shape (N, 1) give (N, 3).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .fresnel import F_dr
 
 
-def A(eta):
+def A(eta: ArrayLike) -> np.ndarray | float:
     """Internal reflection parameter A = (1 + F_dr) / (1 - F_dr) (Shah Eq. 6.11)."""
     f = F_dr(eta)
     return (1.0 + f) / (1.0 - f)
 
 
-def dipole_parameters(sigma_a, sigma_s_prime, eta):
+def dipole_parameters(
+    sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike
+) -> tuple[np.ndarray | float, np.ndarray | float, np.ndarray | float, np.ndarray | float]:
     """(alpha', sigma_tr, z_r, z_v) of the dipole (Shah Eq. 6.6-6.10).
 
     sigma_t' = sigma_a + sigma_s', alpha' = sigma_s' / sigma_t', sigma_tr = sqrt(3 sigma_a sigma_t'),
@@ -33,7 +36,7 @@ def dipole_parameters(sigma_a, sigma_s_prime, eta):
     return alpha_prime, sigma_tr, z_r, z_v
 
 
-def R_d(r, sigma_a, sigma_s_prime, eta):
+def R_d(r: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike) -> np.ndarray | float:
     """Diffuse reflectance profile R_d(r) [mm^-2] at distance r [mm] (Jensen 2001 Eq. 5; Shah Eq. 6.5).
 
     R_d(r) = alpha'/(4 pi) [ z_r (sigma_tr d_r + 1) e^{-sigma_tr d_r} / d_r^3
@@ -49,7 +52,7 @@ def R_d(r, sigma_a, sigma_s_prime, eta):
     return alpha_prime / (4.0 * np.pi) * (real + virtual)
 
 
-def total_diffuse_reflectance(sigma_a, sigma_s_prime, eta):
+def total_diffuse_reflectance(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike) -> np.ndarray | float:
     """Closed form of the integral of R_d over the plane (Jensen 2001 Eq. 6):
 
     R_d = (alpha'/2) (1 + e^{-(4/3) A sqrt(3 (1 - alpha'))}) e^{-sqrt(3 (1 - alpha'))}.
@@ -59,7 +62,7 @@ def total_diffuse_reflectance(sigma_a, sigma_s_prime, eta):
     return 0.5 * alpha_prime * (1.0 + np.exp(-4.0 / 3.0 * A(eta) * s)) * np.exp(-s)
 
 
-def R_d_disk(radius, sigma_a, sigma_s_prime, eta):
+def R_d_disk(radius: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike) -> np.ndarray | float:
     """Integral of R_d over a disk of the given radius [mm] (closed form).
 
     With d^2 = r^2 + z^2 and r dr = d dd, and d/dd[-e^{-s d}/d] = (s d + 1) e^{-s d}/d^2:
@@ -75,7 +78,8 @@ def R_d_disk(radius, sigma_a, sigma_s_prime, eta):
     return 0.5 * alpha_prime * total
 
 
-def r_max(sigma_a, sigma_s_prime, eta, epsilon=0.01):
+def r_max(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike,
+          epsilon: float = 0.01) -> np.ndarray | float:
     """Splat radius r_max [mm]: the disk holding all but epsilon of R_d's integral (Shah Eq. 6.16).
 
     Solved by bisection on the closed-form disk integral; per channel for RGB input.
@@ -97,7 +101,8 @@ def r_max(sigma_a, sigma_s_prime, eta, epsilon=0.01):
     return hi if hi.shape else float(hi)
 
 
-def overlap_count(sigma_a, sigma_s_prime, eta, epsilon=0.01, radius=None):
+def overlap_count(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, epsilon: float = 0.01,
+                  radius: ArrayLike | None = None) -> np.ndarray | float:
     """Overlapping splats n_o per point, the smallest with R_d(0) / (n_o R_d(r_max)) < epsilon (Shah Eq. 6.17)."""
     if radius is None:
         radius = r_max(sigma_a, sigma_s_prime, eta, epsilon)
@@ -105,7 +110,8 @@ def overlap_count(sigma_a, sigma_s_prime, eta, epsilon=0.01, radius=None):
     return np.floor(ratio / epsilon) + 1.0
 
 
-def splat_grid(frustum_width, sigma_a, sigma_s_prime, eta, epsilon=0.01):
+def splat_grid(frustum_width: float, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike,
+               epsilon: float = 0.01) -> np.ndarray | float:
     """Splat grid resolution n (n x n splats) for a light frustum W mm wide (Shah Eq. 6.18): n = n_o W / (2 r_max)."""
     radius = r_max(sigma_a, sigma_s_prime, eta, epsilon)
     n_o = overlap_count(sigma_a, sigma_s_prime, eta, epsilon, radius)

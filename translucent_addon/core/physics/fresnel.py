@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def fresnel_dielectric(cos_i, eta):
+def fresnel_dielectric(cos_i: ArrayLike, eta: float | np.ndarray) -> np.ndarray:
     """Unpolarised Fresnel reflectance, light arriving from the outside (index 1) onto index eta.
 
     cos_i: cosine of the incidence angle. eta: relative index n_inside / n_outside; eta < 1
@@ -20,7 +21,7 @@ def fresnel_dielectric(cos_i, eta):
     return np.where(tir, 1.0, 0.5 * (r_s**2 + r_p**2))
 
 
-def fresnel_schlick(cos_i, eta):
+def fresnel_schlick(cos_i: ArrayLike, eta: float | np.ndarray) -> np.ndarray | float:
     """Schlick's approximation R0 + (1 - R0)(1 - cos)^5 with R0 = ((eta - 1)/(eta + 1))^2."""
     r0 = ((eta - 1.0) / (eta + 1.0)) ** 2
     return r0 + (1.0 - r0) * (1.0 - np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)) ** 5
@@ -32,7 +33,7 @@ def hemispherical_transmittance(eta: float, n: int = 4096) -> float:
     return float(2.0 * np.mean((1.0 - fresnel_dielectric(mu, eta)) * mu))
 
 
-def F_dr(eta):
+def F_dr(eta: ArrayLike) -> np.ndarray | float:
     """Diffuse Fresnel reflectance, the polynomial fit of Jensen 2001 / Shah Eq. 6.12.
 
     F_dr = -1.440/eta^2 + 0.710/eta + 0.668 + 0.0636 eta. (Shah prints 0.0668 for the

@@ -9,6 +9,7 @@ import dataclasses
 import functools
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .dipole import R_d, R_d_disk, r_max, total_diffuse_reflectance
 from .multipole import Grid, Layer, layered_profiles, radial_profile
@@ -20,7 +21,7 @@ class ProfileLUT:
     table: np.ndarray  # (N, 3) float32, R_d in mm^-2 per RGB channel
     r_max: np.ndarray  # (3,) mm, per channel
 
-    def lookup(self, r) -> np.ndarray:
+    def lookup(self, r: ArrayLike) -> np.ndarray:
         """CPU twin of the shader lookup: (..., 3) for distances r [mm] (..., )."""
         r = np.asarray(r, dtype=np.float64)[..., None]
         u = np.sqrt(np.clip(r / self.r_max, 0.0, 1.0)) * (len(self.table) - 1)
@@ -32,7 +33,8 @@ class ProfileLUT:
         return np.where(r <= self.r_max, value, 0.0)
 
 
-def dipole_lut(sigma_a, sigma_s_prime, eta, samples: int = 256, epsilon: float = 0.01) -> ProfileLUT:
+def dipole_lut(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, samples: int = 256,
+               epsilon: float = 0.01) -> ProfileLUT:
     radius = np.asarray(r_max(np.asarray(sigma_a, float), np.asarray(sigma_s_prime, float), eta, epsilon))
     u = np.linspace(0.0, 1.0, samples)[:, None]
     r = radius[None, :] * u**2
@@ -53,19 +55,19 @@ TAIL_START = 0.5
 TAIL_BLOCK = 4
 
 
-def crossover(s, r_max):
+def crossover(s: ArrayLike, r_max: float | np.ndarray) -> np.ndarray | float:
     """t(s): the tail splats' share of R_d at scaled distance s [mm]; 0 below TAIL_START r_max, 1 from r_max."""
     x = np.clip((np.asarray(s, dtype=np.float64) / r_max - TAIL_START) / (1.0 - TAIL_START), 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
 
 
-def partition(r, rho):
+def partition(r: ArrayLike, rho: float | np.ndarray) -> np.ndarray | float:
     """w(r): 0 for r <= rho, 1 for r >= 2 rho, smoothstep between (the splatted share of R_d)."""
     x = np.clip((np.asarray(r, dtype=np.float64) - rho) / rho, 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
 
 
-def partition_off_plane(r, rho, h):
+def partition_off_plane(r: ArrayLike, rho: float | np.ndarray, h: ArrayLike) -> np.ndarray | float:
     """w(r) for a sample at height h over x_o's tangent plane: samples well off the plane (h > 0.8 r,
     e.g. the far side of a thin part) are not in the near field's disk and keep their whole share;
     in the plane (h < 0.5 r) the usual w(r); smoothstep between."""
@@ -93,7 +95,8 @@ class ImageSpaceTables:
     total: np.ndarray  # (3,) total diffuse reflectance
 
 
-def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) -> np.ndarray:
+def near_integral(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, rho_mm: float,
+                  M: float = 1.0) -> np.ndarray:
     """near(M) = int R_d(M r) M^2 (1 - w(r)) 2 pi r dr: the part of the profile taken at E(x_o).
 
     Up to rho it is the closed-form disk integral R_d_disk(M rho) (substitute s = M r); the blend
@@ -105,7 +108,8 @@ def near_integral(sigma_a, sigma_s_prime, eta, rho_mm: float, M: float = 1.0) ->
     return R_d_disk(M * rho_mm, sigma_a, sigma_s_prime, eta) + trapezoid(f, ring, axis=0)
 
 
-def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, samples=256, near_samples=32):
+def image_space_tables(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, rho_mm: float,
+                       epsilon: float = 0.01, samples: int = 256, near_samples: int = 32) -> ImageSpaceTables:
 
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)
@@ -118,7 +122,8 @@ def image_space_tables(sigma_a, sigma_s_prime, eta, rho_mm, epsilon=0.01, sample
                             float(rho_mm), total_diffuse_reflectance(sa, ss, eta))
 
 
-def profile_tables(radii, profile, rho_mm, epsilon=0.01, samples=256, near_samples=32):
+def profile_tables(radii: ArrayLike, profile: ArrayLike, rho_mm: float, epsilon: float = 0.01, samples: int = 256,
+                   near_samples: int = 32) -> ImageSpaceTables:
     """ImageSpaceTables from any radial profile R(r) [mm^-2] tabulated at radii [mm] (RGB), e.g. a multipole.
 
     r_max from the cumulative integral of R 2 pi r dr (Eq. 6.16); the near field by quadrature.
@@ -131,7 +136,7 @@ def profile_tables(radii, profile, rho_mm, epsilon=0.01, samples=256, near_sampl
     total = cumulative[-1]
     radius = float(max(np.interp((1 - epsilon) * t, c, radii) for t, c in zip(total, cumulative.T)))
 
-    def R(r):
+    def R(r: ArrayLike) -> np.ndarray:
         return np.stack([np.interp(r, radii, profile[:, c], right=0.0) for c in range(3)], axis=-1)
 
     u = np.linspace(0.0, 1.0, samples)
@@ -148,7 +153,8 @@ def profile_tables(radii, profile, rho_mm, epsilon=0.01, samples=256, near_sampl
 
 @functools.lru_cache(maxsize=16)
 def multipole_profile(top_sigma_a: tuple, top_sigma_s_prime: tuple, thickness_mm: float, base_sigma_a: tuple,
-                      base_sigma_s_prime: tuple, eta: float, extent_mm: float = 60.0, h_mm: float = 0.05):
+                      base_sigma_s_prime: tuple, eta: float, extent_mm: float = 60.0,
+                      h_mm: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
     """Radial reflectance profile (radii, R (N, 3)) of a layer over a semi-infinite base (Donner & Jensen 2005).
 
     Per channel, by Fourier-domain adding on a grid of h_mm cells spanning +-extent_mm (cached).

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .dipole import A, R_d_disk
 
@@ -52,7 +53,9 @@ def _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_botto
     return alpha_prime, sigma_tr, pairs
 
 
-def slab_profiles(r, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+def slab_profiles(r: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float, thickness: float,
+                  n_pairs: int | None = None,
+                  eta_bottom: float | None = None) -> tuple[np.ndarray | float, np.ndarray | float]:
     """R(r) and T(r) [mm^-2] of a homogeneous slab of the given thickness [mm] (scalar coefficients)."""
     alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom)
     r = np.asarray(r, dtype=np.float64)
@@ -75,7 +78,9 @@ def _pair_disk(radius, z, sigma_tr):
     return 2.0 * np.pi * np.sign(z) * (np.exp(-sigma_tr * a) - a * np.exp(-sigma_tr * D) / D)
 
 
-def slab_disk_integrals(radius, sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+def slab_disk_integrals(radius: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float, thickness: float,
+                        n_pairs: int | None = None,
+                        eta_bottom: float | None = None) -> tuple[np.ndarray | float, np.ndarray | float]:
     """Integrals of R and T of ``slab_profiles`` over a disk of the given radius [mm] (closed form)."""
     alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom)
     radius = np.asarray(radius, dtype=np.float64)
@@ -134,7 +139,7 @@ def _ring_average(cumulative, grid: Grid):
     return tuple(out)
 
 
-def layered_profiles(layers: list[Layer], eta: float, grid: Grid):
+def layered_profiles(layers: list[Layer], eta: float, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
     """R and T of a stack of layers (top first) on a grid, by Kubelka-Munk adding in frequency space.
 
     Returns two (n, n) arrays in mm^-2 (cell averages). The stack sits inside one dielectric

@@ -42,7 +42,8 @@ class CoefficientError(ValueError):
     """Coefficients that no physical medium has (negative, zero or not finite)."""
 
 
-def validate_coefficients(sigma_a, sigma_s_prime, eta, g=0.0, name="material") -> None:
+def validate_coefficients(sigma_a: tuple[float, float, float], sigma_s_prime: tuple[float, float, float],
+                          eta: float, g: float = 0.0, name: str = "material") -> None:
     """Raise CoefficientError with a one-line reason if the medium is not physical.
 
     sigma_a may be 0 (no absorption, e.g. spectralon); sigma_s' must be > 0, since

@@ -18,6 +18,7 @@ import functools
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .fresnel import fresnel_dielectric
 
@@ -30,7 +31,7 @@ BAND = np.array([0, 1, 1, 1, 2, 2, 2, 2, 2])  # band l of each of the 9 coeffici
 LAMBERT_KERNEL = np.array([math.pi, 2.0 * math.pi / 3.0, math.pi / 4.0])  # A_l of the clamped cosine alone
 
 
-def sh_basis(d) -> np.ndarray:
+def sh_basis(d: ArrayLike) -> np.ndarray:
     """Y_lm at unit directions d (..., 3): (..., 9) in the order 00, 1-1, 10, 11, 2-2, 2-1, 20, 21, 22."""
     d = np.asarray(d, np.float64)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
@@ -38,14 +39,15 @@ def sh_basis(d) -> np.ndarray:
                      _C20 * (3.0 * z * z - 1.0), _C2 * x * z, 0.5 * _C2 * (x * x - y * y)], axis=-1)
 
 
-def project(directions, radiance, solid_angle) -> np.ndarray:
+def project(directions: ArrayLike, radiance: ArrayLike, solid_angle: ArrayLike) -> np.ndarray:
     """L_lm = sum L(w) Y_lm(w) dw over samples of the sphere: (9, C)."""
     Y = sh_basis(np.asarray(directions).reshape(-1, 3))
     L = np.asarray(radiance, np.float64).reshape(len(Y), -1)
     return Y.T @ (L * np.asarray(solid_angle, np.float64).reshape(-1, 1))
 
 
-def equirect_directions(height: int, width: int, rows: slice = slice(None)):
+def equirect_directions(height: int, width: int,
+                        rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
     """Pixel-centre directions (h, W, 3) and solid angles (h, W) of an equirectangular image in
     Blender's convention (``bake.environment.equirect_direction_to_uv``), row 0 at the bottom; only
     the given rows."""
@@ -60,7 +62,7 @@ def equirect_directions(height: int, width: int, rows: slice = slice(None)):
     return d, omega
 
 
-def project_equirect(image, rows_per_block: int = 64) -> np.ndarray:
+def project_equirect(image: ArrayLike, rows_per_block: int = 64) -> np.ndarray:
     """The 9 RGB coefficients (9, 3) of an equirectangular radiance image (H, W, >=3).
 
     Summed over blocks of rows, so that an 8k HDRI needs tens of MB, not gigabytes."""
@@ -75,7 +77,7 @@ def project_equirect(image, rows_per_block: int = 64) -> np.ndarray:
     return out
 
 
-def uniform_coefficients(color) -> np.ndarray:
+def uniform_coefficients(color: ArrayLike) -> np.ndarray:
     """L_lm (9, 3) of a uniform world: only L_00 = L sqrt(4 pi)."""
     out = np.zeros((9, 3))
     out[0] = np.asarray(color, np.float64).ravel()[:3] * math.sqrt(4.0 * math.pi)
@@ -85,7 +87,7 @@ def uniform_coefficients(color) -> np.ndarray:
 _projected: dict = {}
 
 
-def project_environment(key: str, image) -> np.ndarray:
+def project_environment(key: str, image: ArrayLike) -> np.ndarray:
     """``project_equirect`` of a world image, kept for its key (the image's name and strength): the
     renderer and the reference ask for it every frame."""
     found = _projected.get(key)
@@ -110,7 +112,7 @@ def _transmittance_kernel(eta: float, samples: int = 4096) -> np.ndarray:
     return 2.0 * np.pi * (P * k).mean(axis=1)
 
 
-def irradiance(coefficients, kernel, normals) -> np.ndarray:
+def irradiance(coefficients: ArrayLike, kernel: ArrayLike, normals: ArrayLike) -> np.ndarray:
     """E(n) (..., C) = sum A_l L_lm Y_lm(n): transmitted irradiance at unit normals (..., 3)."""
     coefficients = np.asarray(coefficients, np.float64)
     weighted = coefficients * np.asarray(kernel, np.float64)[BAND][:, None]

@@ -24,6 +24,7 @@ up its own flat-face response there (``exitance_loss``).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .diffusion import slab_reflectance
 from .dipole import A as internal_reflection
@@ -34,25 +35,26 @@ SEGMENTS = 16  # march segments; nodes crowd the surface (t_k = t_max (k / N)^2)
 CHORD_FACTOR_MAX = 4.0  # the local multiple scattering's geometry factor is held below this
 
 
-def hg_phase(cos_theta, g: float):
+def hg_phase(cos_theta: ArrayLike, g: float) -> np.ndarray | float:
     """Henyey-Greenstein phase function, normalised over the sphere (1 / (4 pi) for g = 0)."""
     cos_theta = np.asarray(cos_theta, np.float64)
     return (1.0 - g * g) / (4.0 * np.pi * np.power(1.0 + g * g - 2.0 * g * cos_theta, 1.5))
 
 
-def refracted_cosine(mu, eta: float):
+def refracted_cosine(mu: ArrayLike, eta: float) -> np.ndarray | float:
     """Cosine inside a medium of relative index eta >= 1 of a ray arriving at cosine mu (Snell)."""
     mu = np.asarray(mu, np.float64)
     return np.sqrt(1.0 - (1.0 - mu**2) / eta**2)
 
 
-def coefficients(sigma_a, sigma_s_prime, g: float):
+def coefficients(sigma_a: ArrayLike, sigma_s_prime: ArrayLike,
+                 g: float) -> tuple[np.ndarray | float, np.ndarray | float]:
     """(sigma_s, sigma_t) per channel from the reduced coefficients (sigma_s = sigma_s' / (1 - g))."""
     sigma_s = np.asarray(sigma_s_prime, np.float64) / (1.0 - g)
     return sigma_s, np.asarray(sigma_a, np.float64) + sigma_s
 
 
-def march_nodes(sigma_t, segments: int = SEGMENTS, tau_max: float = TAU_MAX) -> np.ndarray:
+def march_nodes(sigma_t: ArrayLike, segments: int = SEGMENTS, tau_max: float = TAU_MAX) -> np.ndarray:
     """Depths t_k along the view ray (same units as 1 / sigma_t): TAU_MAX optical depths of the most
     transparent channel, quadratically spaced so that the first segments resolve the surface."""
     t_max = tau_max / float(np.min(sigma_t))
@@ -70,7 +72,7 @@ def _segments(t, a) -> np.ndarray:
                     dt * (np.exp(a1) - np.exp(a0)) / np.where(small, 1.0, da))
 
 
-def march(t, d, sigma_t, source) -> np.ndarray:
+def march(t: ArrayLike, d: ArrayLike, sigma_t: ArrayLike, source: ArrayLike) -> np.ndarray:
     """integral of source(t) exp(-sigma_t (t + d(t))) dt from nodes: per segment, the exponent is linear
     between its ends (integrated exactly) and the source (sigma_s p E, slowly varying) is their mean.
     t, d: (n,); sigma_t: (c,); source: (n, c) or (c,). Returns (c,)."""
@@ -80,7 +82,7 @@ def march(t, d, sigma_t, source) -> np.ndarray:
     return (0.5 * (s[:-1] + s[1:]) * _segments(t, a)).sum(axis=0)
 
 
-def diffuse_reach(t, d, sigma_t, sigma_tr) -> np.ndarray:
+def diffuse_reach(t: ArrayLike, d: ArrayLike, sigma_t: ArrayLike, sigma_tr: ArrayLike) -> np.ndarray:
     """integral of exp(-sigma_t t - sigma_tr d(t)) dt along the view ray from the march's nodes: how much
     of the multiply-scattered light, which falls off as exp(-sigma_tr d) with the light's path d, the
     eye's ray gathers before the medium hides it or the ray leaves. (c,)."""
@@ -90,7 +92,8 @@ def diffuse_reach(t, d, sigma_t, sigma_tr) -> np.ndarray:
     return _segments(t, a).sum(axis=0)
 
 
-def flat_reach(sigma_t, sigma_tr, mu_t, mu_i, t_max) -> np.ndarray:
+def flat_reach(sigma_t: ArrayLike, sigma_tr: ArrayLike, mu_t: float | np.ndarray, mu_i: float | np.ndarray,
+               t_max: float) -> np.ndarray:
     """``diffuse_reach`` under a flat face with no far side within t_max: the light's straight path
     d = t mu_t / mu_i (mu_t the view ray's cosine inside, mu_i the light's outside, as the distance map
     measures it), (1 - exp(-k t_max)) / k with k = sigma_t + sigma_tr mu_t / mu_i."""
@@ -98,7 +101,8 @@ def flat_reach(sigma_t, sigma_tr, mu_t, mu_i, t_max) -> np.ndarray:
     return -np.expm1(-k * t_max) / k
 
 
-def chord_factor(t, d, sigma_t, sigma_tr, mu_t, mu_i, t_full: float | None = None) -> np.ndarray:
+def chord_factor(t: ArrayLike, d: ArrayLike, sigma_t: ArrayLike, sigma_tr: ArrayLike, mu_t: float | np.ndarray,
+                 mu_i: float | np.ndarray, t_full: float | None = None) -> np.ndarray:
     """The local multiple scattering's geometry factor (``qg_single``): ``diffuse_reach`` along the eye's
     actual chord (nodes t up to where it leaves, the light's paths d from the distance map) over a flat
     face's, ``flat_reach`` to the march's full depth TAU_MAX / min sigma_t. 1 under a flat face (the
@@ -111,7 +115,7 @@ def chord_factor(t, d, sigma_t, sigma_tr, mu_t, mu_i, t_full: float | None = Non
     return np.clip(diffuse_reach(t, d, sigma_t, sigma_tr) / full, 0.0, CHORD_FACTOR_MAX)
 
 
-def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_theta: float,
+def half_space(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, g: float, mu_i: float, mu_o: float, cos_theta: float,
                thickness: float = np.inf, eta: float = 1.0) -> np.ndarray:
     """Closed form of L^(1) / E under a flat face, light at cosine mu_i and eye at mu_o, as ``qg_single``
     models it: the view ray refracted to cosine mu_t inside (d(t) = t mu_t / mu_i, the light's path
@@ -126,7 +130,8 @@ def half_space(sigma_a, sigma_s_prime, g: float, mu_i: float, mu_o: float, cos_t
     return T * sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_t) * kept
 
 
-def single_albedo(sigma_a, sigma_s_prime, g: float, eta: float, mu_i, n: int = 48) -> np.ndarray:
+def single_albedo(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, g: float, eta: float, mu_i: ArrayLike,
+                  n: int = 48) -> np.ndarray:
     """R_1(mu_i): the flux the single-scattering term sends out of a flat face, over the incident flux
     E mu_i, without the entry transmittance T_i; the model ``qg_single`` draws (view ray refracted,
     light path straight, T_o = 1 - F_r(mu_o)). Gauss-Legendre in mu_o, uniform in azimuth.
@@ -151,7 +156,7 @@ def single_albedo(sigma_a, sigma_s_prime, g: float, eta: float, mu_i, n: int = 4
     return flux[:, None] * alpha[None, :]
 
 
-def chandrasekhar_H(alpha: float, mu, n: int = 64) -> np.ndarray:
+def chandrasekhar_H(alpha: float, mu: ArrayLike, n: int = 64) -> np.ndarray:
     """Chandrasekhar's H function of isotropic scattering with albedo alpha < 1:
     H(mu) = 1 + (alpha / 2) mu H(mu) int_0^1 H(mu') / (mu + mu') dmu', iterated on Gauss-Legendre nodes,
     then evaluated at mu by the same equation (Nystrom)."""
@@ -168,13 +173,13 @@ def chandrasekhar_H(alpha: float, mu, n: int = 64) -> np.ndarray:
     return 1.0 / (1.0 - 0.5 * alpha * mu * ((w * h)[None, :] / (mu[:, None] + m[None, :])).sum(axis=1))
 
 
-def plane_albedo(alpha: float, mu) -> np.ndarray:
+def plane_albedo(alpha: float, mu: ArrayLike) -> np.ndarray:
     """All the light a semi-infinite isotropic medium (index-matched) sends back of a beam at cosine mu,
     every order of scattering: 1 - H(mu) sqrt(1 - alpha) (Chandrasekhar; exact)."""
     return 1.0 - chandrasekhar_H(alpha, mu) * np.sqrt(1.0 - alpha)
 
 
-def h_table(sigma_a, sigma_s_prime, n: int = 33) -> np.ndarray:
+def h_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, n: int = 33) -> np.ndarray:
     """H(mu_k) per channel at mu_k = k / (n - 1), (n, 3), for the albedo alpha' = sigma_s' / sigma_t'
     (similarity for g != 0): the table ``qg_single`` reads linearly for the local multiple scattering."""
     sigma_a = np.asarray(sigma_a, np.float64)
@@ -184,7 +189,7 @@ def h_table(sigma_a, sigma_s_prime, n: int = 33) -> np.ndarray:
     return np.stack([chandrasekhar_H(a, mu) for a in alpha_prime], axis=1)
 
 
-def multiple_half_space(alpha: float, mu_i, mu_o, eta: float = 1.0):
+def multiple_half_space(alpha: float, mu_i: ArrayLike, mu_o: ArrayLike, eta: float = 1.0) -> np.ndarray | float:
     """L_ms / E: the radiance a semi-infinite isotropic medium sends towards mu_o after two or more
     scatterings, per unit normal irradiance of a beam at cosine mu_i; Chandrasekhar's diffuse reflection
     less its first order. Index-matched:
@@ -208,7 +213,7 @@ def multiple_half_space(alpha: float, mu_i, mu_o, eta: float = 1.0):
     return T * alpha * mu_i * (H_i * H_o - 1.0) / (4.0 * np.pi * (mu_it + mu_ot))
 
 
-def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
+def exitance_loss(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float) -> np.ndarray:
     """What a lit node's diffusion exitance gives up per unit q entering once ``qg_single`` draws the
     surface's own response to the light entering it (single scattering and the local multiple
     scattering of ``multiple_half_space``), (1, 3): all of it, R, the flat-face reflectance of the
@@ -230,7 +235,7 @@ def exitance_loss(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
     return R[None, :]
 
 
-def uniform_light_table(sigma_a, sigma_s_prime, eta: float, n: int = 33) -> np.ndarray:
+def uniform_light_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: int = 33) -> np.ndarray:
     """The factor w(mu_o) per channel at mu_o = j / (n - 1), (n, 3), on the Lambertian F_t / pi R q_world
     that the display draws for the world's light entering a flat face (read linearly by ``qg_display``).
 

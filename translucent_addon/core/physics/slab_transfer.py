@@ -41,6 +41,7 @@ import dataclasses
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import optimize
 
 ROULETTE_WEIGHT = 1e-3  # weights below this play Russian roulette ...
@@ -53,7 +54,7 @@ DEFAULT_TAUS = np.concatenate([[0.0], np.geomspace(0.05, 30.0, 23)])
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(64)
 
 
-def sample_henyey_greenstein(g: float, xi) -> np.ndarray:
+def sample_henyey_greenstein(g: float, xi: ArrayLike) -> np.ndarray:
     """cos theta of Henyey-Greenstein scattering for uniform numbers xi in [0, 1) (inversion).
 
     cos = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g xi))^2) / (2 g); g = 0 is isotropic (2 xi - 1).
@@ -66,7 +67,7 @@ def sample_henyey_greenstein(g: float, xi) -> np.ndarray:
     return np.clip((1.0 + g * g - s * s) / (2.0 * g), -1.0, 1.0)
 
 
-def hg_backscatter_fraction(g):
+def hg_backscatter_fraction(g: ArrayLike) -> np.ndarray | float:
     """P(cos theta < 0) for HG: (1 - g)/(2 g) ((1 + g)/sqrt(1 + g^2) - 1), 1/2 - 3g/4 near g = 0.
 
     This is the single-scattering reflectance per unit optical depth of a thin slab lit at
@@ -80,7 +81,7 @@ def hg_backscatter_fraction(g):
     return float(out) if out.ndim == 0 else out
 
 
-def rotate_cosine(mu, cos_theta, phi) -> np.ndarray:
+def rotate_cosine(mu: ArrayLike, cos_theta: ArrayLike, phi: ArrayLike) -> np.ndarray:
     """New direction cosine to the slab normal after deflecting by (theta, phi).
 
     The z component of the standard rotation of a unit vector with cosine mu to the normal
@@ -94,7 +95,7 @@ def rotate_cosine(mu, cos_theta, phi) -> np.ndarray:
     return np.clip(mu * cos_theta + sin_mu * sin_t * np.cos(phi), -1.0, 1.0)
 
 
-def bin_solid_angles(theta_edges) -> np.ndarray:
+def bin_solid_angles(theta_edges: ArrayLike) -> np.ndarray:
     """Solid angle of the rings between polar angles theta_edges: 2 pi (cos a - cos b)."""
     c = np.cos(np.asarray(theta_edges, dtype=np.float64))
     return 2.0 * np.pi * (c[:-1] - c[1:])
@@ -128,7 +129,7 @@ class SlabTransfer:
     def solid_angles(self) -> np.ndarray:
         return bin_solid_angles(self.theta_edges)
 
-    def fit(self):
+    def fit(self) -> tuple[float, float, float]:
         """(f_t, theta_bar, c_t) of the scattered transmitted light (``fit_transmission``)."""
         return fit_transmission(self.theta_centres, self.transmitted, self.solid_angles)
 
@@ -149,7 +150,7 @@ def simulate_slab(tau: float, g: float, omega_0: float = 1.0, n_photons: int = 2
     hist_r = np.zeros(n_bins)
     n_unscattered = 0
 
-    def deposit(hist, cos_exit, weight):
+    def deposit(hist: np.ndarray, cos_exit: np.ndarray, weight: np.ndarray | None) -> None:
         idx = np.minimum((np.arccos(cos_exit) / dtheta).astype(np.intp), n_bins - 1)
         hist += np.bincount(idx, weights=weight, minlength=n_bins)
 
@@ -200,7 +201,7 @@ def simulate_slab(tau: float, g: float, omega_0: float = 1.0, n_photons: int = 2
     )
 
 
-def gaussian_lobe_norm(theta_bar):
+def gaussian_lobe_norm(theta_bar: ArrayLike) -> np.ndarray | float:
     """Z = hemisphere integral of exp(-theta^2 / (2 theta_bar^2)) dOmega (Gauss-Legendre).
 
     Z = 2 pi int_0^{pi/2} exp(-theta^2 / (2 theta_bar^2)) sin theta dtheta; the integrand is
@@ -213,7 +214,7 @@ def gaussian_lobe_norm(theta_bar):
     return 2.0 * np.pi * 0.5 * upper[..., 0] * (f @ _GL_W)
 
 
-def gaussian_lobe(theta, theta_bar):
+def gaussian_lobe(theta: ArrayLike, theta_bar: float | np.ndarray) -> np.ndarray | float:
     """G(theta; theta_bar): Gaussian lobe in angle with unit integral over the hemisphere [sr^-1]."""
     theta = np.asarray(theta, dtype=np.float64)
     return np.exp(-0.5 * (theta / theta_bar) ** 2) / gaussian_lobe_norm(theta_bar)
@@ -237,7 +238,8 @@ def _energy_fit(a, y, wts, total):
     return f, max(total - f * s, 0.0), float(np.sum(wts * r * r))
 
 
-def fit_transmission(theta_centres, per_sr, solid_angles):
+def fit_transmission(theta_centres: ArrayLike, per_sr: ArrayLike,
+                     solid_angles: ArrayLike) -> tuple[float, float, float]:
     """Fit per_sr(theta) ~ f_t G(theta; theta_bar) + c_t / (2 pi) (Chan & Wang Sec. 3.3).
 
     Returns (f_t, theta_bar [rad], c_t): f_t is the energy fraction in the hemisphere-normalised
@@ -256,7 +258,7 @@ def fit_transmission(theta_centres, per_sr, solid_angles):
         return 0.0, 0.0, 0.0
     lo, hi = math.log(max(0.5 * theta.min(), 1e-4)), math.log(0.5 * np.pi)
 
-    def cost(log_tb):
+    def cost(log_tb: float) -> float:
         return _energy_fit(gaussian_lobe(theta, math.exp(log_tb)), y, wts, total)[2]
 
     grid = np.linspace(lo, hi, 121)
@@ -288,7 +290,7 @@ class TransferTable:
     c_t: np.ndarray
     c_r: np.ndarray
 
-    def at(self, tau):
+    def at(self, tau: ArrayLike) -> tuple[np.ndarray | float, ...]:
         """(unscattered, f_t, theta_bar, c_t, c_r) at optical depths tau (arrays).
 
         f_t, theta_bar, c_t, c_r are interpolated linearly in tau and clamped beyond the table;
@@ -299,7 +301,7 @@ class TransferTable:
             np.interp(t, self.tau, col) for col in (self.f_t, self.theta_bar, self.c_t, self.c_r))
 
 
-def transfer_table(g: float, taus=None, omega_0: float = 1.0, n_photons: int = 50_000,
+def transfer_table(g: float, taus: ArrayLike | None = None, omega_0: float = 1.0, n_photons: int = 50_000,
                    seed: int = 0) -> TransferTable:
     """Simulate and fit the slab at each depth in taus (default ``DEFAULT_TAUS``).
 

@@ -27,7 +27,10 @@ g rho / pi would grow without bound on a low-poly mesh's sharp bends).
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import dipole
 
@@ -61,12 +64,12 @@ def kernel_mean_radius(sigma_a: float, sigma_s_prime: float, eta: float) -> floa
     return _radial_grid(sigma_a, sigma_s_prime, eta)[2]
 
 
-def kernel_mean_radii(sigma_a, sigma_s_prime, eta: float) -> np.ndarray:
+def kernel_mean_radii(sigma_a: Iterable[float], sigma_s_prime: Iterable[float], eta: float) -> np.ndarray:
     """rho per channel, (3,): what ``qg_single`` scales the table's coordinate with."""
     return np.array([kernel_mean_radius(a, sp, eta) for a, sp in zip(sigma_a, sigma_s_prime)])
 
 
-def ramp_angular(s, r):
+def ramp_angular(s: ArrayLike, r: ArrayLike) -> np.ndarray:
     """A(s, r): the clamped ramp max(0, s + r cos phi) integrated over the circle of radius r."""
     s, r = np.broadcast_arrays(np.asarray(s, np.float64), np.asarray(r, np.float64))
     c = np.clip(-s / np.maximum(r, 1e-300), -1.0, 1.0)
@@ -75,7 +78,7 @@ def ramp_angular(s, r):
     return np.where(s >= r, 2.0 * np.pi * s, np.where(s <= -r, 0.0, partial))
 
 
-def ramp_response(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+def ramp_response(s: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     """F(s): the dipole kernel's average of max(0, s + x), s and the lateral offset x in units of rho."""
     r, weight, rho = _radial_grid(sigma_a, sigma_s_prime, eta)
     r = r / rho
@@ -84,13 +87,13 @@ def ramp_response(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.nda
     return (ramp_angular(s[:, None], r[None, :]) * weight[None, :]).sum(axis=1) / total
 
 
-def excess(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+def excess(s: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     """G(s) = F(s) - max(s, 0): what the clamp adds to the flat face's cosine, in units of g rho."""
     s = np.atleast_1d(np.asarray(s, np.float64))
     return ramp_response(s, sigma_a, sigma_s_prime, eta) - np.maximum(s, 0.0)
 
 
-def beyond_line(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+def beyond_line(s: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     """beta(s): the share of the lateral kernel that lies beyond a line s rho away (s >= 0), 1 / 2 at
     s = 0. It is -dG/ds (F'(s) = P(x > -s), G = F - max(s, 0)), which ``qg_single`` takes from the
     table by a forward difference; ``facet_weight`` builds on it."""
@@ -101,7 +104,7 @@ def beyond_line(s, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarr
     return (arc * weight[None, :]).sum(axis=1) / (2.0 * np.pi * weight.sum())
 
 
-def facet_weight(edge_distances, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+def facet_weight(edge_distances: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     """The triangle's own normal's share t in the medium's normal at the kernel's scale,
     n_k ~ n_smooth + t (n_facet - n_smooth), from the point's distances to the triangle's three edges
     (..., 3), in sigma's length unit.
@@ -119,14 +122,14 @@ def facet_weight(edge_distances, sigma_a: float, sigma_s_prime: float, eta: floa
     return np.maximum(2.0 * inside - 1.0, 0.0)
 
 
-def table_coordinate(s):
+def table_coordinate(s: ArrayLike) -> np.ndarray | float:
     """u = (1 + s / (|s| + 1)) / 2 in [0, 1]: fine at the terminator, the tails (G < 1e-3 G(0) past
     |s| = 40) in the last texels."""
     s = np.asarray(s, np.float64)
     return 0.5 * (1.0 + s / (np.abs(s) + 1.0))
 
 
-def excess_table(sigma_a, sigma_s_prime, eta: float, n: int = TABLE_SIZE) -> np.ndarray:
+def excess_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: int = TABLE_SIZE) -> np.ndarray:
     """G per channel at u_k = k / (n - 1), s = (2 u - 1) / (1 - |2 u - 1|), (n, 3): the table
     ``qg_single`` reads linearly for the local multiple scattering beside the terminator; the ends
     (s = -inf, +inf) hold 0."""
@@ -138,7 +141,7 @@ def excess_table(sigma_a, sigma_s_prime, eta: float, n: int = TABLE_SIZE) -> np.
     return table
 
 
-def effective_cosine(mu_i, g, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
+def effective_cosine(mu_i: ArrayLike, g: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float) -> np.ndarray:
     """mu_eff = max(mu_i, 0) + g rho G(mu_i / (g rho)) for one channel, g rho at most SCALE_MAX; g per
     unit length (as sigma_a). ``qg_single`` draws the same."""
     rho = kernel_mean_radius(sigma_a, sigma_s_prime, eta)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 
-def corner_digest(*corner_arrays) -> str:
+def corner_digest(*corner_arrays: np.ndarray) -> str:
     """A digest of triangle corners (each array (3T, k), row i the i-th corner) that does not depend on the
     order of the triangles nor on which corner a triangle starts at: Blender does not always list the
     corners of the same primitive in the same order from one session to the next (a UV sphere's), and a
@@ -31,7 +31,7 @@ def corner_digest(*corner_arrays) -> str:
     return hashlib.blake2b(np.ascontiguousarray(flat).tobytes(), digest_size=12).hexdigest()
 
 
-def normals_digest(positions, normals) -> str:
+def normals_digest(positions: np.ndarray, normals: np.ndarray) -> str:
     """A digest of corner normals that survives their float noise: Blender sums smooth normals in an order
     that changes between sessions, so their last bits do, and any rounding of 80,000 values lands some on
     the other side. Their moments (sum n, sum n p^T, over the corners) to 4 significant digits still tell
@@ -47,7 +47,7 @@ def key(description: dict) -> str:
     return hashlib.blake2b(json.dumps(description, sort_keys=True, default=str).encode(), digest_size=12).hexdigest()
 
 
-def load(cache_dir: Path, description: dict):
+def load(cache_dir: Path, description: dict) -> tuple[np.ndarray, float] | None:
     """(image, seconds) of a cached render, or None."""
     k = key(description)
     npy, meta = Path(cache_dir) / f"{k}.npy", Path(cache_dir) / f"{k}.json"

@@ -37,7 +37,8 @@ def _sphere_exit(p, d, centre, radius):
     return -b + np.sqrt(np.clip(b * b - c, 0.0, None))
 
 
-def trace(e: Emitter, sphere: GlassSphere, plane_z: float, n: int = 1_000_000, seed: int = 1):
+def trace(e: Emitter, sphere: GlassSphere, plane_z: float, n: int = 1_000_000,
+          seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Photons through the sphere to the plane: (points (M, 3), flux (M, 3), total flux through the
     silhouette (3,)). Flux in the light's units times steradians (POINT) or area (DIRECTIONAL)."""
     rng = np.random.default_rng(seed)
@@ -98,7 +99,8 @@ def trace(e: Emitter, sphere: GlassSphere, plane_z: float, n: int = 1_000_000, s
     return points[keep], flux[keep], total
 
 
-def irradiance_grid(points, flux, lo, hi, res: int):
+def irradiance_grid(points: np.ndarray, flux: np.ndarray, lo: float, hi: float,
+                    res: int) -> tuple[np.ndarray, np.ndarray]:
     """Histogram of landed flux over the square [lo, hi]^2 of the plane: E (res, res, 3) per unit
     area, rows along y (row 0 at lo), and the cell centres."""
     edges = np.linspace(lo, hi, res + 1)

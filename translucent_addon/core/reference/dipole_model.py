@@ -21,6 +21,7 @@ one mesh (no bleeding between objects), as in the GPU methods.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from ..physics.sh_irradiance import irradiance, transmittance_kernel
 from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 
 
-def sample_surface(mesh: MeshInstance, count: int):
+def sample_surface(mesh: MeshInstance, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """About ``count`` quadrature points on a mesh (world space): centroids of equal sub-triangles.
 
     Returns points (N, 3), interpolated normals (N, 3), the area each point stands for (N,) and the
@@ -63,8 +64,8 @@ def sample_surface(mesh: MeshInstance, count: int):
     return np.concatenate(points), normals, np.concatenate(weights), facing_side(np.concatenate(facets), normals)
 
 
-def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, tracer, scale: float,
-                           facet_normals) -> np.ndarray:
+def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.ndarray, medium: Medium, tracer: Any,
+                           scale: float, facet_normals: np.ndarray) -> np.ndarray:
     """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world.
 
     The cosine is the interpolated normal's; visibility is the facet's, as a light's view (IMAGE_SPACE
@@ -85,7 +86,7 @@ def transmitted_irradiance(frame: FrameInputs, points, normals, medium: Medium, 
 
 
 def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 200_000,
-                  epsilon: float = 1e-3, tracer=None, max_pairs: int = 20_000_000) -> np.ndarray:
+                  epsilon: float = 1e-3, tracer: Any = None, max_pairs: int = 20_000_000) -> np.ndarray:
     """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
 
     ``tracer`` answers ray queries over the frame's triangles in order (``closest_hit`` and

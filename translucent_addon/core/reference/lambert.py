@@ -14,6 +14,8 @@ order 2 (``physics.sh_irradiance``), as the base pass takes it.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,8 +26,11 @@ from ..geometry.raycast import BruteForceTracer
 from ..lights import DIRECTIONAL, unshadowed_irradiance
 from ..physics.sh_irradiance import LAMBERT_KERNEL, irradiance
 
+if TYPE_CHECKING:
+    from ..lights import Emitter
 
-def scene_triangles(frame: FrameInputs):
+
+def scene_triangles(frame: FrameInputs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World-space triangles, corner normals and colours of every mesh, concatenated."""
     if not frame.meshes:
         z = np.zeros((0, 3, 3))
@@ -36,7 +41,8 @@ def scene_triangles(frame: FrameInputs):
     return tris, nors, cols
 
 
-def shadowed_irradiance(emitters, points, normals, tracer):
+def shadowed_irradiance(emitters: Iterable[Emitter], points: np.ndarray, normals: np.ndarray,
+                        tracer: Any) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Per emitter: (E (N, 3) with shadow rays cast by ``tracer``, unit directions to the light).
 
     ``points`` are already offset off the surface; directional emitters are tested to infinity.
@@ -52,7 +58,7 @@ def shadowed_irradiance(emitters, points, normals, tracer):
         yield E, to_light
 
 
-def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer=None) -> np.ndarray:
+def render_lambert(frame: FrameInputs, shadow_offset: float = 1e-4, tracer: Any = None) -> np.ndarray:
     """Linear RGBA image (height, width, 4) of the frame, row 0 at the bottom.
 
     ``tracer``: ray queries over ``scene_triangles(frame)`` (brute force by default).

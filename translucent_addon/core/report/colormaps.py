@@ -2,7 +2,10 @@
 report's false-colour error images and charts without matplotlib (not bundled with the extension). Pure."""
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 # matplotlib's inferno (256 entries, van der Walt and Smith, CC0) at every fifth entry, 0 to 255: 52 stops
 # at x = 0, 1/51, ..., 1. Linear interpolation is within 1/255 of matplotlib's 256 colours.
@@ -33,7 +36,7 @@ TAB20 = (
 )
 
 
-def inferno(x) -> np.ndarray:
+def inferno(x: ArrayLike) -> np.ndarray:
     """The inferno colour of each value in [0, 1] (clipped; NaN as 0): shape (..., 3), floats in [0, 1]."""
     x = np.nan_to_num(np.clip(np.asarray(x, np.float64), 0.0, 1.0), nan=0.0)
     stops = np.linspace(0.0, 1.0, len(_INFERNO))
@@ -45,7 +48,7 @@ def hex_rgb(colour: str) -> tuple:
     return tuple(int(colour[k:k + 2], 16) / 255.0 for k in (1, 3, 5))
 
 
-def series_colours(names) -> dict:
+def series_colours(names: Iterable[str]) -> dict:
     """One (r, g, b) colour per distinct name, in sorted order: tab10 (matplotlib's default colours) for up
     to ten names, tab20 past that, so that no two series look alike in any chart."""
     names = sorted(set(names))

@@ -52,7 +52,7 @@ def _filter_rows(image: np.ndarray, filter_type: int) -> np.ndarray:
     return out
 
 
-def write_png(path, image, filter_type: int = 1, level: int = 6) -> None:
+def write_png(path: str | Path, image: np.ndarray, filter_type: int = 1, level: int = 6) -> None:
     """Write an (H, W, 3) RGB or (H, W, 4) RGBA uint8 image, top row first, as an 8-bit PNG.
     The Sub filter (1, the default) makes the flat areas of charts and renders compress well."""
     image = np.ascontiguousarray(image)
@@ -91,7 +91,7 @@ def _unfilter_row(kind: int, row: np.ndarray, prior: np.ndarray, bpp: int) -> np
     return np.frombuffer(bytes(out), np.uint8)
 
 
-def read_png(path) -> np.ndarray:
+def read_png(path: str | Path) -> np.ndarray:
     """Read an 8-bit RGB or RGBA, non-interlaced PNG (what write_png makes, and most others) as an
     (H, W, 3|4) uint8 array, top row first. Raises ValueError on anything else."""
     data = Path(path).read_bytes()

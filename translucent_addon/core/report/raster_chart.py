@@ -12,9 +12,11 @@ permissive licence, whose text is in chart_font_LICENSE.txt beside the atlas.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .png import write_png
 
@@ -119,7 +121,7 @@ def wrap(text: str, size: float, width: float) -> list[str]:
 class Canvas:
     """An RGB uint8 image at SUPERSAMPLE times the output size, drawn on with coverage-blended shapes."""
 
-    def __init__(self, width: int, height: int, background=WHITE):
+    def __init__(self, width: int, height: int, background: Sequence[float] = WHITE):
         self.width, self.height = int(width), int(height)
         s = SUPERSAMPLE
         self.px = np.empty((self.height * s, self.width * s, 3), np.uint8)
@@ -144,14 +146,16 @@ class Canvas:
         bx0, by0, bx1, by1 = box
         return np.arange(bx0, bx1)[None, :] + 0.5, np.arange(by0, by1)[:, None] + 0.5
 
-    def rect(self, x0, y0, x1, y1, colour, clip=None) -> None:
+    def rect(self, x0: float, y0: float, x1: float, y1: float, colour: Sequence[float],
+             clip: tuple[float, float, float, float] | None = None) -> None:
         """Fill a box (output pixels)."""
         s = SUPERSAMPLE
         box = self._box(x0 * s, y0 * s, x1 * s, y1 * s, clip)
         if box:
             self._blend(box, np.ones((box[3] - box[1], box[2] - box[0]), np.float32), colour)
 
-    def segment(self, p, q, width: float, colour, clip=None) -> None:
+    def segment(self, p: Sequence[float] | np.ndarray, q: Sequence[float] | np.ndarray, width: float,
+                colour: Sequence[float], clip: tuple[float, float, float, float] | None = None) -> None:
         """A straight line of ``width`` output pixels with round caps, from p to q. A long slanted line goes
         in strips along its longer axis, each only as wide as the line there: little memory, each pixel once."""
         s = SUPERSAMPLE
@@ -183,7 +187,8 @@ class Canvas:
             dist = np.hypot(gx - x0 - t * dx, gy - y0 - t * dy)
             self._blend(sub, np.clip(half + 0.5 - dist, 0.0, 1.0), colour)
 
-    def polyline(self, points, width: float, colour, dashed: bool = False, clip=None) -> None:
+    def polyline(self, points: ArrayLike, width: float, colour: Sequence[float], dashed: bool = False,
+                 clip: tuple[float, float, float, float] | None = None) -> None:
         """Segments joining the points; dashed: DASH on and off along the length, continuing round corners."""
         pts = np.asarray(points, np.float64).reshape(-1, 2)
         if len(pts) == 1:
@@ -203,7 +208,8 @@ class Canvas:
                 start += period
             along += length
 
-    def marker(self, x, y, shape: str, size: float, colour, clip=None) -> None:
+    def marker(self, x: float, y: float, shape: str, size: float, colour: Sequence[float],
+               clip: tuple[float, float, float, float] | None = None) -> None:
         """A filled marker of ``size`` output pixels across, centred on (x, y): see MARKERS."""
         s = SUPERSAMPLE
         cx, cy, r = x * s, y * s, size * s / 2.0
@@ -227,8 +233,9 @@ class Canvas:
                 dist = np.maximum(dist, (gx - cx - vx[k]) * nx + (gy - cy - vy[k]) * ny)
         self._blend(box, np.clip(0.5 - dist, 0.0, 1.0), colour)
 
-    def text(self, x, y, text: str, size: float, colour=TEXT, ha: str = "left", va: str = "baseline",
-             rotate: bool = False, clip=None) -> tuple[float, float]:
+    def text(self, x: float, y: float, text: str, size: float, colour: Sequence[float] = TEXT, ha: str = "left",
+             va: str = "baseline", rotate: bool = False,
+             clip: tuple[float, float, float, float] | None = None) -> tuple[float, float]:
         """A line of text at ``size`` output pixels per em, anchored at (x, y) by ha (left, center, right) and
         va (baseline, top, center, bottom); rotate: reading upwards, centred on (x, y). Returns its size."""
         if not str(text):
@@ -249,7 +256,7 @@ class Canvas:
             self._blend(box, cov[box[1] - y0:box[3] - y0, box[0] - x0:box[2] - x0], colour)
         return advance / s, line_height(size)
 
-    def ink(self, x0, y0, x1, y1) -> float:
+    def ink(self, x0: float, y0: float, x1: float, y1: float) -> float:
         """Mean darkness (0 white .. 1 black, over the channels) in a box (output pixels): what is drawn there."""
         box = self._box(x0 * SUPERSAMPLE, y0 * SUPERSAMPLE, x1 * SUPERSAMPLE, y1 * SUPERSAMPLE, None)
         if not box:
@@ -321,19 +328,21 @@ class Axes:
         self.rect = None  # (x0, y0, x1, y1) of the plot area in output pixels, once laid out
         self.xlim = self.ylim = None  # log10 limits, once laid out
 
-    def plot(self, xs, ys, colour, marker: str | None = "o", label: str | None = None, width: float = 2.0,
-             dashed: bool = False, step: bool = False, marker_size: float = 8.0) -> None:
+    def plot(self, xs: ArrayLike, ys: ArrayLike, colour: Sequence[float], marker: str | None = "o",
+             label: str | None = None, width: float = 2.0, dashed: bool = False, step: bool = False,
+             marker_size: float = 8.0) -> None:
         """A series (only positive, finite points: the axes are logarithmic); step: a 'post' staircase."""
         xs, ys = np.asarray(xs, np.float64).ravel(), np.asarray(ys, np.float64).ravel()
         keep = np.isfinite(xs) & np.isfinite(ys) & (xs > 0) & (ys > 0)
         self.lines.append(dict(x=xs[keep], y=ys[keep], colour=tuple(colour), marker=marker, label=label,
                                width=width, dashed=dashed, step=step, marker_size=marker_size))
 
-    def axhline(self, y: float, colour, width: float = 1.0, dashed: bool = True) -> None:
+    def axhline(self, y: float, colour: Sequence[float], width: float = 1.0, dashed: bool = True) -> None:
         if np.isfinite(y) and y > 0:
             self.hlines.append(dict(y=float(y), colour=tuple(colour), width=width, dashed=dashed))
 
-    def annotate(self, text: str, x: float, y: float, offset=(5.0, -5.0), size: float = NOTE_SIZE) -> None:
+    def annotate(self, text: str, x: float, y: float, offset: tuple[float, float] = (5.0, -5.0),
+                 size: float = NOTE_SIZE) -> None:
         """A small label beside a data point (offset in output pixels; baseline at the offset)."""
         if np.isfinite(x) and np.isfinite(y) and x > 0 and y > 0:
             self.notes.append((str(text), float(x), float(y), offset, size))
@@ -347,7 +356,7 @@ class Axes:
         ys = np.concatenate([line["y"] for line in self.lines] + [np.array([n[2] for n in self.notes])]
                             + [np.array([h["y"] for h in self.hlines])])
 
-        def span(values):
+        def span(values: np.ndarray) -> tuple[float, float]:
             if values.size == 0:
                 return -1.0, 1.0
             lo, hi = float(np.log10(values.min())), float(np.log10(values.max()))
@@ -358,7 +367,7 @@ class Axes:
 
         return span(xs), span(ys)
 
-    def to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+    def to_pixel(self, x: ArrayLike, y: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Output-pixel coordinates of data points, once the figure is laid out."""
         (x0, y0, x1, y1), (xl, xh), (yl, yh) = self.rect, self.xlim, self.ylim
         px = x0 + (np.log10(np.asarray(x, np.float64)) - xl) / (xh - xl) * (x1 - x0)
@@ -391,10 +400,10 @@ class Axes:
         xmajor, xlab, xminor, xminlab = _log_ticks(xl, xh, x1 - x0, xlab_px)
         ymajor, ylab, yminor, yminlab = _log_ticks(yl, yh, y1 - y0, line_height(TICK_SIZE) + 4)
 
-        def xpix(v):
+        def xpix(v: float) -> float:
             return math.floor(x0 + (v - xl) / (xh - xl) * (x1 - x0)) + 0.5  # on a pixel's centre: crisp
 
-        def ypix(v):
+        def ypix(v: float) -> float:
             return math.floor(y1 - (v - yl) / (yh - yl) * (y1 - y0)) + 0.5
 
         for values, colour in ((xminor, GRID_MINOR), (xmajor, GRID_MAJOR)):
@@ -551,7 +560,7 @@ class Figure:
             self._draw_legend(canvas, (self.width - legend[0]) / 2, bottom + pad, legend)
         return canvas.image()
 
-    def save(self, path) -> np.ndarray:
+    def save(self, path: str | Path) -> np.ndarray:
         """Render and write a PNG; returns the image."""
 
         image = self.render()

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..metrics import display, relative_error_image
 from . import raster_chart
@@ -38,7 +39,7 @@ def save_png(path: Path, rgb8: np.ndarray) -> None:
     write_png(path, np.asarray(rgb8, np.uint8)[::-1])
 
 
-def save_error_png(path: Path, image, reference, mask, vmax: float = 0.5) -> None:
+def save_error_png(path: Path, image: np.ndarray, reference: np.ndarray, mask: np.ndarray, vmax: float = 0.5) -> None:
     """False-colour relative error |I - R| / mean(R) (0 to vmax, inferno), grey where the object is not."""
     err = relative_error_image(image, reference, mask)
     rgb = inferno(np.clip(err / vmax, 0, 1))
@@ -46,7 +47,7 @@ def save_error_png(path: Path, image, reference, mask, vmax: float = 0.5) -> Non
     save_png(path, (rgb * 255).astype(np.uint8))
 
 
-def save_image_png(path: Path, image, exposure: float = 1.0) -> None:
+def save_image_png(path: Path, image: np.ndarray, exposure: float = 1.0) -> None:
     save_png(path, display(image, exposure))
 
 
@@ -64,7 +65,7 @@ CHART_METRICS = (("rel_rmse", "relative RMSE over the object"),
                  ("median_rel_error", "median relative error over the object"))
 
 
-def pareto_front(seconds, errors) -> np.ndarray:
+def pareto_front(seconds: ArrayLike, errors: ArrayLike) -> np.ndarray:
     """Indices of the points that no other point beats in both time and error (faster and at least as
     accurate, or as fast and more accurate), in order of time: the choices worth having."""
     t = np.asarray(seconds, np.float64)

@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 
+from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
@@ -128,6 +129,72 @@ def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_
 class Grass(Technique):
     """Shah ch. 4: grass fields drawn right after the base in the world pass and each emitter's."""
 
+    object_props = (
+        Prop("grass", "BoolProperty", {
+            'name': 'Grass field',
+            'description': ('Grow a grass field on this mesh, drawn from a BTF (Shah ch. 4): the cost is set by '
+                            'pixels, not blades. Add it with Add Grass Field; bake the BTF with Bake Grass BTF'),
+            'default': False,
+        }),
+        Prop("grass_tile", "FloatProperty", {
+            'name': 'Tile',
+            'description': 'Side of the square patch of grass the BTF repeats',
+            'subtype': 'DISTANCE',
+            'unit': 'LENGTH',
+            'min': 0.001,
+            'soft_max': 10.0,
+            'default': 0.1,
+        }),
+        Prop("grass_blade_height", "FloatProperty", {
+            'name': 'Blade height',
+            'description': 'Height of the tallest blades (5-60 % of the tile)',
+            'subtype': 'DISTANCE',
+            'unit': 'LENGTH',
+            'min': 0.0001,
+            'soft_max': 1.0,
+            'default': 0.045,
+        }),
+        Prop("grass_blades", "IntProperty", {
+            'name': 'Blades per tile',
+            'description': 'Blades in one tile of the patch',
+            'min': 1,
+            'max': 5000,
+            'default': 500,
+        }),
+        Prop("grass_seed", "IntProperty", {
+            'name': 'Seed',
+            'description': 'Random layout of the blades',
+            'min': 0,
+            'default': 7,
+        }),
+        Prop("grass_resolution", "EnumProperty", {
+            'name': 'BTF texels',
+            'description': 'Texels per side of each of the 1,701 BTF images',
+            'items': (
+                ('64', '64', 'Fast bake, soft blades'),
+                ('128', '128', 'As Shah'),
+                ('256', '256', 'Sharp, 4x the bake'),
+            ),
+            'default': '128',
+        }),
+        Prop("grass_target_error", "FloatProperty", {
+            'name': 'Target error',
+            'description': ('Relative reconstruction error of the compressed BTF; sets how many eigen-textures are'
+                            ' kept (lower: sharper, more memory)'),
+            'min': 0.01,
+            'max': 0.9,
+            'default': 0.5,
+            'precision': 2,
+        }),
+        Prop("grass_lod", "FloatProperty", {
+            'name': 'Detail falloff',
+            'description': ('BTF texels per pixel beyond which fewer eigen-textures are summed (far grass is '
+                            'cheaper); 0 keeps all of them everywhere'),
+            'min': 0.0,
+            'soft_max': 8.0,
+            'default': 1.0,
+        }),
+    )
     shader_specs = SHADER_SPECS
     id, label = "GRASS", "Grass"
     description = "Grass fields from a compressed BTF with silhouettes (Shah 2007, ch. 4)"

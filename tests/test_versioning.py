@@ -1,0 +1,30 @@
+"""A file saved before the move to layers (the 0.1.0 layout: one flat property group, methods in
+``render/methods``) opens with every setting as it was saved: the property names and the method numbers
+are kept, so no versioning handler is needed. ``data/translucent_0_1_0.blend`` was saved by that code
+(commit cade8a3) with settings away from their defaults."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+FILE = Path(__file__).parent / "data" / "translucent_0_1_0.blend"
+
+
+def test_a_file_saved_by_0_1_0_keeps_every_setting(installed):
+    bpy.ops.wm.open_mainfile(filepath=str(FILE))
+    ob = bpy.data.objects["Cube"]
+    s = ob.translucent
+    assert s.method == "QUADGRAPH" and s.preset == "skin1"
+    assert s.mm_per_unit == pytest.approx(2.0) and s.quadgraph_K == pytest.approx(0.5)
+    assert s.veins == pytest.approx(0.3) and s.atlas_resolution == 384 and s.geocube_steps == 20
+    assert s.caustics_caster == "REFRACTIVE" and s.caustics_ior == pytest.approx(1.45)
+    assert s.grass_blades == 321 and s.grass_resolution == "64"
+    assert s.relief == "INTERVAL" and s.relief_depth == pytest.approx(0.02)
+    t = bpy.context.scene.translucent
+    assert t.splat_overlap == pytest.approx(12.0) and t.texture_product == "CPU"
+    assert t.quadgraph_iterations == 777 and t.caustics_grid == 96 and t.temporal_coherence
+    assert bpy.data.lights["Lamp"].translucent.caustics is False
+    bpy.ops.wm.read_homefile(use_empty=True)
