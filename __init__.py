@@ -11,6 +11,7 @@ from .operators import workflow as _op_workflow
 from .translucent_addon import techniques as _techniques
 from .translucent_addon.blender import draw_handler as _draw_handler
 from .translucent_addon.blender import engine as _engine
+from .translucent_addon.blender import extract as _extract
 from .translucent_addon.blender import preferences as _preferences
 from .translucent_addon.blender import props as _props
 from .translucent_addon.blender import ui as _ui
@@ -47,6 +48,7 @@ def unregister():
 
     _draw_handler.unregister()
     _techniques.clear_caches()
+    _extract.clear_caches()
     _bake_cache.clear()
     _environment.clear_cache()
     _shaders.free_all()

@@ -399,3 +399,9 @@ def render_camera(depsgraph, width: int, height: int) -> CameraView:
 def viewport_camera(region, region_data) -> CameraView:
     return CameraView(np.array(region_data.view_matrix), np.array(region_data.window_matrix),
                       region.width, region.height)
+
+
+def clear_caches() -> None:
+    """The world images and height fields read from Blender (when the extension is disabled)."""
+    _environment_cache.clear()
+    _height_cache.clear()

@@ -407,6 +407,9 @@ class Caustics(Technique):
     def unfitted_shadow(self, state, emitter) -> bool:
         return bool(emitter.caustics)
 
+    def clear_caches(self) -> None:
+        _closed.clear()
+
     def emitter(self, ctx: FrameContext, state, emitter, light_ubo) -> None:
         if emitter.caustics:
             draw_emitter(state, ctx.frame, emitter, light_ubo, ctx.batches, ctx.objects, ctx.frame_ubo, ctx.target,
