@@ -27,8 +27,6 @@ wheels: $(STAMP)
 	$(PY) scripts/build_extension.py wheels
 
 extension: $(STAMP)
-	@$(PY) -c "import sys; sys.path.insert(0, 'scripts'); import build_extension as b; \
-	  sys.exit(0 if all(w.exists() for w in b.manifest_wheels()) else 1)" || $(PY) scripts/build_extension.py wheels
 	$(PY) scripts/build_extension.py build
 
 lint: $(STAMP)

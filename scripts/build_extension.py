@@ -1,7 +1,7 @@
 """Download the bundled wheels and build the extension zips with Blender's own builder.
 
     python scripts/build_extension.py wheels   # fetch wheels for every platform and Python; list them in the manifest
-    python scripts/build_extension.py build    # per-platform zips into dist/
+    python scripts/build_extension.py build    # per-platform zips into dist/ (fetches missing wheels first)
     python scripts/build_extension.py sizes    # what takes the space in each zip (the README's table)
 
 One zip per platform holds the wheels of every Blender Python it serves side by side: cp313 for
@@ -126,9 +126,8 @@ def blender_ext() -> Path:
 
 
 def build() -> None:
-    missing = [w.name for w in manifest_wheels() if not w.exists()]
-    if missing:
-        sys.exit(f"missing wheels {missing}: run `make wheels` first")
+    if not all(w.exists() for w in manifest_wheels()):
+        download_wheels()  # a fresh clone: the wheels folder is not in git
     check_pins([w.name for w in manifest_wheels()])
     dist = ROOT / "dist"
     dist.mkdir(exist_ok=True)

@@ -498,6 +498,7 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
     from unittest import mock
 
     import translucent_addon.core.report.report as report_module
+    from translucent_addon.core.report.colormaps import series_colours
 
     rmse_only = [Entry(series=f"S{k}", engine="X", settings={}, seconds=0.1 * (k + 1), reference="ref",
                        rel_rmse=0.5 / (k + 1)) for k in range(12)]  # 12 series: past ten colours
@@ -506,7 +507,7 @@ def test_summary_pareto_chart_draws_a_panel_per_scene(tmp_path):
                              panel_metrics={"caustic": "rel_rmse"}, panel_titles={"caustic": "caustic ball"})
     assert [(len(c.args[1]), c.args[2]) for c in panel.call_args_list] == [(4, "median_rel_error"), (12, "rel_rmse")]
     assert imread(tmp_path / "mixed.png")[..., :3].std() > 0.05
-    colours = report_module._series_colours(e.series for e in rmse_only)
+    colours = series_colours(e.series for e in rmse_only)
     assert len({tuple(c) for c in colours.values()}) == 12
 
 
@@ -749,6 +750,7 @@ def test_raster_chart_draws_series_front_labels_and_text_where_the_log_axes_say(
     log10-linear between the frame's edges), the dashed Pareto staircase between its points, the point
     labels, the title's text above the panels and the legend to their right, off the data."""
     from translucent_addon.core.report import raster_chart, report
+    from translucent_addon.core.report.colormaps import series_colours
     from translucent_addon.core.report.png import read_png
 
     font = ROOT / "translucent_addon" / "core" / "report" / "chart_font.npz"
@@ -759,7 +761,7 @@ def test_raster_chart_draws_series_front_labels_and_text_where_the_log_axes_say(
     b = [(1.0, 0.1, "16 spp"), (2.0, 0.08, "64 spp")]
     entries = [report.Entry(series=name, engine="X", settings={"label": label}, seconds=t, reference="ref",
                             rel_rmse=e) for name, points in (("A", a), ("B", b)) for t, e, label in points]
-    colours = report._series_colours(["A", "B"])
+    colours = series_colours(["A", "B"])
 
     def draw(labels):
         fig = raster_chart.Figure(900, 450, title="Speed against accuracy")
@@ -813,6 +815,7 @@ def test_charts_survive_degenerate_data_and_show_every_series(tmp_path):
     """One point, equal values, zero, infinite and missing errors: no floating-point error on the way,
     nothing non-finite drawn; speed_accuracy_chart shows each series' colour."""
     from translucent_addon.core.report import report
+    from translucent_addon.core.report.colormaps import series_colours
     from translucent_addon.core.report.png import read_png
 
     def entry(series, t, e):
@@ -832,7 +835,7 @@ def test_charts_survive_degenerate_data_and_show_every_series(tmp_path):
         report.error_against_samples_chart([dict(object_samples=n, rel_rmse_vs_model=0.3 / n ** 0.5, overlap=2.0,
                                                   seconds=0.1) for n in (100, 1000, 10000)], tmp_path / "d.png", "d")
     assert read_png(tmp_path / "d.png").std() > 10
-    colours = report._series_colours(["A", "B"])
+    colours = series_colours(["A", "B"])
     image = read_png(tmp_path / "same.png")
     for name in ("A", "B"):
         assert _near(image, colours[name]).sum() > 30

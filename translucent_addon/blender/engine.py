@@ -29,12 +29,9 @@ def _keep_timings(pipeline, source: str) -> None:
     LAST_TIMINGS["source"] = source
 
 
-def sampling_settings(scene, frame=None) -> SamplingSettings:
-    """The scene's IMAGE_SPACE sampling; with a frame, k as its AUTO objects need it seen by its camera
+def auto_sampling(frame, manual: SamplingSettings) -> SamplingSettings:
+    """IMAGE_SPACE's sampling for this frame: k as its AUTO objects need it seen by its camera
     (``image_space_auto``), what they asked for kept in LAST_AUTO_OVERLAP for the panel."""
-    manual = technique_settings(scene)["IMAGE_SPACE"]
-    if frame is None:
-        return manual
     sampling, asked = image_space_auto.frame_sampling(frame, manual)
     LAST_AUTO_OVERLAP.clear()
     if asked:
@@ -53,7 +50,7 @@ def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, captur
     """What travels with the frame: the techniques' settings (IMAGE_SPACE's k chosen for this frame's
     camera), the sample-coherence sequence (when the scene asks for it) and whether to read passes back."""
     techniques = technique_settings(scene)
-    techniques["IMAGE_SPACE"] = sampling_settings(scene, frame)
+    techniques["IMAGE_SPACE"] = auto_sampling(frame, techniques["IMAGE_SPACE"])
     return DrawSettings(techniques, coherence_key if scene.translucent.temporal_coherence else None,
                         coherence_frame, capture)
 

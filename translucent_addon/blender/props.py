@@ -199,13 +199,17 @@ def _bpy_property(p: Prop):
     return getattr(bpy.props, p.kind)(**p.options)
 
 
-# Each technique's own settings join the property groups before registration (``Technique.object_props``,
-# ``scene_props``, ``light_props``): the groups above hold only what every object, scene and light shares.
-for _group, _attr in ((TranslucentObjectSettings, "object_props"), (TranslucentSceneSettings, "scene_props"),
-                      (TranslucentLightSettings, "light_props")):
-    for _technique in techniques.REGISTRY:
-        for _p in getattr(_technique, _attr):
-            _group.__annotations__[_p.name] = _bpy_property(_p)
+def _join_technique_properties() -> None:
+    """Each technique's own settings join the property groups before registration (``Technique.object_props``,
+    ``scene_props``, ``light_props``): the groups above hold only what every object, scene and light shares."""
+    for group, attr in ((TranslucentObjectSettings, "object_props"), (TranslucentSceneSettings, "scene_props"),
+                        (TranslucentLightSettings, "light_props")):
+        for technique in techniques.REGISTRY:
+            for p in getattr(technique, attr):
+                group.__annotations__[p.name] = _bpy_property(p)
+
+
+_join_technique_properties()
 
 
 def register_pointers() -> None:

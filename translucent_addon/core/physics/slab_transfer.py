@@ -42,7 +42,6 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import optimize
 
 ROULETTE_WEIGHT = 1e-3  # weights below this play Russian roulette ...
 ROULETTE_SURVIVAL = 0.1  # ... surviving with this probability (weight divided by it)
@@ -265,6 +264,8 @@ def fit_transmission(theta_centres: ArrayLike, per_sr: ArrayLike,
     costs = np.array([cost(t) for t in grid])
     k = int(np.argmin(costs))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    from scipy import optimize  # here, not at import: the extension's start-up need not load SciPy
+
     res = optimize.minimize_scalar(cost, bounds=(a, b), method="bounded", options={"xatol": 1e-10})
     log_tb = res.x if res.fun <= costs[k] else grid[k]
     theta_bar = math.exp(log_tb)

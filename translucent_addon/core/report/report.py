@@ -82,12 +82,6 @@ def _measured(entries, metric: str):
     return [e for e in entries if getattr(e, metric) is not None and getattr(e, metric) > 0]
 
 
-def _series_colours(names) -> dict:
-    """One (r, g, b) colour per series, the same in every panel and chart (tab20 past ten series: no two
-    alike)."""
-    return series_colours(names)
-
-
 PARETO_COLOUR = (0.3, 0.3, 0.3)
 
 
@@ -128,7 +122,7 @@ def speed_accuracy_chart(entries: list[Entry], path: Path, title: str) -> None:
     """Error against seconds per frame (log-log), one line per series, labels with settings: the relative
     RMSE (which a few fireflies in the reference can dominate) and the median relative error beside it.
     The legend sits to the right of the panels, off the data."""
-    colours = _series_colours(e.series for e in entries)
+    colours = series_colours(e.series for e in entries)
     legend_w = max([raster_chart.text_width(n, raster_chart.TICK_SIZE) for n in colours] + [80.0])
     fig = raster_chart.Figure(int(1300 + legend_w), 560, rows=1, cols=2, title=title)
     for ax, (metric, ylabel) in zip(fig.axes, CHART_METRICS):
@@ -148,7 +142,7 @@ def pareto_summary_chart(scenes: dict, path: Path, title: str, metric: str = "me
         raise ValueError("no scenes to chart")
     cols = min(2, len(names))
     rows = (len(names) + cols - 1) // cols
-    colours = _series_colours(e.series for entries in scenes.values() for e in entries)
+    colours = series_colours(e.series for entries in scenes.values() for e in entries)
     fig = raster_chart.Figure(750 * cols, rows=rows, cols=cols, title=title, panels=len(names), panel_height=460)
     for ax, name in zip(fig.axes, names):
         m = (panel_metrics or {}).get(name, metric)

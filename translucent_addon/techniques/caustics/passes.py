@@ -281,119 +281,119 @@ class Caustics(Technique):
 
     object_props = (
         Prop("caustics_caster", "EnumProperty", {
-            'name': 'Caustics',
-            'description': ('Throw caustics onto the other objects (Shah ch. 5): every light with caustics on is '
-                            'refracted or mirrored by this object; it still casts its shadow'),
-            'items': (
-                ('NONE', 'None', "Not a caustics caster (other casters' caustics land on it)"),
-                ('REFRACTIVE', 'Refractive', 'Glass, water: light refracts through the surface'),
-                ('REFLECTIVE', 'Reflective', 'Metal: light is mirrored off the surface'),
+            "name": "Caustics",
+            "description": ("Throw caustics onto the other objects (Shah ch. 5): every light with caustics on is "
+                            "refracted or mirrored by this object; it still casts its shadow"),
+            "items": (
+                ("NONE", "None", "Not a caustics caster (other casters' caustics land on it)"),
+                ("REFRACTIVE", "Refractive", "Glass, water: light refracts through the surface"),
+                ("REFLECTIVE", "Reflective", "Metal: light is mirrored off the surface"),
             ),
-            'default': 'NONE',
+            "default": "NONE",
         }),
         Prop("caustics_ior", "FloatProperty", {
-            'name': 'Caustics IOR',
-            'description': 'Index of refraction of a refractive caster',
-            'min': 1.0,
-            'max': 3.0,
-            'default': 1.5,
+            "name": "Caustics IOR",
+            "description": "Index of refraction of a refractive caster",
+            "min": 1.0,
+            "max": 3.0,
+            "default": 1.5,
         }),
         Prop("caustics_surfaces", "EnumProperty", {
-            'name': 'Surfaces',
-            'description': ('Refraction at one surface (a water surface over the receivers) or at two (a solid: in'
-                            ' and out, through the back faces)'),
-            'items': (
-                ('ONE', 'One', 'One refraction: the light stays in the medium down to the receiver'),
-                ('TWO', 'Two', 'In through the front and out through the back faces (Wyman 2005)'),
+            "name": "Surfaces",
+            "description": ("Refraction at one surface (a water surface over the receivers) or at two (a solid: in"
+                            " and out, through the back faces)"),
+            "items": (
+                ("ONE", "One", "One refraction: the light stays in the medium down to the receiver"),
+                ("TWO", "Two", "In through the front and out through the back faces (Wyman 2005)"),
             ),
-            'default': 'TWO',
+            "default": "TWO",
         }),
         Prop("caustics_color", "FloatVectorProperty", {
-            'name': 'Caustics colour',
-            'description': ('Refractive: the colour light takes after travelling Colour distance through the '
+            "name": "Caustics colour",
+            "description": ("Refractive: the colour light takes after travelling Colour distance through the "
                             "medium (absorption, Shah Eq. 5.7); reflective: the mirror's reflectance"),
-            'subtype': 'COLOR',
-            'size': 3,
-            'min': 0.0,
-            'max': 1.0,
-            'default': (1.0, 1.0, 1.0),
+            "subtype": "COLOR",
+            "size": 3,
+            "min": 0.0,
+            "max": 1.0,
+            "default": (1.0, 1.0, 1.0),
         }),
         Prop("caustics_distance", "FloatProperty", {
-            'name': 'Colour distance (mm)',
-            'description': 'Distance through the medium at which light has the caustics colour, in mm',
-            'min': 0.001,
-            'soft_max': 1000.0,
-            'default': 50.0,
+            "name": "Colour distance (mm)",
+            "description": "Distance through the medium at which light has the caustics colour, in mm",
+            "min": 0.001,
+            "soft_max": 1000.0,
+            "default": 50.0,
         }),
         Prop("caustics_dispersion", "FloatProperty", {
-            'name': 'Dispersion',
-            'description': ('Spread of the index of refraction over the colour channels: red eta - d, green eta, '
-                            'blue eta + d (Shah Fig. 5.13); 0 uses one index'),
-            'min': 0.0,
-            'max': 0.2,
-            'default': 0.0,
-            'precision': 3,
+            "name": "Dispersion",
+            "description": ("Spread of the index of refraction over the colour channels: red eta - d, green eta, "
+                            "blue eta + d (Shah Fig. 5.13); 0 uses one index"),
+            "min": 0.0,
+            "max": 0.2,
+            "default": 0.0,
+            "precision": 3,
         }),
     )
     light_props = (
         Prop("caustics", "BoolProperty", {
-            'name': 'Caustics',
-            'description': 'Caustics casters refract or mirror this light (Translucent)',
-            'default': True,
+            "name": "Caustics",
+            "description": "Caustics casters refract or mirror this light (Translucent)",
+            "default": True,
         }),
     )
     scene_props = (
         Prop("caustics_grid", "IntProperty", {
-            'name': 'Caustics grid',
-            'description': ('Vertex grid per caster and light, per side (Shah used 128: 64 leaves gaps between '
-                            'fixed splats, Fig. 5.11)'),
-            'min': 8,
-            'max': 1024,
-            'default': 128,
+            "name": "Caustics grid",
+            "description": ("Vertex grid per caster and light, per side (Shah used 128: 64 leaves gaps between "
+                            "fixed splats, Fig. 5.11)"),
+            "min": 8,
+            "max": 1024,
+            "default": 128,
         }),
         Prop("caustics_iterations", "IntProperty", {
-            'name': 'Iterations',
-            'description': ("Look-ups of the intersection estimate, through the caster's back faces and to the "
-                            'receivers (Shah 5.3.4: one for a flat floor, about five on rugged receivers; light '
-                            'leaving a ball near its rim needs 4 with Secant)'),
-            'min': 1,
-            'max': 16,
-            'default': 4,
+            "name": "Iterations",
+            "description": ("Look-ups of the intersection estimate, through the caster's back faces and to the "
+                            "receivers (Shah 5.3.4: one for a flat floor, about five on rugged receivers; light "
+                            "leaving a ball near its rim needs 4 with Secant)"),
+            "min": 1,
+            "max": 16,
+            "default": 4,
         }),
         Prop("caustics_guard", "BoolProperty", {
-            'name': 'Oscillation guard',
-            'description': 'Bisect once two estimates bracket the intersection (Shah 5.3.4)',
-            'default': True,
+            "name": "Oscillation guard",
+            "description": "Bisect once two estimates bracket the intersection (Shah 5.3.4)",
+            "default": True,
         }),
         Prop("caustics_estimator", "EnumProperty", {
-            'name': 'Estimator',
-            'description': 'Root finding of the intersection estimate (Shah 5.3.4)',
-            'items': (
-                ('SECANT', 'Secant', "Shah's first step, then secant steps through the last two estimates: converges "
+            "name": "Estimator",
+            "description": "Root finding of the intersection estimate (Shah 5.3.4)",
+            "items": (
+                ("SECANT", "Secant", "Shah's first step, then secant steps through the last two estimates: converges "
                                      "in fewer look-ups where rays cross the surface obliquely"),
-                ('SHAH', 'Shah', "Shah's fixed-point step d = |y(v + d r) - v| every time"),
+                ("SHAH", "Shah", "Shah's fixed-point step d = |y(v + d r) - v| every time"),
             ),
-            'default': 'SECANT',
+            "default": "SECANT",
         }),
         Prop("caustics_map", "IntProperty", {
-            'name': 'Caustic map',
-            'description': 'Texels per face of the caustic and receiver maps',
-            'min': 64,
-            'max': 4096,
-            'default': 1024,
+            "name": "Caustic map",
+            "description": "Texels per face of the caustic and receiver maps",
+            "min": 64,
+            "max": 4096,
+            "default": 1024,
         }),
         Prop("caustics_splat", "FloatProperty", {
-            'name': 'Splat width',
-            'description': 'Gaussian splat sigma in caustic-map texels (the smallest one with adaptive splats)',
-            'min': 0.5,
-            'max': 16.0,
-            'default': 1.0,
+            "name": "Splat width",
+            "description": "Gaussian splat sigma in caustic-map texels (the smallest one with adaptive splats)",
+            "min": 0.5,
+            "max": 16.0,
+            "default": 1.0,
         }),
         Prop("caustics_adaptive", "BoolProperty", {
-            'name': 'Adaptive splats',
-            'description': ("Widen each splat to the spacing of its neighbours' landing points: no gaps at coarse "
-                            'grids, sharp where light converges'),
-            'default': True,
+            "name": "Adaptive splats",
+            "description": ("Widen each splat to the spacing of its neighbours' landing points: no gaps at coarse "
+                            "grids, sharp where light converges"),
+            "default": True,
         }),
     )
     shader_specs = SHADER_SPECS

@@ -141,32 +141,32 @@ class Geocube(Technique):
 
     object_props = (
         Prop("geocube_resolution", "IntProperty", {
-            'name': 'Cube texels',
-            'description': ('GEOCUBE: texels along a cube face (Chan & Wang used 64); 0 chooses it from the '
+            "name": "Cube texels",
+            "description": ("GEOCUBE: texels along a cube face (Chan & Wang used 64); 0 chooses it from the "
                             "object's size on the scene camera's image at bake time. Changing it needs a new bake"),
-            'min': 0,
-            'max': 256,
-            'default': 0,
+            "min": 0,
+            "max": 256,
+            "default": 0,
         }),
         Prop("geocube_steps", "IntProperty", {
-            'name': 'Max steps',
-            'description': ('GEOCUBE: cap on the cone-propelled steps of a ray inside the object (Chan & Wang Sec.'
-                            ' 4: 5 to 10 there); a ray that reaches it exits early at the last surface point it '
-                            'saw'),
-            'min': 1,
-            'max': 256,
-            'default': 32,
+            "name": "Max steps",
+            "description": ("GEOCUBE: cap on the cone-propelled steps of a ray inside the object (Chan & Wang Sec."
+                            " 4: 5 to 10 there); a ray that reaches it exits early at the last surface point it "
+                            "saw"),
+            "min": 1,
+            "max": 256,
+            "default": 32,
         }),
     )
     scene_props = (
         Prop("geocube_output", "IntProperty", {
-            'name': 'GEOCUBE output',
-            'description': ('GEOCUBE pass output (tests, debugging): 0 colour, 1 entry point, 2 exit point, 3 '
-                            'refracted direction (bake frame)'),
-            'min': 0,
-            'max': 3,
-            'default': 0,
-            'options': {'HIDDEN'},
+            "name": "GEOCUBE output",
+            "description": ("GEOCUBE pass output (tests, debugging): 0 colour, 1 entry point, 2 exit point, 3 "
+                            "refracted direction (bake frame)"),
+            "min": 0,
+            "max": 3,
+            "default": 0,
+            "options": {"HIDDEN"},
         }),
     )
     shader_specs = SHADER_SPECS

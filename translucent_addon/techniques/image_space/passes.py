@@ -355,49 +355,49 @@ class ImageSpace(Technique):
 
     scene_props = (
         Prop("splat_threshold", "FloatProperty", {
-            'name': 'Splat threshold',
-            'description': "IMAGE_SPACE: share of the profile's energy beyond the splat radius (Shah Eq. 6.16)",
-            'min': 0.0001,
-            'max': 0.2,
-            'default': 0.01,
-            'precision': 3,
+            "name": "Splat threshold",
+            "description": "IMAGE_SPACE: share of the profile's energy beyond the splat radius (Shah Eq. 6.16)",
+            "min": 0.0001,
+            "max": 0.2,
+            "default": 0.01,
+            "precision": 3,
         }),
         Prop("splat_overlap", "FloatProperty", {
-            'name': 'Splat overlap',
-            'description': 'IMAGE_SPACE: light-view samples per splat radius; more is smoother and slower',
-            'min': 2.0,
-            'max': 128.0,
-            'default': 32.0,
+            "name": "Splat overlap",
+            "description": "IMAGE_SPACE: light-view samples per splat radius; more is smoother and slower",
+            "min": 2.0,
+            "max": 128.0,
+            "default": 32.0,
         }),
         Prop("splat_max_grid", "IntProperty", {
-            'name': 'Max samples per side',
-            'description': 'IMAGE_SPACE: light-view samples per face side, at most',
-            'min': 16,
-            'max': 4096,
-            'default': 1024,
+            "name": "Max samples per side",
+            "description": "IMAGE_SPACE: light-view samples per face side, at most",
+            "min": 16,
+            "max": 4096,
+            "default": 1024,
         }),
         Prop("splat_world_layers", "IntProperty", {
-            'name': 'World layers',
-            'description': ('IMAGE_SPACE: depth-peeled layers per axis that receive world light, splatted like the'
+            "name": "World layers",
+            "description": ("IMAGE_SPACE: depth-peeled layers per axis that receive world light, splatted like the"
                             " lights' samples (Shah 6.4.2); 0 takes the world over a locally flat surface "
-                            '(cheaper, no light through thin parts)'),
-            'min': 0,
-            'max': 16,
-            'default': 4,
+                            "(cheaper, no light through thin parts)"),
+            "min": 0,
+            "max": 16,
+            "default": 4,
         }),
         Prop("splat_world_overlap", "FloatProperty", {
-            'name': 'World overlap',
-            'description': ("IMAGE_SPACE: world samples per splat radius (fewer than the lights' suffice: world "
-                            'light is smooth)'),
-            'min': 2.0,
-            'max': 64.0,
-            'default': 16.0,
+            "name": "World overlap",
+            "description": ("IMAGE_SPACE: world samples per splat radius (fewer than the lights' suffice: world "
+                            "light is smooth)"),
+            "min": 2.0,
+            "max": 64.0,
+            "default": 16.0,
         }),
         Prop("temporal_coherence", "BoolProperty", {
-            'name': 'Temporal coherence',
-            'description': ("IMAGE_SPACE: reuse the previous frame's light samples to reduce flicker in animation "
-                            'and in the viewport (Shah 6.5.2)'),
-            'default': True,
+            "name": "Temporal coherence",
+            "description": ("IMAGE_SPACE: reuse the previous frame's light samples to reduce flicker in animation "
+                            "and in the viewport (Shah 6.5.2)"),
+            "default": True,
         }),
     )
     shader_specs = SHADER_SPECS

@@ -549,75 +549,75 @@ class Quadgraph(Technique):
 
     object_props = (
         Prop("quadgraph_K", "FloatProperty", {
-            'name': 'Density K',
-            'description': ("QUADGRAPH: tetrahedron size as the paper's K (Wang 2010 Fig. 11-13); smaller is "
-                            'denser, slower and more accurate (1: about 10 % error, 0.1: about 2 % in the paper). '
-                            'Changing it needs a new bake'),
-            'min': 0.05,
-            'max': 2.0,
-            'default': 1.0,
-            'precision': 2,
+            "name": "Density K",
+            "description": ("QUADGRAPH: tetrahedron size as the paper's K (Wang 2010 Fig. 11-13); smaller is "
+                            "denser, slower and more accurate (1: about 10 % error, 0.1: about 2 % in the paper). "
+                            "Changing it needs a new bake"),
+            "min": 0.05,
+            "max": 2.0,
+            "default": 1.0,
+            "precision": 2,
         }),
         Prop("quadgraph_levels", "IntProperty", {
-            'name': 'Levels',
-            'description': ('QUADGRAPH: multi-resolution levels, each with about a quarter of the surface nodes of'
-                            ' the next (Wang 2010 Sec. 4.3); the solver starts on the coarsest'),
-            'min': 1,
-            'max': 5,
-            'default': 3,
+            "name": "Levels",
+            "description": ("QUADGRAPH: multi-resolution levels, each with about a quarter of the surface nodes of"
+                            " the next (Wang 2010 Sec. 4.3); the solver starts on the coarsest"),
+            "min": 1,
+            "max": 5,
+            "default": 3,
         }),
         Prop("veins", "FloatProperty", {
-            'name': 'Veins',
-            'description': ('QUADGRAPH: strength of procedural marble veins in the volume (more absorption and '
+            "name": "Veins",
+            "description": ("QUADGRAPH: strength of procedural marble veins in the volume (more absorption and "
                             "scattering along noise veins, as Lensch's marble); 0 is homogeneous"),
-            'min': 0.0,
-            'max': 1.0,
-            'default': 0.0,
+            "min": 0.0,
+            "max": 1.0,
+            "default": 0.0,
         }),
         Prop("single_scattering", "BoolProperty", {
-            'name': 'Surface term',
-            'description': ("QUADGRAPH: draw the surface's own response to each light: light scattered once "
+            "name": "Surface term",
+            "description": ("QUADGRAPH: draw the surface's own response to each light: light scattered once "
                             "(marched along the view ray through the light's distance map) and the multiple "
-                            'scattering of a lit half-space (Chandrasekhar), where the diffusion alone is '
-                            'Lambertian and leaves out the first order: the bright rims where a light grazes a '
-                            'back-lit object'),
-            'default': True,
+                            "scattering of a lit half-space (Chandrasekhar), where the diffusion alone is "
+                            "Lambertian and leaves out the first order: the bright rims where a light grazes a "
+                            "back-lit object"),
+            "default": True,
         }),
         Prop("veins_scale", "FloatProperty", {
-            'name': 'Vein spacing (mm)',
-            'description': 'QUADGRAPH: distance between veins, in mm',
-            'min': 0.1,
-            'default': 20.0,
-            'unit': 'NONE',
+            "name": "Vein spacing (mm)",
+            "description": "QUADGRAPH: distance between veins, in mm",
+            "min": 0.1,
+            "default": 20.0,
+            "unit": "NONE",
         }),
     )
     scene_props = (
         Prop("quadgraph_tolerance", "FloatProperty", {
-            'name': 'Solver tolerance',
-            'description': ("QUADGRAPH: a level's relaxation stops when one iteration changes the flux by less "
-                            'than this (relative to its largest value; checked every 16 iterations), or at the '
-                            'cap. The GPU holds the flux in 32-bit floats: 1e-6 is the smallest change it can '
-                            'resolve'),
-            'min': 1e-06,
-            'max': 0.1,
-            'default': 2e-05,
-            'precision': 6,
+            "name": "Solver tolerance",
+            "description": ("QUADGRAPH: a level's relaxation stops when one iteration changes the flux by less "
+                            "than this (relative to its largest value; checked every 16 iterations), or at the "
+                            "cap. The GPU holds the flux in 32-bit floats: 1e-6 is the smallest change it can "
+                            "resolve"),
+            "min": 1e-06,
+            "max": 0.1,
+            "default": 2e-05,
+            "precision": 6,
         }),
         Prop("quadgraph_iterations", "IntProperty", {
-            'name': 'Max iterations',
-            'description': 'QUADGRAPH: iteration cap per level',
-            'min': 8,
-            'max': 20000,
-            'default': 1000,
+            "name": "Max iterations",
+            "description": "QUADGRAPH: iteration cap per level",
+            "min": 8,
+            "max": 20000,
+            "default": 1000,
         }),
         Prop("quadgraph_output", "IntProperty", {
-            'name': 'QUADGRAPH output',
-            'description': ('QUADGRAPH display output (tests, debugging): 0 colour, 1 the diffusion alone, 2 '
-                            'single scattering alone, 3 the local multiple scattering alone'),
-            'min': 0,
-            'max': 3,
-            'default': 0,
-            'options': {'HIDDEN'},
+            "name": "QUADGRAPH output",
+            "description": ("QUADGRAPH display output (tests, debugging): 0 colour, 1 the diffusion alone, 2 "
+                            "single scattering alone, 3 the local multiple scattering alone"),
+            "min": 0,
+            "max": 3,
+            "default": 0,
+            "options": {"HIDDEN"},
         }),
     )
     shader_specs = SHADER_SPECS

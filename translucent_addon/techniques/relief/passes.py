@@ -107,58 +107,58 @@ class Relief(Technique):
 
     object_props = (
         Prop("relief", "EnumProperty", {
-            'name': 'Height field',
-            'description': ("Per-pixel displacement by a height map over the object's UVs (Shah ch. 3): occlusion,"
-                            ' self-shadowing and correct depth without extra geometry'),
-            'items': (
-                ('OFF', 'Off', 'No height field'),
-                ('INTERVAL', 'Interval mapping', 'Linear search, then interval (secant) refinement (Shah 2007)'),
-                ('RELIEF', 'Relief mapping', 'Linear search, then binary search (Policarpo 2005), for comparison'),
+            "name": "Height field",
+            "description": ("Per-pixel displacement by a height map over the object's UVs (Shah ch. 3): occlusion,"
+                            " self-shadowing and correct depth without extra geometry"),
+            "items": (
+                ("OFF", "Off", "No height field"),
+                ("INTERVAL", "Interval mapping", "Linear search, then interval (secant) refinement (Shah 2007)"),
+                ("RELIEF", "Relief mapping", "Linear search, then binary search (Policarpo 2005), for comparison"),
             ),
-            'default': 'OFF',
+            "default": "OFF",
         }),
         Prop("relief_image", "ImagePointer", {
-            'name': 'Height map',
-            'description': 'Image whose brightness is the height (white: the surface, black: the deepest point)',
+            "name": "Height map",
+            "description": "Image whose brightness is the height (white: the surface, black: the deepest point)",
         }),
         Prop("relief_depth", "FloatProperty", {
-            'name': 'Depth',
-            'description': 'How deep the black of the height map lies under the surface',
-            'subtype': 'DISTANCE',
-            'unit': 'LENGTH',
-            'min': 0.0,
-            'soft_max': 0.2,
-            'default': 0.02,
+            "name": "Depth",
+            "description": "How deep the black of the height map lies under the surface",
+            "subtype": "DISTANCE",
+            "unit": "LENGTH",
+            "min": 0.0,
+            "soft_max": 0.2,
+            "default": 0.02,
         }),
         Prop("relief_linear_steps", "IntProperty", {
-            'name': 'Linear steps',
-            'description': 'Uniform steps that find the first interval the ray enters (Shah: 5)',
-            'min': 2,
-            'max': 64,
-            'default': 8,
+            "name": "Linear steps",
+            "description": "Uniform steps that find the first interval the ray enters (Shah: 5)",
+            "min": 2,
+            "max": 64,
+            "default": 8,
         }),
         Prop("relief_iterations", "IntProperty", {
-            'name': 'Refinements',
-            'description': 'Most refinement steps after the linear search (Shah: 10)',
-            'min': 1,
-            'max': 32,
-            'default': 10,
+            "name": "Refinements",
+            "description": "Most refinement steps after the linear search (Shah: 10)",
+            "min": 1,
+            "max": 32,
+            "default": 10,
         }),
         Prop("relief_shadows", "BoolProperty", {
-            'name': 'Self-shadowing',
-            'description': 'The height field shadows itself (a search toward each light)',
-            'default': True,
+            "name": "Self-shadowing",
+            "description": "The height field shadows itself (a search toward each light)",
+            "default": True,
         }),
     )
     scene_props = (
         Prop("relief_output", "IntProperty", {
-            'name': 'Height-field output',
-            'description': ('Height-field pass output (tests, debugging): 0 colour, 1 hit uv, depth and refinement'
-                            ' count'),
-            'min': 0,
-            'max': 1,
-            'default': 0,
-            'options': {'HIDDEN'},
+            "name": "Height-field output",
+            "description": ("Height-field pass output (tests, debugging): 0 colour, 1 hit uv, depth and refinement"
+                            " count"),
+            "min": 0,
+            "max": 1,
+            "default": 0,
+            "options": {"HIDDEN"},
         }),
     )
     shader_specs = SHADER_SPECS

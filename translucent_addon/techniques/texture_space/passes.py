@@ -239,41 +239,41 @@ class TextureSpace(Technique):
 
     object_props = (
         Prop("atlas_resolution", "IntProperty", {
-            'name': 'Atlas texels',
-            'description': ('TEXTURE_SPACE: texels along the side of the texture atlas (Lensch used 512); the '
-                            'proxy mesh follows it at Proxy spacing texels per edge. Changing it needs a new bake'),
-            'min': 64,
-            'max': 4096,
-            'soft_max': 2048,
-            'default': 512,
+            "name": "Atlas texels",
+            "description": ("TEXTURE_SPACE: texels along the side of the texture atlas (Lensch used 512); the "
+                            "proxy mesh follows it at Proxy spacing texels per edge. Changing it needs a new bake"),
+            "min": 64,
+            "max": 4096,
+            "soft_max": 2048,
+            "default": 512,
         }),
         Prop("proxy_spacing", "FloatProperty", {
-            'name': 'Proxy spacing',
-            'description': ('TEXTURE_SPACE: mean edge of the proxy mesh, in atlas texels. Finer follows shadow '
-                            'edges more closely (back-lit bunny, atlas 512: 6.9 % from the dipole model at 3.5, '
-                            '4.7 % at 2.4) but bakes longer (44 s and 76 s here) and stores 3.4 times the form '
-                            'factors. Changing it needs a new bake'),
-            'min': 1.5,
-            'max': 8.0,
-            'default': 3.5,
-            'precision': 2,
+            "name": "Proxy spacing",
+            "description": ("TEXTURE_SPACE: mean edge of the proxy mesh, in atlas texels. Finer follows shadow "
+                            "edges more closely (back-lit bunny, atlas 512: 6.9 % from the dipole model at 3.5, "
+                            "4.7 % at 2.4) but bakes longer (44 s and 76 s here) and stores 3.4 times the form "
+                            "factors. Changing it needs a new bake"),
+            "min": 1.5,
+            "max": 8.0,
+            "default": 3.5,
+            "precision": 2,
         }),
         Prop("texture_blending", "BoolProperty", {
-            'name': 'Blend local and global',
-            'description': ('TEXTURE_SPACE: Lensch Sec. 5.4, fit the direct radiosity B^d and correct the kernels;'
+            "name": "Blend local and global",
+            "description": ("TEXTURE_SPACE: Lensch Sec. 5.4, fit the direct radiosity B^d and correct the kernels;"
                             " off shows the paper's Fig. 6 artefact (light counted twice near where it enters)"),
-            'default': True,
+            "default": True,
         }),
     )
     scene_props = (
         Prop("texture_product", "EnumProperty", {
-            'name': 'Global product',
-            'description': 'TEXTURE_SPACE: where the sparse vertex-to-vertex product F^0 E runs (Lensch Eq. 11)',
-            'items': (
-                ('GPU', 'GPU', 'A fragment per vertex walks its row of the sparse matrix'),
-                ('CPU', 'CPU', 'scipy.sparse after reading the vertex irradiance back'),
+            "name": "Global product",
+            "description": "TEXTURE_SPACE: where the sparse vertex-to-vertex product F^0 E runs (Lensch Eq. 11)",
+            "items": (
+                ("GPU", "GPU", "A fragment per vertex walks its row of the sparse matrix"),
+                ("CPU", "CPU", "scipy.sparse after reading the vertex irradiance back"),
             ),
-            'default': 'GPU',
+            "default": "GPU",
         }),
     )
     shader_specs = SHADER_SPECS
