@@ -6,6 +6,7 @@ import numpy as np
 from ..core import bake_store as store
 from ..core.geometry.mesh_measures import stretch_of
 from ..core.geometry.mesh_subdivide import midpoint_subdivision
+from ..core.geometry.orientation import orient_outward, outward_normals
 from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, needs_bake
@@ -38,6 +39,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
         sigma_s_prime=tuple(props.sigma_s_prime),
         eta=float(props.eta),
         g=float(props.g),
+        profile=homogeneous_profile(props.profile),
         atlas_resolution=int(props.atlas_resolution),
         proxy_spacing=float(props.proxy_spacing),
         blending=bool(props.texture_blending),
@@ -61,6 +63,12 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     return inputs
 
 
+def homogeneous_profile(setting: str) -> str:
+    """The radial profile of the Profile setting: the dipole when chosen, else exact transport (a layer over a
+    base is IMAGE_SPACE's multipole; the other methods take the exact profile for it)."""
+    return "DIPOLE" if setting == "DIPOLE" else "EXACT"
+
+
 def mesh_arrays(ob_eval, *, corner_normals: bool = False):
     """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32, corner
     normals (T, 3, 3) or None), read in bulk."""
@@ -76,7 +84,17 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False):
             normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
     finally:
         ob_eval.to_mesh_clear()
-    return vertices.reshape(-1, 3), triangles.reshape(-1, 3), normals
+    vertices, triangles = vertices.reshape(-1, 3), triangles.reshape(-1, 3)
+    # Inward-wound parts are baked turned outward, as the frame draws them (``extract.turn_outward``).
+    flip = orient_outward(vertices, triangles).flip
+    if flip.any():
+        triangles = triangles.copy()
+        triangles[flip] = triangles[flip][:, [0, 2, 1]]
+        if normals is not None:
+            normals = normals.copy()
+            normals[flip] = normals[flip][:, [0, 2, 1]]
+            normals = outward_normals(vertices[triangles], normals, flip)
+    return vertices, triangles, normals
 
 
 def object_view(ob_eval):

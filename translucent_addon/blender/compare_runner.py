@@ -23,6 +23,7 @@ import numpy as np
 
 from ..core import bake_store as store
 from ..core.geometry.camera import pixel_rays
+from ..core.geometry.orientation import orient_outward
 from ..core.metrics import median_relative_error, relative_rmse, ssim
 from ..core.reference import cache
 from ..core.reference.dipole_model import Medium, render_dipole
@@ -82,6 +83,23 @@ class CompareSettings:
                    brute_force_reference_samples=64, model_reference_samples=20_000, texture_space_atlas=())
 
 
+def exact_reference_converges(scene, objects) -> tuple[bool, str]:
+    """(whether Cycles' brute force converges on this scene, why). It is exact transport; it converges where
+    paths inside the medium can reach the lights: the media index-matched (no surface to refract at), or a
+    refracting boundary lit only by area lights and the world. Point, spot and sun lights behind a refracting
+    boundary are reached only by chance, and the random walk (a diffusion-like peer that keeps 20-30 % of
+    the light through thin back-lit parts) is then the reference."""
+    if all(ob.translucent.eta <= twin_materials.INDEX_MATCHED for ob in objects):
+        return True, "exact transport: Cycles brute force, the media index-matched"
+    small = sorted({ob.data.type.lower() for ob in scene.objects
+                    if ob.type == "LIGHT" and ob.visible_get() and ob.data.type != "AREA"})
+    if not small:
+        return True, "exact transport: Cycles brute force under area lights and the world"
+    return False, (f"Cycles random walk, not exact transport: Cycles brute force does not converge with "
+                   f"{' and '.join(small)} lights behind a refracting boundary (set IOR 1 or use area lights "
+                   f"for an exact reference)")
+
+
 def translucent_objects(scene) -> list:
     return [ob for ob in scene.objects if ob.type == "MESH" and ob.visible_get()
             and ob.translucent.method != "OFF"]
@@ -139,7 +157,14 @@ def engine_setup(scene, engine: str, **options):
 @contextlib.contextmanager
 def twin_materials_applied(objects, kind: str, **options):
     """Give each translucent object the twin material of its medium, restore afterwards (``options`` go
-    to the material's factory in ``twin_materials``)."""
+    to the material's factory in ``twin_materials``). An object wound inward renders its outward twin
+    (``outward_meshes_applied``): a volume behind inward faces was black in Cycles."""
+    with outward_meshes_applied(objects), _materials_swapped(objects, kind, options):
+        yield
+
+
+@contextlib.contextmanager
+def _materials_swapped(objects, kind: str, options: dict):
     saved = []
     made = []
     try:
@@ -162,6 +187,49 @@ def twin_materials_applied(objects, kind: str, **options):
                 slot.material = mat
         for mat in made:
             bpy.data.materials.remove(mat)
+
+
+@contextlib.contextmanager
+def outward_meshes_applied(objects):
+    """Objects with inward-wound parts (``core/geometry/orientation``) get, for the duration, a copy of their
+    evaluated mesh with those parts' faces reversed and their modifiers off; restored afterwards."""
+    import bmesh
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    swapped = []
+    try:
+        for ob in objects:
+            ob_eval = ob.evaluated_get(depsgraph)
+            mesh = bpy.data.meshes.new_from_object(ob_eval, preserve_all_data_layers=True, depsgraph=depsgraph)
+            mesh.calc_loop_triangles()
+            vertices = np.empty(len(mesh.vertices) * 3, np.float32)
+            mesh.vertices.foreach_get("co", vertices)
+            triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+            mesh.loop_triangles.foreach_get("vertices", triangles)
+            polygon = np.empty(len(mesh.loop_triangles), np.int32)
+            mesh.loop_triangles.foreach_get("polygon_index", polygon)
+            flip = orient_outward(vertices.reshape(-1, 3), triangles.reshape(-1, 3)).flip
+            if not flip.any():
+                bpy.data.meshes.remove(mesh)
+                continue
+            bm = bmesh.new()
+            bm.from_mesh(mesh)
+            bm.faces.ensure_lookup_table()
+            bmesh.ops.reverse_faces(bm, faces=[bm.faces[i] for i in np.unique(polygon[flip])])
+            bm.to_mesh(mesh)
+            bm.free()
+            modifiers = [(m, m.show_render, m.show_viewport) for m in ob.modifiers]
+            for m, _, _ in modifiers:
+                m.show_render = m.show_viewport = False
+            swapped.append((ob, ob.data, mesh, modifiers))
+            ob.data = mesh
+        yield
+    finally:
+        for ob, data, mesh, modifiers in swapped:
+            ob.data = data
+            for m, render, viewport in modifiers:
+                m.show_render, m.show_viewport = render, viewport
+            bpy.data.meshes.remove(mesh)
 
 
 def cycles_options(samples: int, bounces: int, seed: int = 1) -> dict:
@@ -284,16 +352,22 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         cache.store(cache_dir, desc, image, seconds)
         return image, seconds, False
 
-    # The reference first, so that every other render is measured against it.
-    ref_name = f"Cycles random walk {settings.reference_samples} spp"
-    ref_image, ref_seconds, ref_cached = yield from cached_cycles("random_walk", settings.reference_samples)
-    add("Cycles random walk (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
+    # The reference first, so that every other render is measured against it: exact transport (Cycles' brute
+    # force) where it converges, else the random walk, with the reason in the report.
+    exact, why = exact_reference_converges(scene, objects)
+    ref_kind, check_kind = ("brute_force", "random_walk") if exact else ("random_walk", "brute_force")
+    ref_title = ref_kind.replace("_", " ")
+    ref_name = f"Cycles {ref_title} {settings.reference_samples} spp"
+    ref_image, ref_seconds, ref_cached = yield from cached_cycles(ref_kind, settings.reference_samples)
+    add(f"Cycles {ref_title} (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
         ref_cached, samples=settings.reference_samples)
-    brute_image = None
+    brute_image = ref_image if exact else None
     if settings.brute_force_reference_samples:
-        brute_image, sec, hit = yield from cached_cycles("brute_force", settings.brute_force_reference_samples)
-        add("Cycles brute force (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp", sec, brute_image,
-            hit, samples=settings.brute_force_reference_samples)
+        check_image, sec, hit = yield from cached_cycles(check_kind, settings.brute_force_reference_samples)
+        add(f"Cycles {check_kind.replace('_', ' ')} (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp",
+            sec, check_image, hit, samples=settings.brute_force_reference_samples)
+        if not exact:
+            brute_image = check_image
     for spp in settings.cycles_random_walk_samples:
         img, sec, hit = yield from cached_cycles("random_walk", spp)
         add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
@@ -369,6 +443,7 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         save_error_png(out / e.error_image, img, ref_image, mask)
     meta = {
         "scene": scene.name, "size": [width, height], "objects": sorted(names), "reference": ref_name,
+        "reference_exact": exact, "reference_why": why,
         "mask_pixels": int(mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
         "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels "
                  "(their silhouette pixels excluded)",

@@ -87,6 +87,9 @@ SCENES = {
     "bunny_frontlit": dict(mesh="bunny", preset="marble", size=0.15, key="FRONT"),
     "cow_backlit": dict(mesh="cow", preset="skin1", size=0.25, key="BACK"),
     "spot_frontlit": dict(mesh="spot", preset="potato", size=0.15, key="FRONT"),
+    # Where translucency matters most (issue 35): light through thin limbs, and skin at life size.
+    "figure_backlit": dict(mesh="cow", preset="marble", size=0.10, key="BACK"),
+    "skin_frontlit": dict(mesh="spot", preset="skin1", size=0.25, key="FRONT"),
 }
 
 

@@ -24,11 +24,12 @@ from ..core.frame import (
     ReliefSurface,
 )
 from ..core.geometry.mesh_measures import uv_tangents
+from ..core.geometry.orientation import Orientation, corner_order, orient_outward, outward_normals
 from ..core.lights import emitters_from_light
 from ..core.physics.lut import BLUR_MIN
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
-from .bake_inputs import bake_status
+from .bake_inputs import bake_status, homogeneous_profile
 from .mesh_read import mesh_corner_arrays
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
@@ -268,16 +269,49 @@ def caustic_settings(s) -> CausticSettings:
                            splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
 
 
+_orientation_cache: dict = {}
+
+
+def _orientation(positions: np.ndarray, corner_vertex: np.ndarray, vertex_count: int) -> Orientation:
+    """``orientation.orient_outward`` of a mesh read as corners, cached on its corner positions and vertices."""
+    digest = hashlib.blake2b(positions.tobytes(), digest_size=16)
+    digest.update(corner_vertex.tobytes())
+    key = digest.hexdigest()
+    cached = _orientation_cache.get(key)
+    if cached is None:
+        vertices = np.zeros((vertex_count, 3), np.float64)
+        vertices[corner_vertex] = positions
+        cached = orient_outward(vertices, corner_vertex.reshape(-1, 3))
+        if len(_orientation_cache) > 64:
+            _orientation_cache.clear()
+        _orientation_cache[key] = cached
+    return cached
+
+
+def turn_outward(flip: np.ndarray, positions: np.ndarray, normals: np.ndarray, tri_loops: np.ndarray):
+    """Corner arrays with the flipped triangles turned (corners 0, 2, 1) and their normals to the new outside
+    (negated where they point against the turned facet; custom normals that already point out are kept)."""
+    order = corner_order(flip)
+    positions, tri_loops = positions[order], tri_loops[order]
+    normals = outward_normals(positions.reshape(-1, 3, 3), normals[order].reshape(-1, 3, 3), flip)
+    return positions, normals.reshape(-1, 3).astype(np.float32), tri_loops
+
+
 def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
     mesh = ob.to_mesh()
     try:
         if mesh is None or len(mesh.polygons) == 0:
             return None
         positions, normals, mat_index, tri_loops, loop_vert = mesh_corner_arrays(mesh)
+        orientation = _orientation(positions, loop_vert[tri_loops], len(mesh.vertices))
+        note = orientation.message(ob.original.name)
+        if note:
+            frame_warnings.append(note)
+            positions, normals, tri_loops = turn_outward(orientation.flip, positions, normals, tri_loops)
         palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
                            dtype=np.float32)
         colors = palette[np.clip(mat_index, 0, len(palette) - 1)].repeat(3, axis=0)
-        paint, tint = paint_arrays(ob, mesh, tri_loops, loop_vert)
+        paint, tint = paint_arrays(ob, mesh, tri_loops, loop_vert)  # per corner, in the turned order
         digest = hashlib.blake2b(positions.tobytes(), digest_size=8)
         for part in (normals, colors, paint, tint):
             if part is not None:
@@ -310,7 +344,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
             if method == "GEOCUBE":
                 layer = dict(max_steps=int(s.geocube_steps))
             medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
-                            **layer)
+                            profile=homogeneous_profile(s.profile), **layer)
         return MeshInstance(
             key=f"{name}:{digest.hexdigest()}",
             name=name,
@@ -405,3 +439,4 @@ def clear_caches() -> None:
     """The world images and height fields read from Blender (when the extension is disabled)."""
     _environment_cache.clear()
     _height_cache.clear()
+    _orientation_cache.clear()

@@ -124,10 +124,13 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
     )
     profile: bpy.props.EnumProperty(
         name="Profile",
-        items=[("DIPOLE", "Dipole", "Homogeneous medium (Jensen 2001)"),
+        description="Radial profile of the light that scatters under the surface",
+        # Numbered: files store the number, and EXACT came after the other two.
+        items=[("EXACT", "Exact", "Homogeneous medium, profile of exact transport (half-space Monte Carlo)", 2),
+               ("DIPOLE", "Dipole", "Homogeneous medium, the papers' dipole diffusion (Jensen 2001)", 0),
                ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium: multipole, "
-                                                "Donner & Jensen 2005 (IMAGE_SPACE)")],
-        default="DIPOLE",
+                                                "Donner & Jensen 2005 (IMAGE_SPACE)", 1)],
+        default="EXACT",
     )
     layer_thickness: bpy.props.FloatProperty(
         name="Layer (mm)", description="Thickness of the layer over the base, in mm (at least one mean free path)",

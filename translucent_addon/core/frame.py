@@ -26,6 +26,8 @@ class Medium:
     eta: float
     mm_per_unit: float
     g: float = 0.0
+    # The radial profile of a homogeneous medium (``physics.lut.PROFILES``): exact transport or the dipole.
+    profile: str = "EXACT"
     # Optional multipole: this medium as a layer of the given thickness over a base (Shah 6.5).
     layer_thickness_mm: float | None = None
     base_sigma_a: tuple | None = None

@@ -51,6 +51,7 @@ class BakeInputs:
     sigma_s_prime: tuple
     eta: float
     g: float
+    profile: str = "EXACT"  # the radial profile of a homogeneous medium (``physics.lut.PROFILES``)
     atlas_resolution: int = 512  # TEXTURE_SPACE
     proxy_spacing: float = 3.5  # TEXTURE_SPACE: mean proxy edge in atlas texels (techniques/texture_space/proxy.py)
     blending: bool = True  # TEXTURE_SPACE
@@ -90,6 +91,7 @@ class BakeInputs:
         extra = {}
         if self.method == "TEXTURE_SPACE":
             extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
+                     "profile": self.profile,
                      "proxy_spacing": round(float(self.proxy_spacing), 4), **stretch}
         elif self.method == "QUADGRAPH":
             material = {}

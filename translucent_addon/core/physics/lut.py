@@ -11,9 +11,22 @@ import functools
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .dipole import R_d, R_d_disk, r_max, total_diffuse_reflectance
+from . import dipole, exact_profile
 from .multipole import Grid, Layer, layered_profiles, radial_profile
 from .quadrature import trapezoid
+
+# The radial profiles a homogeneous medium can take: each module has R_d, R_d_disk, r_max and
+# total_diffuse_reflectance with the same arguments and units. EXACT (half-space Monte Carlo) is the default;
+# DIPOLE is the papers' (Jensen 2001), kept for comparison.
+PROFILES = {"EXACT": exact_profile, "DIPOLE": dipole}
+
+
+def profile_model(kind: str = "EXACT"):
+    """The module of profile ``kind`` (``PROFILES``); ValueError for an unknown one."""
+    try:
+        return PROFILES[kind]
+    except KeyError:
+        raise ValueError(f"unknown profile {kind!r}: one of {', '.join(PROFILES)}") from None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,11 +47,12 @@ class ProfileLUT:
 
 
 def dipole_lut(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, samples: int = 256,
-               epsilon: float = 0.01) -> ProfileLUT:
-    radius = np.asarray(r_max(np.asarray(sigma_a, float), np.asarray(sigma_s_prime, float), eta, epsilon))
+               epsilon: float = 0.01, profile: str = "DIPOLE") -> ProfileLUT:
+    model = profile_model(profile)
+    radius = np.asarray(model.r_max(np.asarray(sigma_a, float), np.asarray(sigma_s_prime, float), eta, epsilon))
     u = np.linspace(0.0, 1.0, samples)[:, None]
     r = radius[None, :] * u**2
-    table = R_d(r, np.asarray(sigma_a, float), np.asarray(sigma_s_prime, float), eta)
+    table = model.R_d(r, np.asarray(sigma_a, float), np.asarray(sigma_s_prime, float), eta)
     return ProfileLUT(table.astype(np.float32), radius)
 
 
@@ -96,30 +110,34 @@ class ImageSpaceTables:
 
 
 def near_integral(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, rho_mm: float,
-                  M: float = 1.0) -> np.ndarray:
+                  M: float = 1.0, profile: str = "DIPOLE") -> np.ndarray:
     """near(M) = int R_d(M r) M^2 (1 - w(r)) 2 pi r dr: the part of the profile taken at E(x_o).
 
     Up to rho it is the closed-form disk integral R_d_disk(M rho) (substitute s = M r); the blend
     ring [rho, 2 rho] by quadrature.
     """
 
+    model = profile_model(profile)
     ring = np.linspace(rho_mm, 2 * rho_mm, 2049)[:, None]
-    f = R_d(M * ring, sigma_a, sigma_s_prime, eta) * M * M * (1.0 - partition(ring, rho_mm)) * 2 * np.pi * ring
-    return R_d_disk(M * rho_mm, sigma_a, sigma_s_prime, eta) + trapezoid(f, ring, axis=0)
+    f = model.R_d(M * ring, sigma_a, sigma_s_prime, eta) * M * M * (1.0 - partition(ring, rho_mm)) * 2 * np.pi * ring
+    return model.R_d_disk(M * rho_mm, sigma_a, sigma_s_prime, eta) + trapezoid(f, ring, axis=0)
 
 
 def image_space_tables(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, rho_mm: float,
-                       epsilon: float = 0.01, samples: int = 256, near_samples: int = 32) -> ImageSpaceTables:
-
+                       epsilon: float = 0.01, samples: int = 256, near_samples: int = 32,
+                       profile: str = "DIPOLE") -> ImageSpaceTables:
+    """The tables of a homogeneous medium with the radial profile ``profile`` (``PROFILES``)."""
+    model = profile_model(profile)
     sa = np.asarray(sigma_a, dtype=np.float64)
     ss = np.asarray(sigma_s_prime, dtype=np.float64)
-    radius = float(np.max(r_max(sa, ss, eta, epsilon)))
+    radius = float(np.max(model.r_max(sa, ss, eta, epsilon)))
     u = np.linspace(0.0, 1.0, samples)[:, None]
-    far = R_d(radius * u**2, sa, ss, eta)
-    tail = R_d(TAIL_REACH * radius * u**2, sa, ss, eta)
-    near = np.stack([near_integral(sa, ss, eta, rho_mm, M) for M in np.linspace(BLUR_MIN, 1.0, near_samples)])
+    far = model.R_d(radius * u**2, sa, ss, eta)
+    tail = model.R_d(TAIL_REACH * radius * u**2, sa, ss, eta)
+    near = np.stack([near_integral(sa, ss, eta, rho_mm, M, profile)
+                     for M in np.linspace(BLUR_MIN, 1.0, near_samples)])
     return ImageSpaceTables(far.astype(np.float32), tail.astype(np.float32), near.astype(np.float32), radius,
-                            float(rho_mm), total_diffuse_reflectance(sa, ss, eta))
+                            float(rho_mm), model.total_diffuse_reflectance(sa, ss, eta))
 
 
 def profile_tables(radii: ArrayLike, profile: ArrayLike, rho_mm: float, epsilon: float = 0.01, samples: int = 256,

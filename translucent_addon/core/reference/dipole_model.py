@@ -29,9 +29,8 @@ from ..frame import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-
 from ..geometry.camera import pixel_rays
 from ..geometry.mesh_measures import facing_side, subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
-from ..physics.dipole import R_d, r_max
 from ..physics.fresnel import fresnel_dielectric
-from ..physics.lut import near_integral, partition_off_plane
+from ..physics.lut import near_integral, partition_off_plane, profile_model
 from ..physics.sh_irradiance import irradiance, transmittance_kernel
 from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 
@@ -130,8 +129,9 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         sa, ss = np.asarray(medium.sigma_a, float), np.asarray(medium.sigma_s_prime, float)
         area_mm2 = area * mm * mm
         rho = 2.0 * math.sqrt(float(area_mm2.max()))  # two sample spacings
-        reach = max(float(np.max(r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
-        total = E_o * near_integral(sa, ss, medium.eta, rho)
+        model = profile_model(medium.profile)  # the medium's own profile: this is the discretisation check
+        reach = max(float(np.max(model.r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
+        total = E_o * near_integral(sa, ss, medium.eta, rho, profile=medium.profile)
         tree_i = cKDTree(x_i)
         # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
         neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))
@@ -147,7 +147,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             # differs from it there, (E_i - E_o)(1 - w) A_i, so a shadow edge inside the disk is
             # resolved on the sample grid (zero for a uniform E, which the disk integral has exactly).
             near_share = area_mm2[cols] - weight
-            contrib = R_d(r_mm[:, None], sa, ss, medium.eta) * (
+            contrib = model.R_d(r_mm[:, None], sa, ss, medium.eta) * (
                 E_i[cols] * area_mm2[cols, None] - E_o[start + rows] * near_share[:, None])
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)

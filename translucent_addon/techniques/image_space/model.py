@@ -223,13 +223,14 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
 
 @functools.lru_cache(maxsize=64)
 def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
-    """The dipole tables of a medium, or the multipole ones when it is a layer over a base.
+    """The tables of a medium with its profile (exact or dipole), or the multipole ones when it is a layer
+    over a base.
 
     Cached: ``plan`` asks for them (and for r_max at rho = 1) every frame.
     """
     if med.layer_thickness_mm is None:
         return image_space_tables(med.sigma_a, med.sigma_s_prime, med.eta, rho_mm, epsilon, FAR_SAMPLES,
-                                  NEAR_SAMPLES)
+                                  NEAR_SAMPLES, med.profile)
 
     # The grid follows the materials: cells a quarter of the layer's shortest mean free path, wide
     # enough for the base's profile (1.5 r_max), at most 2048 cells a side.

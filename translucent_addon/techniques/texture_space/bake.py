@@ -55,7 +55,7 @@ def bake(inputs):
     t_atlas = time.perf_counter()
     atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n)
     t_atlas = time.perf_counter() - t_atlas
-    material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta))
+    material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta), inputs.profile)
     job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)
     try:
         while True:

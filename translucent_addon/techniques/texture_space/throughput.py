@@ -29,7 +29,7 @@ import numpy as np
 
 from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import subtriangle_centroids, vertex_areas, vertex_normals
-from ...core.physics.dipole import R_d, R_d_disk
+from ...core.physics.lut import profile_model
 from .atlas import TexelAtlas
 
 THRESHOLD = 1e-5  # throughput factors below this are dropped (Lensch 6.2)
@@ -63,10 +63,13 @@ class Material:
     sigma_a: tuple
     sigma_s_prime: tuple
     eta: float
+    profile: str = "EXACT"  # the radial profile (``physics.lut.PROFILES``)
 
     def R_d_exact(self, r_mm):
-        return R_d(np.asarray(r_mm, np.float64)[:, None], np.asarray(self.sigma_a, np.float64),
-                   np.asarray(self.sigma_s_prime, np.float64), self.eta)
+        """The profile itself, not the table's interpolation."""
+        return profile_model(self.profile).R_d(np.asarray(r_mm, np.float64)[:, None],
+                                               np.asarray(self.sigma_a, np.float64),
+                                               np.asarray(self.sigma_s_prime, np.float64), self.eta)
 
     def R_d(self, r_mm):
         """(n, 3) profile at distances r (n,) in mm: linear in sqrt(r) between 2^14 table samples out
@@ -85,8 +88,9 @@ class Material:
         return out
 
     def R_d_disk(self, radius_mm):
-        return R_d_disk(np.asarray(radius_mm, np.float64)[:, None], np.asarray(self.sigma_a, np.float64),
-                        np.asarray(self.sigma_s_prime, np.float64), self.eta)
+        return profile_model(self.profile).R_d_disk(np.asarray(radius_mm, np.float64)[:, None],
+                                                    np.asarray(self.sigma_a, np.float64),
+                                                    np.asarray(self.sigma_s_prime, np.float64), self.eta)
 
 
 TABLE_SAMPLES = 1 << 14

@@ -1,0 +1,148 @@
+"""Subsurface methods against exact transport: `make bench-exact`.
+
+Per scene (the bench set's back-lit figure with thin limbs and front-lit skin included): the floor out and
+the medium index-matched (eta = 1, so Cycles' brute force samples the lights from inside the volume and
+converges; it is the yardstick, Cycles' random walk a peer), the boundary black to light coming back from
+outside (no method here carries light from one part of the object into another through the air). The
+reference is the mean of several seeds (cached in bench/cache), their spread its noise floor.
+
+Each subsurface method is drawn with the exact-transport profile (EXACT, the default) and with the papers'
+dipole (DIPOLE), box-filtered from 3 x 3 samples per pixel as Cycles' BOX filter does, and measured by
+the per-channel mean over the object (1 = right) and the relative RMSE over 4 x 4-pixel blocks. Writes
+bench/results/exact/ (summary.md, results.json, images).
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import blender_env  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SUPERSAMPLE = 3
+BLOCK = 4
+METHODS = ("IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH")
+
+
+@contextlib.contextmanager
+def isolated(scene, subject):
+    """The exact-transport set-up: the floor out of the scene and the medium index-matched (eta = 1)."""
+    import bpy
+
+    ground = bpy.data.objects["Ground"]
+    eta = subject.translucent.eta
+    scene.collection.objects.unlink(ground)
+    subject.translucent.eta = 1.0
+    try:
+        yield
+    finally:
+        scene.collection.objects.link(ground)
+        subject.translucent.eta = eta
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "exact"))
+    parser.add_argument("--cache", default=str(ROOT / "bench" / "cache"))
+    parser.add_argument("--size", type=int, default=128, help="image width and height")
+    parser.add_argument("--scenes", nargs="*", default=["figure_backlit", "skin_frontlit", "bunny_backlit"])
+    parser.add_argument("--methods", nargs="*", default=list(METHODS))
+    parser.add_argument("--samples", type=int, default=256, help="samples per seed of the reference")
+    parser.add_argument("--seeds", type=int, default=2, help="seeds averaged into the reference (at least 2)")
+    args = parser.parse_args()
+
+    package = blender_env.start()
+    import importlib
+
+    import bpy
+
+    def mod(name):
+        return importlib.import_module(f"{package}.translucent_addon.{name}")
+
+    demo, runner, cache = mod("blender.demo"), mod("blender.compare_runner"), mod("core.reference.cache")
+    metrics, report, extract, bvh = mod("core.metrics"), mod("core.report.report"), mod("blender.extract"), \
+        mod("blender.bvh_tracer")
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    settings = runner.CompareSettings()
+    n = args.size
+    rows = []
+    for name in args.scenes:
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = demo.build_scene(name, bpy.context.scene)
+        subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
+        with isolated(scene, subject):
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+            frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, n, n))
+            tracer = bvh.BVHTracer(runner.scene_triangles(frame)[0])
+            mask = runner.interior(runner._mask(frame, tracer, {subject.name}))
+            description = runner.scene_description(depsgraph, frame, [subject])
+            seeds = []
+            for seed in range(1, args.seeds + 1):
+                desc = {**description, "engine": "CYCLES", "kind": "brute_force", "samples": args.samples,
+                        "bounces": settings.cycles_bounces, "seed": seed, "self_interreflection": False}
+                hit = cache.load(Path(args.cache), desc)
+                if hit is None:
+                    print(f"[{name}] Cycles brute force, seed {seed}, {args.samples} spp ...", flush=True)
+                    with runner.twin_materials_applied([subject], "brute_force", self_interreflection=False), \
+                            runner.engine_setup(scene, "CYCLES", **runner.cycles_options(
+                                args.samples, settings.cycles_bounces, seed=seed)):
+                        image, sec = runner.render_pixels(scene, n, n)
+                    cache.store(Path(args.cache), desc, image, sec)
+                    hit = (image, sec)
+                seeds.append(hit[0])
+            seeds = np.stack(seeds)
+            reference = seeds.mean(axis=0)
+            noise = metrics.mean_noise(seeds, mask)
+            # The reference's own block RMSE: half-sample seeds against each other, over sqrt(2).
+            pair = metrics.block_relative_rmse(seeds[0], seeds[1], mask, BLOCK)
+            floor = pair / np.sqrt(2.0) / np.sqrt(args.seeds / 2)
+            report.save_image_png(out / f"{name}_exact.png", reference)
+            print(f"[{name}] reference noise {noise:.4f}, block RMSE floor {floor:.4f}", flush=True)
+
+            for method in args.methods:
+                for profile in (("EXACT", "DIPOLE") if method != "QUADGRAPH" else ("EXACT",)):
+                    subject.translucent.method = method
+                    subject.translucent.profile = profile
+                    t0 = time.perf_counter()
+                    if method != "IMAGE_SPACE":
+                        runner.bake_objects([subject], method, progress=lambda *_: None)
+                    bake_seconds = time.perf_counter() - t0
+                    with runner.engine_setup(scene, "TRANSLUCENT_RT"):
+                        runner.render_pixels(scene, n, n)  # uploads and caches
+                        _, seconds = runner.render_pixels(scene, n, n)
+                        image, _ = runner.render_pixels(scene, n * SUPERSAMPLE, n * SUPERSAMPLE)
+                    image = image.reshape(n, SUPERSAMPLE, n, SUPERSAMPLE, 4).mean(axis=(1, 3))
+                    ratio = image[mask][:, :3].mean(0) / reference[mask][:, :3].mean(0)
+                    row = {"scene": name, "method": method, "profile": profile, "seconds": round(seconds, 3),
+                           "bake_seconds": round(bake_seconds, 1),
+                           "mean_ratio": [round(float(v), 4) for v in ratio],
+                           "block_rmse": round(metrics.block_relative_rmse(image, reference, mask, BLOCK), 4),
+                           "rel_rmse": round(metrics.relative_rmse(image, reference, mask), 4),
+                           "reference_noise": round(noise, 4), "block_rmse_floor": round(float(floor), 4)}
+                    rows.append(row)
+                    slug = f"{name}_{method}_{profile}".lower()
+                    report.save_image_png(out / f"{slug}.png", image)
+                    report.save_error_png(out / f"{slug}_error.png", image, reference, mask)
+                    print(f"[{name}] {method} {profile}: mean {row['mean_ratio']}, block RMSE {row['block_rmse']}, "
+                          f"{seconds:.2f} s", flush=True)
+    (out / "results.json").write_text(json.dumps(rows, indent=1))
+    lines = ["| scene | method | profile | mean R, G, B (1 = exact) | 4x4 block rel. RMSE | frame s |",
+             "|---" * 6 + "|"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['method']} | {r['profile']} | "
+                     f"{', '.join(f'{v:.3f}' for v in r['mean_ratio'])} | {r['block_rmse']:.3f} | {r['seconds']:.2f} |")
+    (out / "summary.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
