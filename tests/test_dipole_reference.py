@@ -1,4 +1,4 @@
-"""The CPU dipole model reference against the closed form on a thick plate."""
+"""The CPU model reference (here with the dipole profile) against the closed form on a thick plate."""
 from __future__ import annotations
 
 import math
@@ -52,7 +52,7 @@ def test_a_shadow_edge_inside_the_near_disk_is_resolved():
     from translucent_addon.core.physics.dipole import R_d
 
     sa, ss, eta = (0.05, 0.2, 0.5), (1.0, 1.5, 2.0), 1.3
-    medium = Medium(sa, ss, eta, mm_per_unit=1000.0)  # a 40 mm plate, 20 mm thick
+    medium = Medium(sa, ss, eta, mm_per_unit=1000.0, profile="DIPOLE")  # a 40 mm plate, 20 mm thick
     phi = math.radians(-45.0)
     m = np.eye(4)
     m[:3, :3] = [[math.cos(phi), 0, math.sin(phi)], [0, 1, 0], [-math.sin(phi), 0, math.cos(phi)]]
@@ -78,7 +78,7 @@ def test_a_shadow_edge_inside_the_near_disk_is_resolved():
 def test_plate_under_a_sun_matches_the_closed_form():
     """Centre of a wide, thick plate: L = F_t(w_o)/pi * R_d_total * F_t(w_i) E cos(theta_i)."""
     sa, ss, eta = (0.05, 0.2, 0.5), (1.0, 1.5, 2.0), 1.3
-    medium = Medium(sa, ss, eta, mm_per_unit=1000.0)  # a 200 mm plate, 50 mm thick
+    medium = Medium(sa, ss, eta, mm_per_unit=1000.0, profile="DIPOLE")  # a 200 mm plate, 50 mm thick
     theta = math.radians(30)
     rot = np.array([[1, 0, 0], [0, math.cos(theta), -math.sin(theta)], [0, math.sin(theta), math.cos(theta)]])
     m = np.eye(4)

@@ -390,7 +390,9 @@ def test_environment_lit_ball_matches_the_dipole_model_and_is_brighter_on_top(tr
 def test_world_light_passes_through_a_thin_slab_only_when_peeled(tr, scene):
     """A 3 mm marble slab under a bright sky, seen from below: the sky's light diffuses through to the
     underside. The peeled world samples carry it (within 5 % of the dipole model, measured 3.4 %; 26 %
-    with half the world samples); the locally flat closed form sees only the dark ground there (90 %)."""
+    with half the world samples); the locally flat closed form sees only the dark ground there (90 %).
+    With the dipole profile: the exact one's sharper peak against the world samples' spacing measures
+    7.0 % here (issue 35's note)."""
     from translucent_addon.blender.demo import environment_world
 
     environment_world(scene, _sky_image())
@@ -400,6 +402,7 @@ def test_world_light_passes_through_a_thin_slab_only_when_peeled(tr, scene):
     ob.scale = (0.06, 0.06, 0.003)
     bpy.ops.object.transform_apply(scale=True)
     ob.translucent.preset = "marble"
+    ob.translucent.profile = "DIPOLE"
     ob.translucent.method = "IMAGE_SPACE"
     add_camera(scene, (0.0, -0.12, -0.05), (0, 0, 0.05), lens=50)
     w, h = 64, 48

@@ -8,7 +8,7 @@ import pytest
 
 from translucent_addon.core import bake_store as store
 from translucent_addon.core.geometry.mesh_measures import vertex_areas
-from translucent_addon.core.physics.dipole import total_diffuse_reflectance
+from translucent_addon.core.physics.lut import profile_model
 from translucent_addon.core.physics.presets import load_presets
 from translucent_addon.techniques import registry
 from translucent_addon.techniques.texture_space import model as tsd
@@ -17,7 +17,8 @@ from translucent_addon.techniques.texture_space import throughput as lensch
 from translucent_addon.techniques.texture_space.atlas import build_atlas, rasterize, texel_mm
 
 SKIN = load_presets()["skin1"]
-MATERIAL = lensch.Material(tuple(SKIN.sigma_a), tuple(SKIN.sigma_s_prime), SKIN.eta)
+MATERIAL = lensch.Material(tuple(SKIN.sigma_a), tuple(SKIN.sigma_s_prime), SKIN.eta)  # the exact profile
+total_diffuse_reflectance = profile_model(MATERIAL.profile).total_diffuse_reflectance
 
 
 def plate(n: int, size_mm: float = 100.0):
@@ -178,8 +179,8 @@ def test_the_uniform_light_gain_leaves_the_far_response_alone(plate_bake):
 
 
 def test_uniform_light_on_a_plate_gives_the_total_diffuse_reflectance(plate_bake):
-    """B = R_dt (Jensen Eq. 6) far from the edges: +1..2 % after the uniform-light calibration
-    (+2..5 % before it: the hats overshoot the convex R_d)."""
+    """B = R_dt (the profile's total; Jensen Eq. 6 for the dipole) far from the edges: +1..2 % after the
+    uniform-light calibration (+2..5 % before it: the hats overshoot the convex R_d)."""
     v, f, atlas, bake = plate_bake
     B = lensch.radiosity(atlas, bake, np.ones((atlas.count, 3)))
     centre = np.linalg.norm(atlas.position_mm[:atlas.surface_count, :2], axis=1) < 25.0

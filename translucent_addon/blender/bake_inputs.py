@@ -25,14 +25,15 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     original = ob_eval.original
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
-    vertices, triangles, corner_normals = mesh_arrays(
-        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE")
+    vertices, triangles, corner_normals, read_triangles = mesh_arrays(
+        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", as_read=True)
     props = original.translucent
     inputs = BakeInputs(
         name=original.name,
         method=method or props.method,
         vertices=vertices,
         triangles=triangles,
+        read_triangles=read_triangles,
         corner_normals=corner_normals,
         mm_per_unit=float(props.mm_per_unit),
         sigma_a=tuple(props.sigma_a),
@@ -69,9 +70,9 @@ def homogeneous_profile(setting: str) -> str:
     return "DIPOLE" if setting == "DIPOLE" else "EXACT"
 
 
-def mesh_arrays(ob_eval, *, corner_normals: bool = False):
-    """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32, corner
-    normals (T, 3, 3) or None), read in bulk."""
+def mesh_arrays(ob_eval, *, corner_normals: bool = False, as_read: bool = False):
+    """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32 with inward
+    parts turned, corner normals (T, 3, 3) or None), read in bulk; ``as_read``: and the triangles as read."""
     mesh = ob_eval.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -85,6 +86,7 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False):
     finally:
         ob_eval.to_mesh_clear()
     vertices, triangles = vertices.reshape(-1, 3), triangles.reshape(-1, 3)
+    read = triangles
     # Inward-wound parts are baked turned outward, as the frame draws them (``extract.turn_outward``).
     flip = orient_outward(vertices, triangles).flip
     if flip.any():
@@ -94,7 +96,7 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False):
             normals = normals.copy()
             normals[flip] = normals[flip][:, [0, 2, 1]]
             normals = outward_normals(vertices[triangles], normals, flip)
-    return vertices, triangles, normals
+    return (vertices, triangles, normals, read) if as_read else (vertices, triangles, normals)
 
 
 def object_view(ob_eval):
@@ -108,7 +110,7 @@ def object_view(ob_eval):
     return ObjectView(diagonal_mm=float(np.linalg.norm(np.ptp(v_mm, axis=0))),
                       area_mm2=surface_area(v_mm, triangles), screen_pixels=screen_pixels(ob_eval),
                       sigma_a=tuple(props.sigma_a), sigma_s_prime=tuple(props.sigma_s_prime), eta=float(props.eta),
-                      triangles=len(triangles))
+                      triangles=len(triangles), profile=homogeneous_profile(props.profile))
 
 
 def screen_pixels(ob_eval) -> float | None:

@@ -270,6 +270,7 @@ def caustic_settings(s) -> CausticSettings:
 
 
 _orientation_cache: dict = {}
+TURNED: dict[str, int] = {}  # object name -> closed parts drawn turned outward in its last frame
 
 
 def _orientation(positions: np.ndarray, corner_vertex: np.ndarray, vertex_count: int) -> Orientation:
@@ -305,6 +306,7 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
         positions, normals, mat_index, tri_loops, loop_vert = mesh_corner_arrays(mesh)
         orientation = _orientation(positions, loop_vert[tri_loops], len(mesh.vertices))
         note = orientation.message(ob.original.name)
+        TURNED[ob.original.name] = orientation.turned  # for the object panel, which must not read meshes
         if note:
             frame_warnings.append(note)
             positions, normals, tri_loops = turn_outward(orientation.flip, positions, normals, tri_loops)
@@ -440,3 +442,4 @@ def clear_caches() -> None:
     _environment_cache.clear()
     _height_cache.clear()
     _orientation_cache.clear()
+    TURNED.clear()

@@ -9,7 +9,7 @@ from ..techniques.grass import bake as grass_btf
 from .bake_inputs import bake_status
 from .draw_handler import timing_lines
 from .engine import LAST_AUTO_OVERLAP, LAST_TIMINGS
-from .extract import grass_status
+from .extract import TURNED, grass_status
 from .versions import EEVEE_IDS
 
 _STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
@@ -39,6 +39,11 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         s = ob.translucent
         layout.prop(s, "method")
         layout.label(text=METHOD_DESCRIPTIONS[s.method])
+        turned = TURNED.get(ob.name, 0)
+        if turned:  # as the last frame found it (extract.frame_inputs): the panel reads no mesh
+            parts = "the mesh is" if turned == 1 else f"{turned} closed parts are"
+            layout.label(text=f"{parts.capitalize()} wound inward: drawn turned outward", icon="ERROR")
+            layout.label(text="Mesh > Normals > Recalculate Outside fixes the mesh")
         col = layout.column(align=True)
         row = col.row(align=True)
         row.prop(s, "preset")

@@ -29,6 +29,7 @@ class ObjectView:
     sigma_s_prime: tuple
     eta: float
     triangles: int | None = None  # the mesh's: a proxy finer than the mesh is refined, not decimated
+    profile: str = "EXACT"  # the radial profile its bake uses (``physics.lut.PROFILES``): its form factors' reach
 
     @property
     def pixel_mm(self) -> float:

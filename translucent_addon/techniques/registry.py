@@ -45,13 +45,16 @@ class BakeInputs:
     name: str
     method: str
     vertices: np.ndarray  # (V, 3) float32, object space of the evaluated mesh
-    triangles: np.ndarray  # (T, 3) int32
+    triangles: np.ndarray  # (T, 3) int32, inward-wound parts turned (``core/geometry/orientation``)
     mm_per_unit: float
     sigma_a: tuple
     sigma_s_prime: tuple
     eta: float
     g: float
     profile: str = "EXACT"  # the radial profile of a homogeneous medium (``physics.lut.PROFILES``)
+    # The triangles as the mesh holds them, which the hash covers: turning follows the pose (a mirroring shape
+    # key turns a part inside out), and a QUADGRAPH bake must not go stale with the pose. None: ``triangles``.
+    read_triangles: np.ndarray | None = None
     atlas_resolution: int = 512  # TEXTURE_SPACE
     proxy_spacing: float = 3.5  # TEXTURE_SPACE: mean proxy edge in atlas texels (techniques/texture_space/proxy.py)
     blending: bool = True  # TEXTURE_SPACE
@@ -100,11 +103,12 @@ class BakeInputs:
             material = {"eta": self.eta}  # cone C's half angle is the critical angle; the rest is geometry
             # An automatic resolution is chosen once, at bake time: moving the camera later does not stale it.
             extra = {"res": int(self.geocube_resolution) or "auto", **stretch}
-        geometry = {"vertices": self.vertices, "triangles": self.triangles}
+        triangles = self.triangles if self.read_triangles is None else self.read_triangles
+        geometry = {"vertices": self.vertices, "triangles": triangles}
         if self.method == "TEXTURE_SPACE" and self.corner_normals is not None:
             geometry["corner_normals"] = np.asarray(self.corner_normals, np.float32)
         if self.method == "QUADGRAPH":
-            geometry = {"triangles": self.triangles}
+            geometry = {"triangles": triangles}
             extra["vertex_count"] = int(len(self.vertices))
         return store.inputs_hash(
             geometry,

@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..data import DATA
+from . import dipole
 
 TABLE = DATA / "half_space_profile.npz"
 ETAS = (1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.8, 2.0)
@@ -84,24 +86,51 @@ def scaled(alpha_prime: float, eta: float) -> np.ndarray:
     e0, e1, te = _bracket(t.eta, eta)
     a0, a1, ta = _bracket(t.x, float(_x(alpha_prime)))
     at = [_blend(t.R_per_albedo[e, a0], t.R_per_albedo[e, a1], ta) for e in (e0, e1)]
-    return _blend(at[0], at[1], te) * alpha_prime
+    return _diffusion_tail(_blend(at[0], at[1], te) * alpha_prime, alpha_prime, eta)
 
 
-def _groups(*arrays: np.ndarray):
+TAIL_SHARE = 1e-3  # the outermost light, in few photons: drawn from the diffusion's shape instead
+
+
+def _diffusion_tail(R: np.ndarray, alpha_prime: float, eta: float) -> np.ndarray:
+    """The profile with its outermost TAIL_SHARE of light (where the Monte Carlo's annuli hold few photons and
+    scatter by orders of magnitude) replaced by the dipole's far field, the diffusion's e^(-sigma_tr r)
+    decay, matched to the table over the three annuli before (geometric mean of the ratio)."""
+    t = _table()
+    power = R * t.annulus
+    if power.sum() <= 0.0:
+        return R
+    k = int(np.searchsorted(np.cumsum(power) / power.sum(), 1.0 - TAIL_SHARE))
+    if k >= len(R) - 1 or k < 4:
+        return R
+    dip = dipole.R_d(t.centres, 1.0 - alpha_prime, alpha_prime, eta)
+    ref = slice(k - 3, k)
+    ok = (R[ref] > 0) & (dip[ref] > 0)
+    if not ok.any():
+        return R
+    ratio = float(np.exp(np.mean(np.log(R[ref][ok] / dip[ref][ok]))))
+    out = R.copy()
+    out[k:] = ratio * dip[k:]
+    return out
+
+
+def _groups(*arrays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique (alpha', eta, sigma_t') combinations of broadcast coefficient arrays: (keys, inverse)."""
     stacked = np.stack([a.ravel() for a in arrays], axis=1)
     keys, inverse = np.unique(stacked, axis=0, return_inverse=True)
     return keys, inverse.ravel()
 
 
-def _coefficients(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike):
+def _coefficients(sigma_a: ArrayLike, sigma_s_prime: ArrayLike,
+                  eta: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     sigma_a = np.asarray(sigma_a, np.float64)
     sigma_s_prime = np.asarray(sigma_s_prime, np.float64)
     sigma_t_prime = sigma_a + sigma_s_prime
     return sigma_s_prime / sigma_t_prime, sigma_t_prime, np.asarray(eta, np.float64)
 
 
-def _per_medium(x: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, evaluate):
+def _per_medium(x: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike,
+                evaluate: Callable[[np.ndarray, float, float, float], np.ndarray]) -> np.ndarray | float:
     """Apply evaluate(x * sigma_t', alpha', eta, sigma_t') to each distinct medium of the broadcast inputs."""
     alpha_prime, sigma_t_prime, eta = _coefficients(sigma_a, sigma_s_prime, eta)
     x, alpha_prime, sigma_t_prime, eta = np.broadcast_arrays(np.asarray(x, np.float64), alpha_prime,
@@ -121,7 +150,7 @@ def R_d(r: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLi
     t = _table()
     log_c = np.log(t.centres)
 
-    def evaluate(rho, a, e, st):
+    def evaluate(rho: np.ndarray, a: float, e: float, st: float) -> np.ndarray:
         R = scaled(a, e)
         positive = R > 0
         if not positive.any():
@@ -139,7 +168,7 @@ def R_d_disk(radius: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, et
     t = _table()
     edges2 = t.edges**2
 
-    def evaluate(rho, a, e, st):
+    def evaluate(rho: np.ndarray, a: float, e: float, st: float) -> np.ndarray:
         cumulative = np.concatenate([[0.0], np.cumsum(scaled(a, e) * t.annulus)])
         return np.interp(rho * rho, edges2, cumulative)
 
@@ -156,7 +185,7 @@ def r_max(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, epsilon:
     t = _table()
     edges2 = t.edges**2
 
-    def evaluate(rho, a, e, st):
+    def evaluate(rho: np.ndarray, a: float, e: float, st: float) -> np.ndarray:
         cumulative = np.concatenate([[0.0], np.cumsum(scaled(a, e) * t.annulus)])
         if cumulative[-1] <= 0.0:
             return np.zeros_like(rho)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -21,7 +22,7 @@ from .quadrature import trapezoid
 PROFILES = {"EXACT": exact_profile, "DIPOLE": dipole}
 
 
-def profile_model(kind: str = "EXACT"):
+def profile_model(kind: str = "EXACT") -> ModuleType:
     """The module of profile ``kind`` (``PROFILES``); ValueError for an unknown one."""
     try:
         return PROFILES[kind]

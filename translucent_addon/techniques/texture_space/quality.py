@@ -95,7 +95,9 @@ def form_factor_calibration(path: str = str(CURVES_JSON)) -> float:
     for r in data["texture_space"]:
         s = data["scenes"][r["scene"]]
         m = presets[s["preset"]]
-        view = ObjectView(s["diagonal_mm"], s["area_mm2"], None, m.sigma_a, m.sigma_s_prime, m.eta, s["triangles"])
+        # The bakes' own profile (curves measured before the exact profile were dipole bakes).
+        view = ObjectView(s["diagonal_mm"], s["area_mm2"], None, m.sigma_a, m.sigma_s_prime, m.eta, s["triangles"],
+                          profile=data.get("profile", "DIPOLE"))
         ratios.append(r["form_factors"] / _form_factors(view, r["proxy_vertices"]))
     return float(np.median(ratios))
 
@@ -135,7 +137,7 @@ def _form_factors(view: ObjectView, vertices: float) -> float:
     """Throughput factors of a proxy of ``vertices``: each vertex keeps those within its reach (Lensch 6.2,
     ``bake.lensch.throughput_radius``), all of them on an object smaller than the reach."""
     A_v = view.area_mm2 / vertices
-    reach = throughput_radius(Material(tuple(view.sigma_a), tuple(view.sigma_s_prime), view.eta), A_v)
+    reach = throughput_radius(Material(tuple(view.sigma_a), tuple(view.sigma_s_prime), view.eta, view.profile), A_v)
     return vertices * min(vertices, math.pi * reach * reach / A_v)
 
 
