@@ -12,7 +12,7 @@ PYTEST_PIN := pytest==8.3.5
 # The Blenders the zip-only tests install the zip into: version and the Python it needs.
 ZIP_BLENDERS := 5.2.4:$(PYTHON) 5.3.0:$(PYTHON) 4.5.15:$(PYTHON311)
 
-.PHONY: demo test test-dev test-zip lint extension wheels venv bench clean
+.PHONY: demo test test-dev test-zip lint extension wheels venv bench bench-exact clean
 
 $(STAMP): requirements.txt
 	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
@@ -54,6 +54,7 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) scripts/bench.py
+	$(PY) scripts/bench_exact.py
 	$(PY) scripts/bench_quadgraph.py
 	$(PY) scripts/bench_geocube.py
 	$(PY) scripts/bench_caustics.py
@@ -62,6 +63,10 @@ bench: $(STAMP)
 	$(PY) scripts/bench_stability.py
 	$(PY) scripts/bench_auto.py
 	$(PY) scripts/look_world_light.py
+
+# The subsurface methods against exact transport (Cycles brute force, index-matched): about 40 minutes here.
+bench-exact: $(STAMP)
+	$(PY) scripts/bench_exact.py
 
 clean:
 	rm -rf dist wheels out .pytest_cache .venv-zip-*

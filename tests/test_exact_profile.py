@@ -61,23 +61,23 @@ def _media():
     return out
 
 
-ANNULI = 8  # equal shares of the inner 95 % of the energy
+ANNULI = 6  # equal shares of the inner 95 % of the energy (each collects ~1 % MC noise)
 
 
 @pytest.mark.parametrize("eta", [1.0, 1.3])
 def test_table_matches_monte_carlo_for_every_preset(eta):
     """Total within 2 % and the profile within 5 % over annuli holding the inner 95 % of the light, for the
     36 channels of the 12 presets, against runs of their own seeds: the low albedos absorbing as they go
-    (photons per channel so that every annulus collects thousands), the high ones (alpha' >= 0.9, whose
+    (photons per channel so that every annulus collects about 10,000), the high ones (alpha' >= 0.9, whose
     long paths cost most) reweighting one unabsorbed run of 100,000 photons (MC noise ~1 % per annulus)."""
     media = _media()
     alphas = np.unique([a for _, _, a, _ in media])  # spectralon's three channels share alpha' = 1
     low = alphas[alphas < 0.9]
     guess = np.array([exact_profile.total_diffuse_reflectance(1.0 - a, a, eta) for a in low])
-    photons = (25_000 / np.maximum(guess, 0.002)).astype(int)
+    photons = (50_000 / np.maximum(guess, 0.005)).astype(int)
     absorbing = half_space_mc.trace(int(photons.sum()), eta, albedo=np.repeat(low, photons), seed=11)
     unabsorbed = half_space_mc.trace(100_000, eta, seed=12)
-    failures = []
+    failures, worst_total, worst_annulus = [], 0.0, 0.0
     for name, channel, alpha, st in media:
         if alpha < 0.9:
             sel = absorbing.albedo == alpha
@@ -90,6 +90,7 @@ def test_table_matches_monte_carlo_for_every_preset(eta):
         mc_total = w.sum() * norm
         sa, ss = st * (1 - alpha), st * alpha
         table_total = exact_profile.total_diffuse_reflectance(sa, ss, eta)
+        worst_total = max(worst_total, abs(table_total / mc_total - 1))
         if abs(table_total / mc_total - 1) > 0.02:
             failures.append(f"{name} {channel}: total {table_total:.4f} vs MC {mc_total:.4f}")
         order = np.argsort(rho)
@@ -100,8 +101,10 @@ def test_table_matches_monte_carlo_for_every_preset(eta):
         r_mm = edges / st
         table_power = np.diff(exact_profile.R_d_disk(r_mm, sa, ss, eta))
         ratio = table_power / mc_power
+        worst_annulus = max(worst_annulus, float(np.max(np.abs(ratio - 1))))
         if np.any(np.abs(ratio - 1) > 0.05):
             failures.append(f"{name} {channel}: annulus ratios {np.round(ratio, 3).tolist()}")
+    print(f"eta {eta}: worst total {100 * worst_total:.2f} %, worst annulus {100 * worst_annulus:.2f} %")
     assert not failures, "\n".join(failures)
 
 
