@@ -95,6 +95,22 @@ def test_a_missing_bake_is_drawn_as_base_with_a_warning(tr, scene, method):
     assert f"'Cube': {method} bake is missing; drawn with its base colour. Press Bake" in frame.warnings
 
 
+@pytest.mark.parametrize("method", ["OFF", "IMAGE_SPACE"])
+@pytest.mark.parametrize("scale", [(0.0, 0.0, 0.0), (1.0, 0.0, 1.0)])
+def test_an_object_scaled_to_zero_leaves_the_frame_as_if_hidden(tr, scene, method, scale):
+    """Scaling to zero hides things in animation; it made F12 black (a singular normal matrix). Now the
+    frame equals the one with the object hidden, and no error is reported."""
+    lit_cube_scene(scene)
+    extra = add_cube(scene, "Extra", size=0.5, location=(1.2, 0.8, 0.3), color=(0.2, 0.7, 0.3))
+    extra.translucent.method = method
+    extra.scale = scale
+    flattened = render(scene, 48, 48)
+    extra.hide_render = True
+    hidden = render(scene, 48, 48)
+    assert np.isfinite(flattened).all() and flattened[..., :3].max() > 0.05, "the rest of the frame is drawn"
+    np.testing.assert_allclose(flattened, hidden, atol=1e-6)
+
+
 def test_modifiers_and_instances_are_drawn_evaluated(tr, scene):
     lit_cube_scene(scene)
     cube = bpy.data.objects["Cube"]

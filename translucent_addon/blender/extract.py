@@ -371,6 +371,14 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
 
+def collapsed(matrix_world: np.ndarray) -> bool:
+    """Whether an instance's transform flattens it to no volume (a scale of 0 on some axis): its normals and
+    the methods' object-space inverses are undefined, and it covers no pixel worth drawing."""
+    linear = np.asarray(matrix_world, np.float64)[:3, :3]
+    size = float(np.max(np.linalg.norm(linear, axis=0)))
+    return not np.isfinite(linear).all() or size == 0.0 or abs(float(np.linalg.det(linear))) <= 1e-12 * size**3
+
+
 def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = False) -> FrameInputs:
     """Everything of the evaluated scene that the pipeline draws."""
     scene = depsgraph.scene
@@ -381,6 +389,8 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
         if ob.type in GEOMETRY_TYPES:
             if only_translucent and ob.original.translucent.method == "OFF":
                 continue
+            if collapsed(np.array(inst.matrix_world)):
+                continue  # scaled to zero (a common way to hide in animation): drawn as if hidden
             m = _mesh_instance(inst, ob, warnings)
             if m is not None:
                 meshes.append(m)
