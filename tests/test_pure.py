@@ -62,7 +62,10 @@ def test_presets_load_with_units_mm():
         ((0, 0, 0), (1, 0, 1), 1.3, 0.0, "material: sigma_s_prime.G = 0 mm^-1, must be > 0"),
         ((0, 0, 0), (1, 1, -2), 1.3, 0.0, "material: sigma_s_prime.B = -2 mm^-1, must be > 0"),
         ((0, math.nan, 0), (1, 1, 1), 1.3, 0.0, "material: sigma_a.G is nan, not a finite number"),
-        ((0, 0, 0), (1, 1, 1), 0.0, 0.0, "material: eta = 0.0, must be a positive index of refraction"),
+        ((0, 0, 0), (1, 1, 1), 0.0, 0.0, "material: eta = 0.0, must be an index of refraction of at least 1 "
+                                          "(a medium denser than the air around it)"),
+        ((0, 0, 0), (1, 1, 1), 0.5, 0.0, "material: eta = 0.5, must be an index of refraction of at least 1 "
+                                          "(a medium denser than the air around it)"),
         ((0, 0, 0), (1, 1, 1), 1.3, 1.0, "material: g = 1.0, must lie in (-1, 1)"),
     ],
 )

@@ -111,6 +111,21 @@ def test_an_object_scaled_to_zero_leaves_the_frame_as_if_hidden(tr, scene, metho
     np.testing.assert_allclose(flattened, hidden, atol=1e-6)
 
 
+def test_a_medium_read_from_a_file_with_eta_below_1_is_refused_and_the_rest_drawn(tr, scene):
+    """The IOR setting stops at 1, a file (or a script writing the ID property) does not: 0.5 drew non-finite
+    pixels. Now the object is drawn with its base colour and the frame says why."""
+    lit_cube_scene(scene)
+    cube = bpy.data.objects["Cube"]
+    cube.translucent.method = "IMAGE_SPACE"
+    cube.translucent["eta"] = 0.5  # what a file can hold
+    assert cube.translucent.eta == pytest.approx(0.5)
+    frame = _frame_of(tr, scene, 16, 16)
+    assert any(w.startswith("'Cube': eta = 0.5, must be an index of refraction of at least 1")
+               and w.endswith("drawn with its base colour") for w in frame.warnings), frame.warnings
+    image = render(scene, 48, 48)
+    assert np.isfinite(image).all() and image[..., :3].max() > 0.05
+
+
 def test_modifiers_and_instances_are_drawn_evaluated(tr, scene):
     lit_cube_scene(scene)
     cube = bpy.data.objects["Cube"]

@@ -27,6 +27,7 @@ from ..core.geometry.mesh_measures import uv_tangents
 from ..core.geometry.orientation import Orientation, corner_order, orient_outward, outward_normals
 from ..core.lights import emitters_from_light
 from ..core.physics.lut import BLUR_MIN
+from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
 from .bake_inputs import bake_status, homogeneous_profile
@@ -336,6 +337,13 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
         medium = None
         if method != "OFF":
             s = original.translucent
+            try:  # a file can hold what the settings' limits refuse (eta 0.5, NaN): never drawn, and said
+                validate_coefficients(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g),
+                                      name=f"'{name}'")
+            except CoefficientError as err:
+                frame_warnings.append(f"{err}; drawn with its base colour")
+                method, handle = "OFF", None
+        if method != "OFF":
             layer = {}
             if s.profile == "MULTIPOLE":
                 layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),

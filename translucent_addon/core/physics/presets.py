@@ -47,7 +47,8 @@ def validate_coefficients(sigma_a: tuple[float, float, float], sigma_s_prime: tu
     """Raise CoefficientError with a one-line reason if the medium is not physical.
 
     sigma_a may be 0 (no absorption, e.g. spectralon); sigma_s' must be > 0, since
-    a non-scattering medium has no diffusion; eta must be > 0; -1 < g < 1.
+    a non-scattering medium has no diffusion; eta >= 1 (the profiles, the Fresnel terms and the twin
+    assume a medium denser than air; a file can hold less than the setting's minimum); -1 < g < 1.
     """
     for label, values, allow_zero in (("sigma_a", sigma_a, True), ("sigma_s_prime", sigma_s_prime, False)):
         for channel, v in zip("RGB", values):
@@ -56,8 +57,9 @@ def validate_coefficients(sigma_a: tuple[float, float, float], sigma_s_prime: tu
             if v < 0 or (v == 0 and not allow_zero):
                 need = ">= 0" if allow_zero else "> 0"
                 raise CoefficientError(f"{name}: {label}.{channel} = {v} mm^-1, must be {need}")
-    if not (math.isfinite(eta) and eta > 0):
-        raise CoefficientError(f"{name}: eta = {eta}, must be a positive index of refraction")
+    if not (math.isfinite(eta) and eta >= 1.0):
+        raise CoefficientError(f"{name}: eta = {eta}, must be an index of refraction of at least 1 "
+                               f"(a medium denser than the air around it)")
     if not (-1.0 < g < 1.0):
         raise CoefficientError(f"{name}: g = {g}, must lie in (-1, 1)")
 
