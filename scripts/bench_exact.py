@@ -14,7 +14,6 @@ bench/results/exact/ (summary.md, results.json, images).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import sys
 import time
@@ -24,27 +23,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import blender_env  # noqa: E402
+from bench_quadgraph import isolated  # noqa: E402  (floor out, index-matched: the same set-up)
 
 ROOT = Path(__file__).resolve().parents[1]
 SUPERSAMPLE = 3
 BLOCK = 4
 METHODS = ("IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH")
-
-
-@contextlib.contextmanager
-def isolated(scene, subject):
-    """The exact-transport set-up: the floor out of the scene and the medium index-matched (eta = 1)."""
-    import bpy
-
-    ground = bpy.data.objects["Ground"]
-    eta = subject.translucent.eta
-    scene.collection.objects.unlink(ground)
-    subject.translucent.eta = 1.0
-    try:
-        yield
-    finally:
-        scene.collection.objects.link(ground)
-        subject.translucent.eta = eta
 
 
 def main() -> int:

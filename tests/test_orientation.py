@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from translucent_addon.core.geometry.orientation import corner_order, orient_outward, outward_normals
+from translucent_addon.core.geometry.orientation import orient_outward, outward_normals, turned
 
 
 def _ball(centre=(0.0, 0.0, 0.0), radius=1.0, levels=2):
@@ -46,12 +46,12 @@ def test_turning_reorders_corners_and_points_computed_normals_out():
     facet_in = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     normals = np.repeat((facet_in / np.linalg.norm(facet_in, axis=1, keepdims=True))[:, None], 3, axis=1)
     o = orient_outward(v, inward)
-    turned = corners.reshape(-1, 3)[corner_order(o.flip)].reshape(-1, 3, 3)
-    n = outward_normals(turned, normals.reshape(-1, 3)[corner_order(o.flip)].reshape(-1, 3, 3), o.flip)
-    centroid_dir = turned.mean(axis=1)
+    turned_corners = turned(o.flip, corners)
+    n = outward_normals(turned_corners, turned(o.flip, normals), o.flip)
+    centroid_dir = turned_corners.mean(axis=1)
     assert np.all(np.einsum("tij,tj->ti", n, centroid_dir) > 0), "every corner normal points away from the centre"
     custom_out = -normals  # custom normals that already point out are kept
-    kept = outward_normals(turned, custom_out, o.flip)
+    kept = outward_normals(turned_corners, custom_out, o.flip)
     np.testing.assert_array_equal(kept, custom_out)
 
 

@@ -6,7 +6,7 @@ import numpy as np
 from ..core import bake_store as store
 from ..core.geometry.mesh_measures import stretch_of
 from ..core.geometry.mesh_subdivide import midpoint_subdivision
-from ..core.geometry.orientation import orient_outward, outward_normals
+from ..core.geometry.orientation import orient_outward, outward_normals, turned
 from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, needs_bake
@@ -26,7 +26,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
     vertices, triangles, corner_normals, read_triangles = mesh_arrays(
-        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", as_read=True)
+        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE")
     props = original.translucent
     inputs = BakeInputs(
         name=original.name,
@@ -70,9 +70,9 @@ def homogeneous_profile(setting: str) -> str:
     return "DIPOLE" if setting == "DIPOLE" else "EXACT"
 
 
-def mesh_arrays(ob_eval, *, corner_normals: bool = False, as_read: bool = False):
+def mesh_arrays(ob_eval, *, corner_normals: bool = False):
     """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32 with inward
-    parts turned, corner normals (T, 3, 3) or None), read in bulk; ``as_read``: and the triangles as read."""
+    parts turned, corner normals (T, 3, 3) or None, the triangles as read), in bulk."""
     mesh = ob_eval.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -85,25 +85,22 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False, as_read: bool = False)
             normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
     finally:
         ob_eval.to_mesh_clear()
-    vertices, triangles = vertices.reshape(-1, 3), triangles.reshape(-1, 3)
-    read = triangles
+    vertices, read = vertices.reshape(-1, 3), triangles.reshape(-1, 3)
+    triangles = read
     # Inward-wound parts are baked turned outward, as the frame draws them (``extract.turn_outward``).
     flip = orient_outward(vertices, triangles).flip
     if flip.any():
-        triangles = triangles.copy()
-        triangles[flip] = triangles[flip][:, [0, 2, 1]]
+        triangles = turned(flip, read)
         if normals is not None:
-            normals = normals.copy()
-            normals[flip] = normals[flip][:, [0, 2, 1]]
-            normals = outward_normals(vertices[triangles], normals, flip)
-    return (vertices, triangles, normals, read) if as_read else (vertices, triangles, normals)
+            normals = outward_normals(vertices[triangles], turned(flip, normals), flip)
+    return vertices, triangles, normals, read
 
 
 def object_view(ob_eval):
     """What AUTO quality needs of an object (``quality_auto.ObjectView``): its size in mm with its scale,
     its area, its material and its bounding-box diagonal on the camera's image."""
     props = ob_eval.original.translucent
-    vertices, triangles, _ = mesh_arrays(ob_eval)
+    vertices, triangles, _, _ = mesh_arrays(ob_eval)
     if not len(triangles):
         raise BakeInputError(f"'{ob_eval.original.name}' has no faces: nothing to choose resolutions for")
     v_mm = vertices.astype(np.float64) @ stretch_of(np.array(ob_eval.matrix_world)[:3, :3]).T * props.mm_per_unit

@@ -361,13 +361,12 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     ref_image, ref_seconds, ref_cached = yield from cached_cycles(ref_kind, settings.reference_samples)
     add(f"Cycles {ref_title} (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
         ref_cached, samples=settings.reference_samples)
-    brute_image = ref_image if exact else None
+    check_image = None
     if settings.brute_force_reference_samples:
         check_image, sec, hit = yield from cached_cycles(check_kind, settings.brute_force_reference_samples)
         add(f"Cycles {check_kind.replace('_', ' ')} (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp",
             sec, check_image, hit, samples=settings.brute_force_reference_samples)
-        if not exact:
-            brute_image = check_image
+    brute_image = ref_image if exact else check_image
     for spp in settings.cycles_random_walk_samples:
         img, sec, hit = yield from cached_cycles("random_walk", spp)
         add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)

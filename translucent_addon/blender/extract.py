@@ -24,7 +24,7 @@ from ..core.frame import (
     ReliefSurface,
 )
 from ..core.geometry.mesh_measures import uv_tangents
-from ..core.geometry.orientation import Orientation, corner_order, orient_outward, outward_normals
+from ..core.geometry.orientation import Orientation, orient_outward, outward_normals, turned
 from ..core.lights import emitters_from_light
 from ..core.physics.lut import BLUR_MIN
 from ..core.physics.presets import CoefficientError, validate_coefficients
@@ -274,11 +274,9 @@ _orientation_cache: dict = {}
 TURNED: dict[str, int] = {}  # object name -> closed parts drawn turned outward in its last frame
 
 
-def _orientation(positions: np.ndarray, corner_vertex: np.ndarray, vertex_count: int) -> Orientation:
-    """``orientation.orient_outward`` of a mesh read as corners, cached on its corner positions and vertices."""
-    digest = hashlib.blake2b(positions.tobytes(), digest_size=16)
-    digest.update(corner_vertex.tobytes())
-    key = digest.hexdigest()
+def _orientation(key: str, positions: np.ndarray, corner_vertex: np.ndarray, vertex_count: int) -> Orientation:
+    """``orientation.orient_outward`` of a mesh read as corners, cached on ``key``, a digest of its corner
+    positions and vertices."""
     cached = _orientation_cache.get(key)
     if cached is None:
         vertices = np.zeros((vertex_count, 3), np.float64)
@@ -293,10 +291,10 @@ def _orientation(positions: np.ndarray, corner_vertex: np.ndarray, vertex_count:
 def turn_outward(flip: np.ndarray, positions: np.ndarray, normals: np.ndarray, tri_loops: np.ndarray):
     """Corner arrays with the flipped triangles turned (corners 0, 2, 1) and their normals to the new outside
     (negated where they point against the turned facet; custom normals that already point out are kept)."""
-    order = corner_order(flip)
-    positions, tri_loops = positions[order], tri_loops[order]
-    normals = outward_normals(positions.reshape(-1, 3, 3), normals[order].reshape(-1, 3, 3), flip)
-    return positions, normals.reshape(-1, 3).astype(np.float32), tri_loops
+    corners = turned(flip, positions.reshape(-1, 3, 3))
+    normals = outward_normals(corners, turned(flip, normals.reshape(-1, 3, 3)), flip)
+    return (corners.reshape(-1, 3), normals.reshape(-1, 3).astype(np.float32),
+            turned(flip, tri_loops.reshape(-1, 3)).ravel())
 
 
 def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
@@ -305,7 +303,11 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
         if mesh is None or len(mesh.polygons) == 0:
             return None
         positions, normals, mat_index, tri_loops, loop_vert = mesh_corner_arrays(mesh)
-        orientation = _orientation(positions, loop_vert[tri_loops], len(mesh.vertices))
+        corner_vertex = loop_vert[tri_loops]
+        # One digest of the geometry as read keys both the orientation and the instance (turning follows from it).
+        digest = hashlib.blake2b(positions.tobytes(), digest_size=16)
+        digest.update(corner_vertex.tobytes())
+        orientation = _orientation(digest.hexdigest(), positions, corner_vertex, len(mesh.vertices))
         note = orientation.message(ob.original.name)
         TURNED[ob.original.name] = orientation.turned  # for the object panel, which must not read meshes
         if note:
@@ -315,7 +317,6 @@ def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
                            dtype=np.float32)
         colors = palette[np.clip(mat_index, 0, len(palette) - 1)].repeat(3, axis=0)
         paint, tint = paint_arrays(ob, mesh, tri_loops, loop_vert)  # per corner, in the turned order
-        digest = hashlib.blake2b(positions.tobytes(), digest_size=8)
         for part in (normals, colors, paint, tint):
             if part is not None:
                 digest.update(part.tobytes())

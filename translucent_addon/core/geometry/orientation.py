@@ -73,11 +73,12 @@ def orient_outward(positions: np.ndarray, triangles: np.ndarray) -> Orientation:
     return Orientation(inward[part], int(encloses.sum()), int(inward.sum()))
 
 
-def corner_order(flip: np.ndarray) -> np.ndarray:
-    """(3T,) permutation of per-corner arrays that turns the flipped triangles (corners 0, 2, 1)."""
-    order = np.arange(3 * len(flip)).reshape(-1, 3)
-    order[flip] = order[flip][:, [0, 2, 1]]
-    return order.ravel()
+def turned(flip: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """A per-triangle corner array (T, 3, ...) with the flipped triangles turned (corners 0, 2, 1): vertex
+    indices, positions, normals, loops alike."""
+    out = np.array(corners, copy=True)
+    out[flip] = out[flip][:, [0, 2, 1]]
+    return out
 
 
 def outward_normals(corner_positions: np.ndarray, normals: np.ndarray, flip: np.ndarray) -> np.ndarray:

@@ -114,6 +114,12 @@ def _diffusion_tail(R: np.ndarray, alpha_prime: float, eta: float) -> np.ndarray
     return out
 
 
+@functools.lru_cache(maxsize=256)
+def _cumulative(alpha_prime: float, eta: float) -> np.ndarray:
+    """int R^ 2 pi rho drho from 0 to each annulus edge (the disk integrals R_d_disk and r_max read)."""
+    return np.concatenate([[0.0], np.cumsum(scaled(alpha_prime, eta) * _table().annulus)])
+
+
 def _groups(*arrays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique (alpha', eta, sigma_t') combinations of broadcast coefficient arrays: (keys, inverse)."""
     stacked = np.stack([a.ravel() for a in arrays], axis=1)
@@ -169,8 +175,7 @@ def R_d_disk(radius: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, et
     edges2 = t.edges**2
 
     def evaluate(rho: np.ndarray, a: float, e: float, st: float) -> np.ndarray:
-        cumulative = np.concatenate([[0.0], np.cumsum(scaled(a, e) * t.annulus)])
-        return np.interp(rho * rho, edges2, cumulative)
+        return np.interp(rho * rho, edges2, _cumulative(a, e))
 
     return _per_medium(radius, sigma_a, sigma_s_prime, eta, evaluate)
 
@@ -186,7 +191,7 @@ def r_max(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: ArrayLike, epsilon:
     edges2 = t.edges**2
 
     def evaluate(rho: np.ndarray, a: float, e: float, st: float) -> np.ndarray:
-        cumulative = np.concatenate([[0.0], np.cumsum(scaled(a, e) * t.annulus)])
+        cumulative = _cumulative(a, e)
         if cumulative[-1] <= 0.0:
             return np.zeros_like(rho)
         return np.full_like(rho, np.sqrt(np.interp((1.0 - epsilon) * cumulative[-1], cumulative, edges2)) / st)

@@ -41,12 +41,17 @@ class Escapes:
     truncated: int  # photons still inside after max_scatterings
 
 
-def _isotropic(rng: np.random.Generator, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """k isotropic directions: (horizontal unit vector scaled by sin, mu = cos to the inward normal)."""
-    mu = 2.0 * rng.random(k) - 1.0
-    phi = 2.0 * np.pi * rng.random(k)
+def _horizontal(rng: np.random.Generator, mu: np.ndarray) -> np.ndarray:
+    """The horizontal part (k, 2) of directions at cosines mu to the normal, uniform in azimuth."""
+    phi = 2.0 * np.pi * rng.random(len(mu))
     s = np.sqrt(np.maximum(0.0, 1.0 - mu * mu))
-    return np.stack([s * np.cos(phi), s * np.sin(phi)], axis=1), mu
+    return np.stack([s * np.cos(phi), s * np.sin(phi)], axis=1)
+
+
+def _isotropic(rng: np.random.Generator, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """k isotropic directions: (horizontal part, mu = cos to the inward normal)."""
+    mu = 2.0 * rng.random(k) - 1.0
+    return _horizontal(rng, mu), mu
 
 
 def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed: int = 0,
@@ -73,24 +78,22 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
         launched_entered += len(idx)
         mu_i = mu_i[idx]
         mu = np.sqrt(1.0 - (1.0 - mu_i * mu_i) / (eta * eta))  # Snell, inward cosine
-        phi = 2.0 * np.pi * rng.random(len(idx))
-        s = np.sqrt(np.maximum(0.0, 1.0 - mu * mu))
+        dxy = _horizontal(rng, mu)
         xy = np.zeros((len(idx), 2))
-        dxy = np.stack([s * np.cos(phi), s * np.sin(phi)], axis=1)
         z = np.zeros(len(idx))
         n = np.zeros(len(idx), np.int64)
         w = np.ones(len(idx))
         a = None if per_photon is None else per_photon[start:start + k][idx]
-        ident = np.arange(len(idx))
         out_rho, out_n, out_w, out_a = [], [], [], []
-        while len(ident):
+        while len(z):
             # Free flight; a path that crosses z = 0 meets the boundary there.
-            ell = -np.log1p(-rng.random(len(ident)))
+            ell = -np.log1p(-rng.random(len(z)))
             z_new = z + ell * mu
             crosses = z_new < 0.0
             t = np.where(crosses, z / np.where(crosses, -mu, 1.0), ell)
             xy += dxy * t[:, None]
             z = np.where(crosses, 0.0, z_new)
+            keep = np.ones(len(z), bool)
             if crosses.any():
                 c = np.flatnonzero(crosses)
                 # Fresnel at the inside of the boundary: reflected (the rest of the flight mirrored, which the
@@ -110,15 +113,10 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
                 out_w.append(w[gone])
                 if a is not None:
                     out_a.append(a[gone])
-                keep = np.ones(len(ident), bool)
                 keep[gone] = False
-                # Photons reflected at the boundary still collide at the end of their flight, below.
-                scatter = keep.copy()
-            else:
-                keep = np.ones(len(ident), bool)
-                scatter = keep
-            # Collide: every photon still inside scatters isotropically.
-            sc = np.flatnonzero(scatter)
+            # Collide: every photon still inside scatters isotropically (those reflected at the boundary at the
+            # end of their mirrored flight).
+            sc = np.flatnonzero(keep)
             n[sc] += 1
             dxy[sc], mu[sc] = _isotropic(rng, len(sc))
             if a is not None:
@@ -133,7 +131,7 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
                 over = n >= max_scatterings
                 truncated += int((over & keep).sum())
                 keep &= ~over
-            ident, xy, dxy, z, mu, n, w = ident[keep], xy[keep], dxy[keep], z[keep], mu[keep], n[keep], w[keep]
+            xy, dxy, z, mu, n, w = xy[keep], dxy[keep], z[keep], mu[keep], n[keep], w[keep]
             if a is not None:
                 a = a[keep]
         parts.append((np.concatenate(out_rho) if out_rho else np.zeros(0),
