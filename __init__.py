@@ -49,6 +49,7 @@ def unregister():
     _draw_handler.unregister()
     _techniques.clear_caches()
     _extract.clear_caches()
+    _engine.free()
     _bake_cache.clear()
     _environment.clear_cache()
     _shaders.free_all()

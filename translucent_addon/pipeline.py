@@ -237,13 +237,17 @@ def draw_to_region(pipeline: Pipeline, frame: FrameInputs, size, bind_display, u
     import gpu
     from gpu_extras.presets import draw_texture_2d
 
+    region_fb = gpu.state.active_framebuffer_get()
     off = pipeline.targets.get("viewport_offscreen")
     if off is None or (off.width, off.height) != tuple(size):
         off = pipeline.targets["viewport_offscreen"] = gpu.types.GPUOffScreen(*size, format="RGBA16F")
     with off.bind():
         pipeline.draw(frame)
-    gpu.state.blend_set("ALPHA_PREMULT")
-    bind_display()
-    draw_texture_2d(off.texture_color, (0, 0), *size)
-    unbind_display()
-    gpu.state.blend_set("NONE")
+    # Making an offscreen leaves no framebuffer bound (measured headless: a 0x0 viewport after it), so the first
+    # frame after a resize drew its image nowhere: the region's is bound for it by name.
+    with region_fb.bind():
+        gpu.state.blend_set("ALPHA_PREMULT")
+        bind_display()
+        draw_texture_2d(off.texture_color, (0, 0), *size)
+        unbind_display()
+        gpu.state.blend_set("NONE")

@@ -1,22 +1,25 @@
 """Blender object -> BakeInputs, and the bake status of an object (thin, bpy-facing)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from ..core import bake_store as store
 from ..core.geometry.mesh_measures import stretch_of
 from ..core.geometry.mesh_subdivide import midpoint_subdivision
-from ..core.geometry.orientation import orient_outward, outward_normals, turned
+from ..core.geometry.orientation import outward_normals, turned
 from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, needs_bake
 from ..techniques.texture_space.proxy import surface_area, target_triangles
+from . import mesh_read
 from .bvh_tracer import BVHTracer
 from .demo import mesh_from_arrays
-from .mesh_read import mesh_corner_arrays
 
 
-def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> BakeInputs:
+def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: str = "VIEWPORT",
+           read=None) -> BakeInputs:
     """Inputs of a bake from an evaluated object (modifiers applied).
 
     ``for_bake``: also make what only the bake itself needs (TEXTURE_SPACE: the decimated proxy),
@@ -26,7 +29,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False) -> Bak
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
     vertices, triangles, corner_normals, read_triangles = mesh_arrays(
-        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE")
+        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", mode=mode, read=read)
     props = original.translucent
     inputs = BakeInputs(
         name=original.name,
@@ -70,30 +73,36 @@ def homogeneous_profile(setting: str) -> str:
     return "DIPOLE" if setting == "DIPOLE" else "EXACT"
 
 
-def mesh_arrays(ob_eval, *, corner_normals: bool = False):
+_ARRAYS: dict = {}  # (read key, corner normals?) -> (MeshRead, arrays): a bake's geometry, per mesh as read
+_HASHES: dict = {}  # (read key, method) -> (MeshRead, parameters as JSON, inputs hash): the status of a bake
+
+
+def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT", read=None):
     """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32 with inward
-    parts turned, corner normals (T, 3, 3) or None, the triangles as read), in bulk."""
-    mesh = ob_eval.to_mesh()
-    try:
-        mesh.calc_loop_triangles()
-        vertices = np.empty(len(mesh.vertices) * 3, np.float32)
-        mesh.vertices.foreach_get("co", vertices)
-        triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-        normals = None
-        if corner_normals:
-            normals = mesh_corner_arrays(mesh)[1].reshape(-1, 3, 3)
-    finally:
-        ob_eval.to_mesh_clear()
-    vertices, read = vertices.reshape(-1, 3), triangles.reshape(-1, 3)
-    triangles = read
+    parts turned, corner normals (T, 3, 3) or None, the triangles as read), in bulk; made again only when the
+    mesh changed (``mesh_read``; ``mode``: the depsgraph's, which names its cache entry; ``read``: the mesh as
+    the caller read it, not read again)."""
+    key = (mode, ob_eval.original.name)
+    if read is None:
+        mesh = ob_eval.to_mesh()
+        try:
+            read = mesh_read.read(mesh, key)
+        finally:
+            ob_eval.to_mesh_clear()
+    cached = _ARRAYS.get((key, corner_normals))
+    if cached is not None and cached[0] is read:
+        return cached[1]
+    vertices, triangles = read.vertices, read.triangles
+    normals = read.corner_normals[read.tri_loops] if corner_normals else None
     # Inward-wound parts are baked turned outward, as the frame draws them (``extract.turn_outward``).
-    flip = orient_outward(vertices, triangles).flip
+    flip = read.orientation.flip
     if flip.any():
-        triangles = turned(flip, read)
+        triangles = turned(flip, read.triangles)
         if normals is not None:
             normals = outward_normals(vertices[triangles], turned(flip, normals), flip)
-    return vertices, triangles, normals, read
+    arrays = (vertices, triangles, normals, read.triangles)
+    _ARRAYS[(key, corner_normals)] = (read, arrays)
+    return arrays
 
 
 def object_view(ob_eval):
@@ -177,12 +186,33 @@ def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
     return v.reshape(-1, 3)[used], t.reshape(-1, 3).astype(np.int32)
 
 
-def bake_status(ob_eval, method: str | None = None) -> str:
-    """'NONE' (method bakes nothing), 'MISSING', 'STALE' or 'OK'."""
+def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read=None) -> str:
+    """'NONE' (method bakes nothing), 'MISSING', 'STALE' or 'OK' (``mode``: the depsgraph's)."""
     method = method or ob_eval.original.translucent.method
     if not needs_bake(method):
         return "NONE"
     original = ob_eval.original
     if store.stored_hash(original, method) is None:
         return "MISSING"
-    return store.status(original, method, gather(ob_eval, method).hash())
+    return store.status(original, method, inputs_hash(gather(ob_eval, method, mode=mode, read=read), mode))
+
+
+def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT") -> str:
+    """``inputs.hash()``, hashed again only when the mesh or a parameter changed: a frame and a panel redraw ask
+    for it every time."""
+    geometry, params = inputs.hash_parts()
+    read = _ARRAYS.get(((mode, inputs.name), inputs.method == "TEXTURE_SPACE"), (None,))[0]
+    key = (mode, inputs.name, inputs.method)
+    text = json.dumps(params, sort_keys=True, default=float)
+    cached = _HASHES.get(key)
+    if read is not None and cached is not None and cached[0] is read and cached[1] == text:
+        return cached[2]
+    digest = store.inputs_hash(geometry, params)
+    if read is not None:
+        _HASHES[key] = (read, text, digest)
+    return digest
+
+
+def clear_caches() -> None:
+    _ARRAYS.clear()
+    _HASHES.clear()

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import time
 
 import bpy
 import numpy as np
@@ -23,9 +24,11 @@ LAST_TIMINGS: dict = {}
 LAST_AUTO_OVERLAP: dict = {}
 
 
-def _keep_timings(pipeline, source: str) -> None:
+def _keep_timings(pipeline, source: str, **outside: float) -> None:
+    """The passes' seconds, and the frame's wall time (``frame``) and reading the scene (``extract``)."""
     LAST_TIMINGS.clear()
     LAST_TIMINGS.update(pipeline.last_timings)
+    LAST_TIMINGS.update(outside)
     LAST_TIMINGS["source"] = source
 
 
@@ -55,6 +58,62 @@ def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, captur
                         coherence_frame, capture)
 
 
+_FINAL: dict = {}  # the F12 / animation pipeline, kept across renders: Blender makes an engine per frame
+
+
+def final_pipeline() -> Pipeline:
+    """The pipeline of F12 and batch renders, whose uploads (vertex batches, targets) outlive one render."""
+    if "pipeline" not in _FINAL:
+        _FINAL["pipeline"] = Pipeline()
+    return _FINAL["pipeline"]
+
+
+def free() -> None:
+    """Drop the F12 pipeline (the extension is disabled)."""
+    _FINAL.clear()
+
+
+class Viewport:
+    """The viewport's state between redraws: its pipeline and what the depsgraph updates said changed.
+
+    Blender's engines work this way: ``view_update`` hands over ``depsgraph.updates``, ``view_draw`` draws;
+    an object whose geometry no update named is not read again. Until the first draw, and after an update
+    of anything but an object (a mesh datablock, a collection, the scene: a frame change), every mesh is read
+    and compared (``mesh_read``), which is still sound, only slower."""
+
+    def __init__(self):
+        self.pipeline = Pipeline()
+        self.frames = 0  # for IMAGE_SPACE's sample coherence
+        self.changed: set[str] = set()
+        self.read_all = True
+
+    def update(self, updates) -> None:
+        """Note what ``depsgraph.updates`` say changed (``DepsgraphUpdate``-like records)."""
+        for u in updates:
+            if not u.is_updated_geometry:
+                continue
+            if isinstance(u.id, bpy.types.Object):
+                self.changed.add(u.id.original.name)
+            else:
+                self.read_all = True
+
+    def draw(self, depsgraph, camera, size, bind_display, unbind_display):
+        """One viewport frame into the bound framebuffer (``draw_to_region``): returns the frame drawn."""
+        t0 = time.perf_counter()
+        read_all, changed = self.read_all, self.changed
+        frame = extract.frame_inputs(depsgraph, camera,
+                                     trusted=None if read_all else (lambda name: name not in changed))
+        self.read_all, self.changed = False, set()
+        self.frames += 1
+        frame = dataclasses.replace(frame, settings=draw_settings(
+            depsgraph.scene, frame, "viewport", self.frames, capture=False))
+        t1 = time.perf_counter()
+        self.pipeline.forget({m.key for m in frame.meshes})
+        draw_to_region(self.pipeline, frame, size, bind_display, unbind_display)
+        _keep_timings(self.pipeline, "viewport", extract=t1 - t0, frame=time.perf_counter() - t0)
+        return frame
+
+
 class TranslucentRenderEngine(bpy.types.RenderEngine):
     bl_idname = "TRANSLUCENT_RT"
     bl_label = "Translucent"
@@ -65,20 +124,19 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._pipeline = None
-        self._viewport_frame = 0  # the viewport's frames, for IMAGE_SPACE's sample coherence
+        self._viewport = None
         self.last_frame = None
 
     def __del__(self):
         # GPU objects are freed by their own destructors; drop references only (Blender may have
         # removed the engine's struct already, at exit).
         with contextlib.suppress(ReferenceError):
-            self._pipeline = None
+            self._viewport = None
 
-    def _get_pipeline(self) -> Pipeline:
-        if self._pipeline is None:
-            self._pipeline = Pipeline()
-        return self._pipeline
+    def _get_viewport(self) -> Viewport:
+        if self._viewport is None:
+            self._viewport = Viewport()
+        return self._viewport
 
     # -- F12 and batch -----------------------------------------------------
     def render(self, depsgraph):
@@ -106,13 +164,16 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             self.report({"ERROR"}, f"Translucent: {err}")
             self._empty_frame(width, height)
             return
+        t0 = time.perf_counter()
         frame = extract.frame_inputs(depsgraph, camera)
+        t1 = time.perf_counter()
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
         frame = dataclasses.replace(frame, settings=draw_settings(
             scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes))
-        pipeline = self._get_pipeline()
+        pipeline = final_pipeline()
+        pipeline.forget({m.key for m in frame.meshes})
         pixels = render_offscreen(pipeline, frame)
-        _keep_timings(pipeline, "F12")
+        _keep_timings(pipeline, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
         for message in frame.warnings:  # after drawing: the passes add their own
             self.report({"WARNING"}, f"Translucent: {message}")
         LAST_CAPTURE.clear()
@@ -129,20 +190,13 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
 
     # -- viewport ------------------------------------------------------------
     def view_update(self, context, depsgraph):
-        # Batches are keyed by a geometry hash, so edits rebuild only what changed.
-        pass
+        self._get_viewport().update(depsgraph.updates)
 
     def view_draw(self, context, depsgraph):
         region, rv3d = context.region, context.region_data
-        frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d))
-        self._viewport_frame += 1
-        frame = dataclasses.replace(frame, settings=draw_settings(
-            depsgraph.scene, frame, "viewport", self._viewport_frame, capture=False))
-        pipeline = self._get_pipeline()
-        pipeline.forget({m.key for m in frame.meshes})
-        draw_to_region(pipeline, frame, (region.width, region.height),
-                       lambda: self.bind_display_space_shader(depsgraph.scene), self.unbind_display_space_shader)
-        _keep_timings(pipeline, "viewport")
+        self._get_viewport().draw(depsgraph, extract.viewport_camera(region, rv3d), (region.width, region.height),
+                                  lambda: self.bind_display_space_shader(depsgraph.scene),
+                                  self.unbind_display_space_shader)
 
 
 classes = (TranslucentRenderEngine,)

@@ -7,11 +7,14 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import itertools
+from collections.abc import Callable
 
 import numpy as np
 
 from ..core import bake_store
 from ..core.frame import (
+    NEUTRAL_PAINT,
     BakeHandle,
     CameraView,
     Caster,
@@ -24,14 +27,15 @@ from ..core.frame import (
     ReliefSurface,
 )
 from ..core.geometry.mesh_measures import uv_tangents
-from ..core.geometry.orientation import Orientation, orient_outward, outward_normals, turned
+from ..core.geometry.orientation import outward_normals, turned
 from ..core.lights import emitters_from_light
 from ..core.physics.lut import BLUR_MIN
 from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
+from . import mesh_read
 from .bake_inputs import bake_status, homogeneous_profile
-from .mesh_read import mesh_corner_arrays
+from .bake_inputs import clear_caches as clear_bake_inputs
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -136,11 +140,23 @@ def vertex_group_weights(ob, mesh, names) -> dict[str, np.ndarray]:
     return weights
 
 
-def paint_arrays(ob, mesh, tri_loops, loop_vert):
-    """(paint (3T, 4), tint (3T, 3)) per corner from the painted layers, or (None, None) when unpainted."""
+def paint_sources(ob, mesh) -> tuple[dict[str, np.ndarray], tuple[np.ndarray, str] | None]:
+    """What the painted layers hold: the weights of the paint groups present and the tint attribute's colours
+    (RGBA per element, its domain), or None."""
     weights = vertex_group_weights(ob, mesh, PAINT_GROUPS)
     tint_attr = mesh.color_attributes.get(TINT_ATTRIBUTE)
-    if not weights and tint_attr is None:
+    tint = None
+    if tint_attr is not None:
+        rgba = np.empty(len(tint_attr.data) * 4, np.float32)
+        tint_attr.data.foreach_get("color", rgba)
+        tint = (rgba.reshape(-1, 4), tint_attr.domain)
+    return weights, tint
+
+
+def paint_arrays(weights, tint_source, tri_loops, loop_vert):
+    """(paint (3T, 4), tint (3T, 3)) per corner from the painted layers (``paint_sources``), or (None, None)
+    when unpainted."""
+    if not weights and tint_source is None:
         return None, None
     corner_vert = loop_vert[tri_loops]
     n = len(tri_loops)
@@ -153,11 +169,9 @@ def paint_arrays(ob, mesh, tri_loops, loop_vert):
     if GLOW_GROUP in weights:
         paint[:, 2] = 1.0 + 3.0 * weights[GLOW_GROUP][corner_vert]
     tint = np.ones((n, 3), np.float32)
-    if tint_attr is not None:
-        rgba = np.empty(len(tint_attr.data) * 4, np.float32)
-        tint_attr.data.foreach_get("color", rgba)
-        rgba = rgba.reshape(-1, 4)
-        tint = rgba[corner_vert if tint_attr.domain == "POINT" else tri_loops, :3]
+    if tint_source is not None:
+        rgba, domain = tint_source
+        tint = rgba[corner_vert if domain == "POINT" else tri_loops, :3]
     return paint, tint
 
 
@@ -270,22 +284,7 @@ def caustic_settings(s) -> CausticSettings:
                            splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
 
 
-_orientation_cache: dict = {}
 TURNED: dict[str, int] = {}  # object name -> closed parts drawn turned outward in its last frame
-
-
-def _orientation(key: str, positions: np.ndarray, corner_vertex: np.ndarray, vertex_count: int) -> Orientation:
-    """``orientation.orient_outward`` of a mesh read as corners, cached on ``key``, a digest of its corner
-    positions and vertices."""
-    cached = _orientation_cache.get(key)
-    if cached is None:
-        vertices = np.zeros((vertex_count, 3), np.float64)
-        vertices[corner_vertex] = positions
-        cached = orient_outward(vertices, corner_vertex.reshape(-1, 3))
-        if len(_orientation_cache) > 64:
-            _orientation_cache.clear()
-        _orientation_cache[key] = cached
-    return cached
 
 
 def turn_outward(flip: np.ndarray, positions: np.ndarray, normals: np.ndarray, tri_loops: np.ndarray):
@@ -297,84 +296,150 @@ def turn_outward(flip: np.ndarray, positions: np.ndarray, normals: np.ndarray, t
             turned(flip, tri_loops.reshape(-1, 3)).ravel())
 
 
-def _mesh_instance(inst, ob, frame_warnings) -> MeshInstance | None:
-    mesh = ob.to_mesh()
+@dataclasses.dataclass(eq=False)
+class DrawnMesh:
+    """An object's corner arrays as every frame draws them (turned outward, coloured, painted), kept while what
+    they are made of is unchanged: a frame that finds it again uploads nothing (its ``key`` is unchanged)."""
+
+    read: mesh_read.MeshRead
+    palette: np.ndarray  # (slots, 3) the materials' base colours
+    weights: dict  # the paint groups' weights (``paint_sources``)
+    tint_source: tuple | None
+    positions: np.ndarray
+    normals: np.ndarray
+    colors: np.ndarray
+    paint: np.ndarray | None
+    tint: np.ndarray | None
+    tri_loops: np.ndarray  # (3T,) corners in the drawn (turned) order
+    note: str | None  # the orientation's message
+    key: str = ""
+
+    def made_of(self, read, palette, weights, tint_source) -> bool:
+        """Whether this was drawn from exactly these inputs."""
+        same = (self.read is read and np.array_equal(self.palette, palette) and self.weights.keys() == weights.keys()
+                and all(np.array_equal(self.weights[k], w) for k, w in weights.items()))
+        if not same or (self.tint_source is None) != (tint_source is None):
+            return False
+        return tint_source is None or (self.tint_source[1] == tint_source[1]
+                                       and np.array_equal(self.tint_source[0], tint_source[0]))
+
+
+_DRAWN: dict = {}  # (depsgraph mode, object name) -> DrawnMesh
+_drawn_serials = itertools.count(1)
+
+
+def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key) -> DrawnMesh:
+    """The object's ``DrawnMesh``: the cached one when made of the same read, materials and paint."""
+    name = ob.original.name
+    palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
+                       dtype=np.float32)
+    weights, tint_source = paint_sources(ob, mesh)
+    old = _DRAWN.get(cache_key)
+    if old is not None and old.made_of(read, palette, weights, tint_source):
+        return old
+    positions, normals = read.corner_arrays()
+    tri_loops = read.tri_loops.ravel()
+    orientation = read.orientation
+    note = orientation.message(name)
+    if note:
+        positions, normals, tri_loops = turn_outward(orientation.flip, positions, normals, tri_loops)
+    colors = palette[np.clip(read.material_index, 0, len(palette) - 1)].repeat(3, axis=0)
+    paint, tint = paint_arrays(weights, tint_source, tri_loops, read.corner_vert)  # in the turned order
+    if paint is None:  # made here once, not by every frame's MeshInstance
+        paint = np.tile(np.asarray(NEUTRAL_PAINT, np.float32), (len(tri_loops), 1))
+        tint = np.ones((len(tri_loops), 3), np.float32)
+    drawn = DrawnMesh(read, palette, weights, tint_source, positions, normals, colors, paint, tint, tri_loops, note,
+                      key=f"{name}:{cache_key[0]}#{next(_drawn_serials)}")
+    _DRAWN[cache_key] = drawn
+    return drawn
+
+
+def recoloured(ob, drawn: DrawnMesh, cache_key) -> DrawnMesh:
+    """A trusted object's ``DrawnMesh`` with its materials' colours read again (a material edit updates the
+    material, not the object)."""
+    palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
+                       dtype=np.float32)
+    if np.array_equal(palette, drawn.palette):
+        return drawn
+    colors = palette[np.clip(drawn.read.material_index, 0, len(palette) - 1)].repeat(3, axis=0)
+    new = dataclasses.replace(drawn, palette=palette, colors=colors,
+                              key=f"{ob.original.name}:{cache_key[0]}#{next(_drawn_serials)}")
+    _DRAWN[cache_key] = new
+    return new
+
+
+def medium_of(original, method: str, frame_warnings) -> tuple[str, Medium | None]:
+    """(method, Medium) of an object's settings; a medium its file holds out of range (eta 0.5, NaN) is never
+    drawn: ('OFF', None) and the frame says why."""
+    if method == "OFF":
+        return method, None
+    s = original.translucent
+    name = original.name
     try:
-        if mesh is None or len(mesh.polygons) == 0:
-            return None
-        positions, normals, mat_index, tri_loops, loop_vert = mesh_corner_arrays(mesh)
-        corner_vertex = loop_vert[tri_loops]
-        # One digest of the geometry as read keys both the orientation and the instance (turning follows from it).
-        digest = hashlib.blake2b(positions.tobytes(), digest_size=16)
-        digest.update(corner_vertex.tobytes())
-        orientation = _orientation(digest.hexdigest(), positions, corner_vertex, len(mesh.vertices))
-        note = orientation.message(ob.original.name)
-        TURNED[ob.original.name] = orientation.turned  # for the object panel, which must not read meshes
-        if note:
-            frame_warnings.append(note)
-            positions, normals, tri_loops = turn_outward(orientation.flip, positions, normals, tri_loops)
-        palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
-                           dtype=np.float32)
-        colors = palette[np.clip(mat_index, 0, len(palette) - 1)].repeat(3, axis=0)
-        paint, tint = paint_arrays(ob, mesh, tri_loops, loop_vert)  # per corner, in the turned order
-        for part in (normals, colors, paint, tint):
-            if part is not None:
-                digest.update(part.tobytes())
-        # Read settings from the original: editing a property does not re-evaluate the object.
-        original = ob.original
-        method = original.translucent.method
-        name = original.name
-        handle = None
-        if method != "OFF":
-            if bake_registry.needs_bake(method):
-                status = bake_status(ob, method)
-                if status != "OK":
-                    frame_warnings.append(
-                        f"'{name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake"
-                    )
-                else:
-                    handle = BakeHandle(f"{name}#{bake_store.stored_hash(original, method)}",
-                                        lambda o=original, m=method: bake_store.read(o, m).arrays)
-        medium = None
-        if method != "OFF":
-            s = original.translucent
-            try:  # a file can hold what the settings' limits refuse (eta 0.5, NaN): never drawn, and said
-                validate_coefficients(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g),
-                                      name=f"'{name}'")
-            except CoefficientError as err:
-                frame_warnings.append(f"{err}; drawn with its base colour")
-                method, handle = "OFF", None
-        if method != "OFF":
-            layer = {}
-            if s.profile == "MULTIPOLE":
-                layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
-                             base_sigma_s_prime=tuple(s.base_sigma_s_prime))
-            if method == "QUADGRAPH":
-                layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
-                             single_scattering=bool(s.single_scattering))
-            if method == "GEOCUBE":
-                layer = dict(max_steps=int(s.geocube_steps))
-            medium = Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
-                            profile=homogeneous_profile(s.profile), **layer)
-        return MeshInstance(
-            key=f"{name}:{digest.hexdigest()}",
-            name=name,
-            positions=positions,
-            normals=normals,
-            colors=colors,
-            model=np.array(inst.matrix_world, dtype=np.float64),
-            method=method,
-            medium=medium,
-            paint=paint,
-            tint=tint,
-            bake=handle,
-            caster=caster_settings(original.translucent),
-            grass=grass_layer(original, frame_warnings),
-            relief=relief_surface(original, mesh, tri_loops, positions, frame_warnings),
-            auto_target=float(original.translucent.target_error) if original.translucent.quality == "AUTO" else None,
-        )
-    finally:
-        ob.to_mesh_clear()
+        validate_coefficients(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g), name=f"'{name}'")
+    except CoefficientError as err:
+        frame_warnings.append(f"{err}; drawn with its base colour")
+        return "OFF", None
+    layer = {}
+    if s.profile == "MULTIPOLE":
+        layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
+                     base_sigma_s_prime=tuple(s.base_sigma_s_prime))
+    if method == "QUADGRAPH":
+        layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
+                     single_scattering=bool(s.single_scattering))
+    if method == "GEOCUBE":
+        layer = dict(max_steps=int(s.geocube_steps))
+    return method, Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
+                          profile=homogeneous_profile(s.profile), **layer)
+
+
+def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHandle | None:
+    """The handle of the object's current bake, or None (and a warning) when it is missing or stale."""
+    original = ob.original
+    status = bake_status(ob, method, mode, read=read)
+    if status != "OK":
+        frame_warnings.append(
+            f"'{original.name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake")
+        return None
+    return BakeHandle(f"{original.name}#{bake_store.stored_hash(original, method)}",
+                      lambda o=original, m=method: bake_store.read(o, m).arrays)
+
+
+def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict | None:
+    """What every instance of an evaluated object shares in a frame (MeshInstance fields but the matrix), or
+    None when it has no faces. ``trusted``: the caller knows the object's geometry and paint unchanged since
+    its last frame (the viewport's depsgraph updates said so): its mesh is not read again."""
+    original = ob.original
+    name = original.name
+    cache_key = (mode, name)
+    s = original.translucent
+    drawn = _DRAWN.get(cache_key) if trusted and s.relief == "OFF" else None
+    relief = None
+    if drawn is not None:
+        drawn = recoloured(ob, drawn, cache_key)
+    else:
+        mesh = ob.to_mesh()
+        try:
+            if mesh is None or len(mesh.polygons) == 0:
+                return None
+            drawn = drawn_mesh(ob, mesh, mesh_read.read(mesh, cache_key), cache_key)
+            relief = relief_surface(original, mesh, drawn.tri_loops, drawn.positions, frame_warnings)
+        finally:
+            ob.to_mesh_clear()
+    TURNED[name] = drawn.read.orientation.turned  # for the object panel, which must not read meshes
+    if drawn.note:
+        frame_warnings.append(drawn.note)
+    # Read settings from the original: editing a property does not re-evaluate the object.
+    method = s.method
+    baked = method != "OFF" and bake_registry.needs_bake(method)
+    handle = bake_handle(ob, method, mode, frame_warnings, drawn.read if trusted else None) if baked else None
+    method, medium = medium_of(original, method, frame_warnings)
+    return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
+                method=method, medium=medium, paint=drawn.paint, tint=drawn.tint,
+                bake=handle if method != "OFF" else None, caster=caster_settings(s),
+                grass=grass_layer(original, frame_warnings), relief=relief,
+                auto_target=float(s.target_error) if s.quality == "AUTO" else None,
+                bound_points=drawn.read.bound_points())
 
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
@@ -388,11 +453,17 @@ def collapsed(matrix_world: np.ndarray) -> bool:
     return not np.isfinite(linear).all() or size == 0.0 or abs(float(np.linalg.det(linear))) <= 1e-12 * size**3
 
 
-def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = False) -> FrameInputs:
-    """Everything of the evaluated scene that the pipeline draws."""
+def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = False,
+                 trusted: Callable[[str], bool] | None = None) -> FrameInputs:
+    """Everything of the evaluated scene that the pipeline draws. ``trusted(name)``: whether an object's geometry
+    is known unchanged since the last frame of this depsgraph (the viewport's updates); None: nothing is
+    (F12, animation: every mesh is read and compared)."""
     scene = depsgraph.scene
     settings = scene.translucent
     meshes, emitters, warnings = [], [], []
+    shared: dict = {}
+    mode = depsgraph.mode
+    mesh_read.sweep()
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type in GEOMETRY_TYPES:
@@ -400,9 +471,14 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 continue
             if collapsed(np.array(inst.matrix_world)):
                 continue  # scaled to zero (a common way to hide in animation): drawn as if hidden
-            m = _mesh_instance(inst, ob, warnings)
-            if m is not None:
-                meshes.append(m)
+            identity = (ob.original.name, ob.as_pointer())
+            if identity not in shared:  # instances of one object read it once
+                shared[identity] = _object_parts(ob, mode, warnings,
+                                                 trusted is not None and not inst.is_instance
+                                                 and trusted(ob.original.name))
+            parts = shared[identity]
+            if parts is not None:
+                meshes.append(MeshInstance(model=np.array(inst.matrix_world, dtype=np.float64), **parts))
         elif ob.type == "LIGHT":
             light = ob.data
             lit = emitters_from_light(
@@ -460,5 +536,7 @@ def clear_caches() -> None:
     """The world images and height fields read from Blender (when the extension is disabled)."""
     _environment_cache.clear()
     _height_cache.clear()
-    _orientation_cache.clear()
+    _DRAWN.clear()
+    mesh_read.clear()
+    clear_bake_inputs()
     TURNED.clear()

@@ -125,6 +125,8 @@ class MeshInstance:
     grass: GrassLayer | None = None  # a grass field grows on this mesh
     relief: ReliefSurface | None = None  # a height field displaces this mesh per pixel (drawn by its pass)
     auto_target: float | None = None  # AUTO quality's target error (IMAGE_SPACE chooses k per frame); None: manual
+    bound_points: np.ndarray | None = None  # (V, 3) object-space points holding the mesh (its vertices); None: corners
+    _box: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         n = len(self.positions)
@@ -151,6 +153,15 @@ class MeshInstance:
     def world_positions(self) -> np.ndarray:
         p = self.positions.astype(np.float64)
         return p @ self.model[:3, :3].T + self.model[:3, 3]
+
+    def world_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) world-space box around the mesh: from its vertices, not the 3T corners (a sixth of the work
+        per frame)."""
+        if self._box is None:
+            p = self.positions if self.bound_points is None else self.bound_points
+            w = np.asarray(p, np.float64) @ self.model[:3, :3].T + self.model[:3, 3]
+            self._box = (w.min(axis=0), w.max(axis=0))
+        return self._box
 
     def world_normals(self) -> np.ndarray:
         n = self.normals.astype(np.float64) @ self.normal_matrix[:3, :3].T
@@ -232,7 +243,12 @@ class FrameInputs:
             if not self.meshes:
                 self._bounds = (np.zeros(3), 1.0)
             else:
-                pts = np.concatenate([m.world_positions() for m in self.meshes])
-                lo, hi = pts.min(axis=0), pts.max(axis=0)
+                lo, hi = box_of(self.meshes)
                 self._bounds = (0.5 * (lo + hi), max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-4))
         return self._bounds
+
+
+def box_of(meshes: list[MeshInstance]) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) world-space box around meshes."""
+    boxes = [m.world_box() for m in meshes]
+    return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)

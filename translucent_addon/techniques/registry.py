@@ -85,8 +85,12 @@ class BakeInputs:
         return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
 
     def hash(self) -> str:
-        """Hash of what the bake depends on. A QUADGRAPH bake is geometry only (kappa and mu are set per
-        node at run time), so editing its material keeps the bake current; and only its topology: moving
+        """Hash of what the bake depends on (``hash_parts``)."""
+        return store.inputs_hash(*self.hash_parts())
+
+    def hash_parts(self) -> tuple[dict, dict]:
+        """(geometry arrays, parameters) the bake depends on. A QUADGRAPH bake is geometry only (kappa and mu are
+        set per node at run time), so editing its material keeps the bake current; and only its topology: moving
         vertices (an armature, a lattice, shape keys) moves the nodes at run time instead."""
         material = {"sigma_a": list(self.sigma_a), "sigma_s_prime": list(self.sigma_s_prime), "eta": self.eta,
                     "g": self.g}
@@ -110,16 +114,13 @@ class BakeInputs:
         if self.method == "QUADGRAPH":
             geometry = {"triangles": triangles}
             extra["vertex_count"] = int(len(self.vertices))
-        return store.inputs_hash(
-            geometry,
-            {
-                "method": self.method,
-                "stages": list(method_stages(self.method)),
-                "mm_per_unit": self.mm_per_unit,
-                **material,
-                **extra,
-            },
-        )
+        return geometry, {
+            "method": self.method,
+            "stages": list(method_stages(self.method)),
+            "mm_per_unit": self.mm_per_unit,
+            **material,
+            **extra,
+        }
 
 
 def needs_bake(method: str) -> bool:

@@ -52,10 +52,19 @@ def orient_outward(positions: np.ndarray, triangles: np.ndarray) -> Orientation:
     bincount per measure.
     """
     t = np.asarray(triangles, np.int64).reshape(-1, 3)
-    p = np.asarray(positions, np.float64)
     if not len(t):
         return Orientation(np.zeros(0, bool), 0, 0)
-    count, part = components(t, len(p))
+    return orient_parts(positions, t, components(t, len(positions)))
+
+
+def orient_parts(positions: np.ndarray, triangles: np.ndarray, parts: tuple[int, np.ndarray]) -> Orientation:
+    """``orient_outward`` with the parts already known (``components``): what a deforming mesh pays per frame,
+    its connectivity being read once."""
+    t = np.asarray(triangles, np.int64).reshape(-1, 3)
+    p = np.asarray(positions, np.float64)
+    count, part = parts
+    if not len(t):
+        return Orientation(np.zeros(0, bool), 0, 0)
     # Signed volume about each part's centroid (so an open part's value does not depend on the origin).
     weights = np.bincount(part, minlength=count).astype(np.float64) * 3.0
     centroid = np.stack([np.bincount(part, p[t].sum(axis=1)[:, k], minlength=count) for k in range(3)], axis=1)

@@ -330,8 +330,10 @@ def reachable_tolerance(tolerance: float) -> float:
 
 def relative_change(new: np.ndarray, old: np.ndarray) -> float:
     """max |new - old| / max |new|: the convergence test of the relaxation (Sec. 5.2)."""
-    scale = float(np.abs(new).max())
-    return float(np.abs(new - old).max() / scale) if scale > 0 else 0.0
+    scale = max(float(new.max()), -float(new.min()))
+    diff = np.subtract(new, old)
+    change = max(float(diff.max()), -float(diff.min()))
+    return change / scale if scale > 0 else 0.0
 
 
 def upsample(phi_coarse: ArrayLike, link_index: np.ndarray, link_weight: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ...core.frame import FrameInputs, MeshInstance
+from ...core.frame import FrameInputs, MeshInstance, box_of
 from ...core.lights import DIRECTIONAL, Emitter
 from ...core.physics.dipole import r_max
 from ...core.physics.lut import (
@@ -148,8 +148,7 @@ def world_sampling(meshes: list[MeshInstance], media, tables, settings: Sampling
 
 
 def _bounds(meshes: list[MeshInstance]):
-    pts = np.concatenate([m.world_positions() for m in meshes])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    lo, hi = box_of(meshes)
     return 0.5 * (lo + hi), max(float(np.linalg.norm(hi - lo)) * 0.5, 1e-6)
 
 

@@ -229,6 +229,9 @@ class Resources:
         """Move the nodes to the mesh's current pose (armature, lattice, shape keys): Wang Sec. 6's
         deformable objects; raises DeformationError when the pose folds the volume over (more than
         ``volume_deformation.FOLD_LIMIT`` of it in tetrahedra turned inside out)."""
+        if self.pose is not None and getattr(self, "followed", None) == mesh.key:
+            return  # the same corner arrays as last frame (a mesh key names its content)
+        self.followed = mesh.key
         vertices = self.rest_vertices.copy()  # loose vertices (in no triangle) keep their rest place
         vertices[self.rest_triangles.reshape(-1)] = np.asarray(mesh.positions, np.float64) @ self.stretch.T * self.mm
         if self.pose is not None and np.array_equal(vertices, self.pose):

@@ -1,0 +1,271 @@
+"""Frames that touch only what changed (issue 36): the mesh cache is never stale, in F12 and in the viewport's
+code path (``engine.Viewport``: ``view_update`` / ``view_draw``), driven headless into an offscreen target."""
+from __future__ import annotations
+
+import types
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import (  # noqa: E402
+    add_camera,
+    add_light,
+    add_mesh,
+    add_plane,
+    diffuse_material,
+    render,
+    set_world,
+)
+from conftest import ext_module  # noqa: E402
+
+SIZE = 48
+
+
+def _scene(scene, method="OFF"):
+    set_world(scene, (0.05, 0.05, 0.06))
+    add_plane(scene)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.8, location=(0, 0, 0.9))
+    ball = bpy.context.object
+    ball.name = "Ball"
+    ball.data.materials.append(diffuse_material("BallColour", (0.8, 0.5, 0.3)))
+    ball.translucent.method = method
+    ball.translucent.mm_per_unit = 20.0
+    add_light(scene, "POINT", (2.0, -2.0, 3.0), energy=400.0)
+    add_camera(scene, (0, -5, 2), (0, 0, 0.8), lens=50)
+    return ball
+
+
+def _fresh(tr, scene) -> np.ndarray:
+    """The frame with every cache dropped: what the cached frame must equal."""
+    ext_module(tr, "translucent_addon.blender.extract").clear_caches()
+    ext_module(tr, "translucent_addon.blender.engine").free()
+    return render(scene, SIZE, SIZE)
+
+
+def _changed_and_current(tr, scene, before: np.ndarray) -> np.ndarray:
+    cached = render(scene, SIZE, SIZE)
+    fresh = _fresh(tr, scene)
+    assert np.isfinite(cached).all()
+    assert np.abs(fresh - before).max() > 1e-3, "the edit is in sight"
+    np.testing.assert_allclose(cached, fresh, rtol=0, atol=1e-5,
+                               err_msg="the cached frame equals one drawn with no cache")
+    return cached
+
+
+def _edit_vertex(ob):
+    nearest = min(ob.data.vertices, key=lambda v: v.co.y)  # the one facing the camera
+    nearest.co.y -= 0.6
+    nearest.co.z += 0.3
+    ob.data.update()
+
+
+def _edit_modifier(ob):
+    ob.modifiers.new("wave", "DISPLACE").strength = 0.3
+
+
+def _edit_material(ob):
+    bsdf = next(n for n in ob.data.materials[0].node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Base Color"].default_value = (0.2, 0.6, 0.9, 1.0)
+
+
+def _edit_scale(ob):
+    ob.scale = (1.0, 1.0, 0.6)
+
+
+def _edit_shading(ob):
+    for p in ob.data.polygons:
+        p.use_smooth = True
+    ob.data.update()
+
+
+@pytest.mark.parametrize("edit", [_edit_vertex, _edit_modifier, _edit_material, _edit_scale, _edit_shading],
+                         ids=["mesh", "modifier", "material", "scale", "smooth shading"])
+def test_each_edit_shows_in_the_next_f12_frame(tr, scene, edit):
+    ball = _scene(scene)
+    before = render(scene, SIZE, SIZE)
+    edit(ball)
+    _changed_and_current(tr, scene, before)
+
+
+def test_a_preset_change_shows_in_the_next_frame(tr, scene):
+    ball = _scene(scene, "IMAGE_SPACE")
+    ball.translucent.preset = "marble"
+    before = render(scene, SIZE, SIZE)
+    ball.translucent.preset = "ketchup"
+    _changed_and_current(tr, scene, before)
+
+
+def test_an_unchanged_mesh_is_not_read_again_and_a_deforming_one_is(tr, scene):
+    """Moving the light keeps the meshes' arrays (nothing is re-read, re-hashed or uploaded: the same key);
+    a shape-key edit (deformation) makes new positions and normals under the same topology."""
+    ball = _scene(scene)
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    mesh_read = ext_module(tr, "translucent_addon.blender.mesh_read")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+
+    def frame():
+        return extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, SIZE, SIZE))
+
+    first = next(m for m in frame().meshes if m.name == "Ball")
+    scene.objects["POINT light"].location.x += 1.0
+    depsgraph.update()
+    second = next(m for m in frame().meshes if m.name == "Ball")
+    assert second.key == first.key and second.positions is first.positions
+    read = mesh_read._CACHE[("VIEWPORT", "Ball")]
+
+    ball.shape_key_add(name="Basis")
+    key = ball.shape_key_add(name="Squash")
+    key.data[5].co.z += 0.3
+    key.value = 1.0
+    depsgraph.update()
+    third = next(m for m in frame().meshes if m.name == "Ball")
+    moved = mesh_read._CACHE[("VIEWPORT", "Ball")]
+    assert third.key != first.key and not np.array_equal(third.positions, first.positions)
+    assert moved is not read and moved.tri_loops is read.tri_loops, "the topology is kept, not read again"
+
+
+def test_bake_status_is_hashed_once_per_change(tr, scene, monkeypatch):
+    """The sidebar and every frame ask for a bake's status: the inputs are hashed again only when the mesh or
+    a setting changed."""
+    ball = _scene(scene, "TEXTURE_SPACE")
+    ball.translucent.atlas_resolution = 96
+    bpy.context.view_layer.objects.active = ball
+    ball.select_set(True)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
+    store = ext_module(tr, "translucent_addon.core.bake_store")
+    calls = []
+    real = store.inputs_hash
+    monkeypatch.setattr(store, "inputs_hash", lambda *a: calls.append(1) or real(*a))
+
+    def status():
+        return inputs.bake_status(ball.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+
+    assert status() == "OK"
+    n = len(calls)
+    assert status() == "OK" and status() == "OK"
+    assert len(calls) == n, "an unchanged object is not hashed again"
+    ball.translucent.mm_per_unit = 25.0
+    assert status() == "STALE"
+    ball.translucent.mm_per_unit = 20.0
+    _edit_vertex(ball)
+    assert status() == "STALE"
+    assert len(calls) > n
+
+
+# -- the viewport's code path, headless -------------------------------------------------------------------
+PROBE: dict = {}
+
+
+def _probe_engine(tr):
+    """An engine whose F12 runs the viewport's code path (``Viewport.update`` with recorded depsgraph updates,
+    then ``Viewport.draw``) into an offscreen target, in the GPU context F12 has headless."""
+    engine = ext_module(tr, "translucent_addon.blender.engine")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    targets = ext_module(tr, "translucent_addon.gpu.targets")
+
+    class ViewportProbe(bpy.types.RenderEngine):
+        bl_idname = "TRANSLUCENT_VIEWPORT_PROBE"
+        bl_label = "Translucent viewport probe"
+        bl_use_gpu_context = True
+
+        def render(self, depsgraph):
+            import gpu
+            from mathutils import Matrix
+
+            w = h = SIZE
+            viewport = PROBE.setdefault("viewport", engine.Viewport())
+            viewport.update(PROBE.pop("updates", []))
+            off = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
+            try:
+                with off.bind(), gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
+                    fb = gpu.state.active_framebuffer_get()
+                    fb.clear(color=(0.0, 0.0, 0.0, 0.0))
+                    # The region's pixel space, as Blender sets it for view_draw.
+                    gpu.matrix.load_identity()
+                    gpu.matrix.load_projection_matrix(Matrix(((2 / w, 0, 0, -1), (0, 2 / h, 0, -1), (0, 0, -1, 0),
+                                                              (0, 0, 0, 1))))
+                    viewport.draw(depsgraph, extract.render_camera(depsgraph, w, h), (w, h), lambda: None,
+                                  lambda: None)
+                    with fb.bind():  # as Blender binds the region's framebuffer again for what it draws next
+                        PROBE["pixels"] = targets.read_pixels(fb, w, h)
+            finally:
+                off.free()
+            result = self.begin_result(0, 0, w, h)
+            result.layers[0].passes["Combined"].rect.foreach_set(PROBE["pixels"].reshape(-1))
+            self.end_result(result)
+
+    return ViewportProbe
+
+
+@pytest.fixture
+def probe(tr):
+    cls = _probe_engine(tr)
+    bpy.utils.register_class(cls)
+    PROBE.clear()
+    yield cls
+    bpy.utils.unregister_class(cls)
+    PROBE.clear()
+
+
+def _viewport_frame(scene, updates=()) -> np.ndarray:
+    PROBE["updates"] = list(updates)
+    scene.render.engine = "TRANSLUCENT_VIEWPORT_PROBE"
+    try:
+        render(scene, SIZE, SIZE)
+    finally:
+        scene.render.engine = "TRANSLUCENT_RT"
+    return PROBE["pixels"]
+
+
+def _geometry_update(ob):
+    return types.SimpleNamespace(id=ob, is_updated_geometry=True, is_updated_transform=False,
+                                 is_updated_shading=False)
+
+
+def test_the_viewport_path_draws_the_f12_frame_and_follows_updates(tr, scene, probe):
+    """The viewport's path draws what F12 draws (its RGBA16F target: within half-float rounding); an edit the
+    depsgraph reports shows in the next viewport frame; a material edit (an update of the material, not the
+    object) does too."""
+    ball = _scene(scene, "IMAGE_SPACE")
+    f12 = render(scene, SIZE, SIZE)
+    view = _viewport_frame(scene)
+    # IMAGE_SPACE's samples follow each path's own frame sequence: equal in the mean, not per pixel.
+    assert np.isfinite(view).all() and view[..., :3].max() > 0.1
+    assert np.abs(view - f12)[..., :3].mean() < 0.02 * f12[..., :3].mean()
+    ball.translucent.method = "OFF"  # the rest compares pixels: no sampling
+    view = _viewport_frame(scene)
+    np.testing.assert_allclose(view, render(scene, SIZE, SIZE), rtol=2e-3, atol=2e-4)
+
+    _edit_vertex(ball)
+    edited = _viewport_frame(scene, [_geometry_update(ball)])
+    assert np.abs(edited - view).max() > 1e-3
+    np.testing.assert_allclose(edited, render(scene, SIZE, SIZE), rtol=2e-3, atol=2e-4)
+
+    _edit_material(ball)
+    recoloured = _viewport_frame(scene)
+    assert np.abs(recoloured - edited).max() > 1e-3
+    np.testing.assert_allclose(recoloured, render(scene, SIZE, SIZE), rtol=2e-3, atol=2e-4)
+
+
+def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
+    """Between updates, an object no update named is not read (its ``DrawnMesh`` is reused as it is); one
+    that is named is read and compared."""
+    ball = _scene(scene)
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    _viewport_frame(scene)
+    reads = []
+    real = extract.mesh_read.read
+    extract.mesh_read.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
+    try:
+        _viewport_frame(scene)
+        assert reads == [], "nothing changed: no mesh read"
+        _viewport_frame(scene, [_geometry_update(ball)])
+        assert reads == ["Ball"]
+    finally:
+        extract.mesh_read.read = real
+    add_mesh(scene, "Tri", [(0, 0, 2), (1, 0, 2), (0, 1, 2)], [(0, 1, 2)])
+    assert np.isfinite(_viewport_frame(scene, [types.SimpleNamespace(
+        id=scene, is_updated_geometry=True, is_updated_transform=False, is_updated_shading=False)])).all()
