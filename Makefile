@@ -12,7 +12,7 @@ PYTEST_PIN := pytest==8.3.5
 # The Blenders the zip-only tests install the zip into: version and the Python it needs.
 ZIP_BLENDERS := 5.2.4:$(PYTHON) 5.3.0:$(PYTHON) 4.5.15:$(PYTHON311)
 
-.PHONY: demo test test-dev test-zip lint extension wheels venv bench bench-exact clean
+.PHONY: demo test test-dev test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu clean
 
 $(STAMP): requirements.txt
 	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
@@ -54,6 +54,7 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) scripts/bench.py
+	$(PY) scripts/bench_frame.py
 	$(PY) scripts/bench_exact.py
 	$(PY) scripts/bench_quadgraph.py
 	$(PY) scripts/bench_geocube.py
@@ -67,6 +68,15 @@ bench: $(STAMP)
 # The subsurface methods against exact transport (Cycles brute force, index-matched): about 40 minutes here.
 bench-exact: $(STAMP)
 	$(PY) scripts/bench_exact.py
+
+# Where a frame's time goes (CPU work outside GPU calls, GPU calls), demo bunny at 64x64: about 3 minutes here.
+bench-frame: $(STAMP)
+	$(PY) scripts/bench_frame.py
+
+# Each method at 1920x1080 on the demo and bench scenes, frames per second and the split, the GPU named; at
+# most 5 minutes (what does not fit is listed as skipped). Run it on a machine with a GPU.
+bench-gpu: $(STAMP)
+	$(PY) scripts/bench_frame.py --gpu --budget 270
 
 clean:
 	rm -rf dist wheels out .pytest_cache .venv-zip-*

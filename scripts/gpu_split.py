@@ -19,6 +19,8 @@ GPU_MODULES = ("gpu", "gpu_extras", "_gpu")
 def _is_gpu(func) -> bool:
     """A C function of the ``gpu`` modules (``gpu.state.*``) or a method of one of their types (``GPUBatch.draw``:
     Blender registers them in ``builtins``, named GPU*)."""
+    if isinstance(func, type):  # a constructor: GPUTexture(data=...) uploads, GPUOffScreen allocates
+        return func.__name__.startswith("GPU")
     objclass = getattr(func, "__objclass__", None)  # an unbound method: what sys.monitoring reports
     if objclass is not None:
         return objclass.__name__.startswith("GPU")

@@ -2,7 +2,7 @@
 code path (``engine.Viewport``: ``view_update`` / ``view_draw``), driven headless into an offscreen target."""
 from __future__ import annotations
 
-import types
+import sys
 
 import numpy as np
 import pytest
@@ -18,7 +18,10 @@ from blender_helpers import (  # noqa: E402
     render,
     set_world,
 )
-from conftest import ext_module  # noqa: E402
+from conftest import ROOT, ext_module  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "scripts"))
+import viewport_probe  # noqa: E402
 
 SIZE = 48
 
@@ -155,74 +158,23 @@ def test_bake_status_is_hashed_once_per_change(tr, scene, monkeypatch):
     assert len(calls) > n
 
 
-# -- the viewport's code path, headless -------------------------------------------------------------------
-PROBE: dict = {}
-
-
-def _probe_engine(tr):
-    """An engine whose F12 runs the viewport's code path (``Viewport.update`` with recorded depsgraph updates,
-    then ``Viewport.draw``) into an offscreen target, in the GPU context F12 has headless."""
-    engine = ext_module(tr, "translucent_addon.blender.engine")
-    extract = ext_module(tr, "translucent_addon.blender.extract")
-    targets = ext_module(tr, "translucent_addon.gpu.targets")
-
-    class ViewportProbe(bpy.types.RenderEngine):
-        bl_idname = "TRANSLUCENT_VIEWPORT_PROBE"
-        bl_label = "Translucent viewport probe"
-        bl_use_gpu_context = True
-
-        def render(self, depsgraph):
-            import gpu
-            from mathutils import Matrix
-
-            w = h = SIZE
-            viewport = PROBE.setdefault("viewport", engine.Viewport())
-            viewport.update(PROBE.pop("updates", []))
-            off = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
-            try:
-                with off.bind(), gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
-                    fb = gpu.state.active_framebuffer_get()
-                    fb.clear(color=(0.0, 0.0, 0.0, 0.0))
-                    # The region's pixel space, as Blender sets it for view_draw.
-                    gpu.matrix.load_identity()
-                    gpu.matrix.load_projection_matrix(Matrix(((2 / w, 0, 0, -1), (0, 2 / h, 0, -1), (0, 0, -1, 0),
-                                                              (0, 0, 0, 1))))
-                    viewport.draw(depsgraph, extract.render_camera(depsgraph, w, h), (w, h), lambda: None,
-                                  lambda: None)
-                    with fb.bind():  # as Blender binds the region's framebuffer again for what it draws next
-                        PROBE["pixels"] = targets.read_pixels(fb, w, h)
-            finally:
-                off.free()
-            result = self.begin_result(0, 0, w, h)
-            result.layers[0].passes["Combined"].rect.foreach_set(PROBE["pixels"].reshape(-1))
-            self.end_result(result)
-
-    return ViewportProbe
-
-
+# -- the viewport's code path, headless (scripts/viewport_probe.py) ---------------------------------------
 @pytest.fixture
 def probe(tr):
-    cls = _probe_engine(tr)
+    cls = viewport_probe.engine_class(ext_module(tr, "translucent_addon.blender.engine"),
+                                      ext_module(tr, "translucent_addon.blender.extract"),
+                                      ext_module(tr, "translucent_addon.gpu.targets"))
     bpy.utils.register_class(cls)
-    PROBE.clear()
+    viewport_probe.PROBE.clear()
     yield cls
     bpy.utils.unregister_class(cls)
-    PROBE.clear()
+    viewport_probe.PROBE.clear()
 
 
 def _viewport_frame(scene, updates=()) -> np.ndarray:
-    PROBE["updates"] = list(updates)
-    scene.render.engine = "TRANSLUCENT_VIEWPORT_PROBE"
-    try:
-        render(scene, SIZE, SIZE)
-    finally:
-        scene.render.engine = "TRANSLUCENT_RT"
-    return PROBE["pixels"]
-
-
-def _geometry_update(ob):
-    return types.SimpleNamespace(id=ob, is_updated_geometry=True, is_updated_transform=False,
-                                 is_updated_shading=False)
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    return viewport_probe.frame(scene, lambda sc: render(sc, SIZE, SIZE), updates)
 
 
 def test_the_viewport_path_draws_the_f12_frame_and_follows_updates(tr, scene, probe):
@@ -240,7 +192,7 @@ def test_the_viewport_path_draws_the_f12_frame_and_follows_updates(tr, scene, pr
     np.testing.assert_allclose(view, render(scene, SIZE, SIZE), rtol=2e-3, atol=2e-4)
 
     _edit_vertex(ball)
-    edited = _viewport_frame(scene, [_geometry_update(ball)])
+    edited = _viewport_frame(scene, [viewport_probe.update_of(ball)])
     assert np.abs(edited - view).max() > 1e-3
     np.testing.assert_allclose(edited, render(scene, SIZE, SIZE), rtol=2e-3, atol=2e-4)
 
@@ -262,10 +214,15 @@ def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
     try:
         _viewport_frame(scene)
         assert reads == [], "nothing changed: no mesh read"
-        _viewport_frame(scene, [_geometry_update(ball)])
+        _viewport_frame(scene, [viewport_probe.update_of(ball)])
         assert reads == ["Ball"]
     finally:
         extract.mesh_read.read = real
     add_mesh(scene, "Tri", [(0, 0, 2), (1, 0, 2), (0, 1, 2)], [(0, 1, 2)])
-    assert np.isfinite(_viewport_frame(scene, [types.SimpleNamespace(
-        id=scene, is_updated_geometry=True, is_updated_transform=False, is_updated_shading=False)])).all()
+    reads.clear()
+    extract.mesh_read.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
+    try:  # an update of the scene (a frame change, a new object): every mesh is read and compared
+        assert np.isfinite(_viewport_frame(scene, [viewport_probe.update_of(scene)])).all()
+    finally:
+        extract.mesh_read.read = real
+    assert sorted(reads) == ["Ball", "Ground", "Tri"]

@@ -142,7 +142,7 @@ def world_sampling(meshes: list[MeshInstance], media, tables, settings: Sampling
     faces = np.stack([orthographic(radius, radius, 0.0, 2.0 * reach) @ look_at(centre - axis * reach, axis, up)
                       for axis, up in zip(np.eye(3), np.roll(np.eye(3), -1, axis=0))])
     texel = 2.0 * radius / grid
-    rho_mm = [2.0 * texel * med.mm_per_unit for med in media]
+    rho_mm = [partition_radius(2.0 * texel) * med.mm_per_unit for med in media]
     # One part in 2^14 of the depth range: far below a texel, far above float32 depth noise.
     return WorldSampling(faces, grid, texel * texel, int(settings.world_layers), 2.0 / 16384.0, rho_mm)
 
@@ -212,12 +212,24 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
             else:
                 d = max(float(np.linalg.norm(np.asarray(s.emitter.position) - c_m)), 1e-6)
                 spacing = max(spacing, 2.0 * d * s.tan_half / s.grid)
-        rho_world.append(2.0 * spacing)
+        rho_world.append(partition_radius(2.0 * spacing))
     tables = [material_tables(med, rho * med.mm_per_unit, settings.epsilon) for med, rho in zip(media, rho_world)]
     has_world = bool(np.any(np.asarray(frame.world_color) > 0)) or frame.environment is not None
     world = world_sampling(meshes, media, tables, settings) if has_world else None
     return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world, world,
                           settings.epsilon)
+
+
+RHO_STEPS = 8  # partition radii per doubling
+
+
+def partition_radius(rho: float) -> float:
+    """The partition radius rho (near field at E(x_o) inside, splats outside: any rho is consistent) rounded up
+    to one of RHO_STEPS per doubling: a light or an object that moves changes the sample spacing every frame,
+    and rho names the material's tables, which took 30-130 ms to make again each time (issue 36)."""
+    if not rho > 0 or not math.isfinite(rho):
+        return rho
+    return float(2.0 ** (math.ceil(math.log2(rho) * RHO_STEPS - 1e-9) / RHO_STEPS))
 
 
 @functools.lru_cache(maxsize=64)
