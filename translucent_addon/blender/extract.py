@@ -84,7 +84,8 @@ _environment_cache: dict = {}
 
 def world_environment(scene) -> Environment | None:
     """The world's Environment Texture (equirectangular) feeding its Background, as linear radiance
-    times the strength; None for any other world. Read once per image and strength."""
+    times the strength; None for any other world. Read once per image and strength (every frame while the image
+    is dirty: painted, or set from a script)."""
     world = scene.world
     tree = getattr(world, "node_tree", None) if world is not None else None
     if tree is None:
@@ -100,18 +101,31 @@ def world_environment(scene) -> Environment | None:
     if w == 0 or h == 0:
         return None
     strength = float(bg.inputs["Strength"].default_value)
-    key = f"{img.name}|{img.filepath}|{w}x{h}|{strength}|{img.colorspace_settings.name}"
+    key = (_image_stamp(img), strength, img.colorspace_settings.name)
     env = _environment_cache.get(key)
-    if env is None:
+    if env is None or img.is_dirty:  # an image painted or set from a script is read again every frame
         px = np.empty(w * h * img.channels, np.float32)
         img.pixels.foreach_get(px)
         rgb = px.reshape(h, w, img.channels)[..., :3].copy()
         if not img.is_float and img.colorspace_settings.name == "sRGB":
             rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
-        _environment_cache.clear()
         rgb *= strength
-        env = _environment_cache[key] = Environment(key=key, image=rgb, mean=equirect_mean(rgb))
+        # The GPU textures and the SH projection are cached on the key: it names the pixels, not the image.
+        digest = hashlib.blake2b(rgb.tobytes(), digest_size=12).hexdigest()
+        if env is None or env.key != digest:
+            env = Environment(key=digest, image=rgb, mean=equirect_mean(rgb))
+        _environment_cache.clear()
+        _environment_cache[key] = env
     return env
+
+
+def _image_stamp(image) -> tuple:
+    """What names an image's pixels while it is not dirty: the datablock, its size and its file's time."""
+    import os
+
+    path = image.filepath_from_user() if image.source == "FILE" else ""
+    stamp = os.path.getmtime(path) if path and os.path.isfile(path) else 0.0  # a file changed on disk
+    return image.name, image.as_pointer(), tuple(image.size), path, stamp
 
 
 def equirect_mean(image: np.ndarray) -> np.ndarray:
@@ -225,11 +239,7 @@ def height_image(image) -> tuple[np.ndarray, str]:
     at the bottom (Blender's pixel order, so v = 0 is row 0), and a digest of them (the GPU texture's
     cache key). Read once per image and kept while the image is unchanged (not dirty: a painted image is
     read again every frame, so the relief follows the brush)."""
-    import os
-
-    path = image.filepath_from_user() if image.source == "FILE" else ""
-    stamp = os.path.getmtime(path) if path and os.path.isfile(path) else 0.0  # a file changed on disk
-    key = (image.name, image.as_pointer(), tuple(image.size), path, stamp)
+    key = _image_stamp(image)
     cached = _height_cache.get(key)
     if cached is not None and not image.is_dirty:
         return cached

@@ -36,6 +36,7 @@ class MeshRead:
     tri_face: np.ndarray  # (T,) int32: the face each loop triangle belongs to
     tri_loops: np.ndarray  # (T, 3) int32: the corners of each loop triangle, as Blender triangulates
     face_material: np.ndarray  # (F,) int32: material slot per face
+    loops_in_order: bool = False  # tri_loops is 0, 1, 2, ...: every face a triangle
     serial: int = dataclasses.field(default_factory=lambda: next(_serials))  # new with every change
     parts: tuple | None = None  # (count, label per triangle): connectivity, kept while the topology is
 
@@ -87,8 +88,11 @@ class MeshRead:
 
     def corner_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions (3T, 3), normals (3T, 3)) float32 per triangle corner, as read."""
+        if self.loops_in_order:  # all triangles: the corners are the loops themselves
+            return np.take(self.vertices, self.corner_vert, axis=0), self.corner_normals
         loops = self.tri_loops.ravel()
-        return self.vertices[self.corner_vert[loops]], self.corner_normals[loops]
+        return np.take(self.vertices, np.take(self.corner_vert, loops), axis=0), np.take(self.corner_normals, loops,
+                                                                                          axis=0)
 
 
 def _attribute(mesh, name: str, prop: str, width: int, count: int, dtype) -> np.ndarray | None:
@@ -154,7 +158,8 @@ def read(mesh, key) -> MeshRead:
         tri_loops = np.empty(len(tri_face) * 3, np.int32)
         mesh.loop_triangles.foreach_get("loops", tri_loops)
         tri_loops, parts = tri_loops.reshape(-1, 3), (old.parts if topology else None)
-    new = MeshRead(vertices, corner_vert, corner_normals, tri_face, tri_loops, face_material, parts=parts)
+    new = MeshRead(vertices, corner_vert, corner_normals, tri_face, tri_loops, face_material, all_triangles,
+                   parts=parts)
     _CACHE[key] = new
     return new
 

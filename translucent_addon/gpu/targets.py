@@ -54,14 +54,14 @@ def clear_target(fb, color=(0.0, 0.0, 0.0, 0.0), depth: float | None = 1.0) -> N
         fb.clear(color=color, depth=depth)
 
 
-def read_pixels(fb, width: int, height: int, slot: int = 0) -> np.ndarray:
-    """RGBA float pixels (height, width, 4) of a bound framebuffer, row 0 at the bottom.
+def read_pixels(fb, width: int, height: int, slot: int = 0, channels: int = 4) -> np.ndarray:
+    """Float pixels (height, width, channels: RGBA, or RGB when 3) of a bound framebuffer, row 0 at the bottom.
 
     Read into a 1-D Buffer: NumPy views of multi-dimensional ``gpu.types.Buffer``
     objects get wrong strides in Blender 5.0.
     """
     import gpu
 
-    buf = gpu.types.Buffer("FLOAT", width * height * 4)
-    fb.read_color(0, 0, width, height, 4, slot, "FLOAT", data=buf)
-    return np.asarray(buf, dtype=np.float32).reshape(height, width, 4).copy()
+    buf = gpu.types.Buffer("FLOAT", width * height * channels)
+    fb.read_color(0, 0, width, height, channels, slot, "FLOAT", data=buf)
+    return np.asarray(buf, dtype=np.float32).reshape(height, width, channels).copy()

@@ -65,21 +65,49 @@ def orient_parts(positions: np.ndarray, triangles: np.ndarray, parts: tuple[int,
     count, part = parts
     if not len(t):
         return Orientation(np.zeros(0, bool), 0, 0)
-    # Signed volume about each part's centroid (so an open part's value does not depend on the origin).
-    weights = np.bincount(part, minlength=count).astype(np.float64) * 3.0
-    centroid = np.stack([np.bincount(part, p[t].sum(axis=1)[:, k], minlength=count) for k in range(3)], axis=1)
-    centroid /= np.maximum(weights, 1.0)[:, None]
-    a, b, c = (p[t[:, k]] - centroid[part] for k in range(3))
-    volume = np.bincount(part, np.einsum("ij,ij->i", a, np.cross(b, c)), minlength=count) / 6.0
-    lo = np.full((count, 3), np.inf)
-    hi = np.full((count, 3), -np.inf)
-    corners = p[t].reshape(-1, 3)
-    np.minimum.at(lo, np.repeat(part, 3), corners)
-    np.maximum.at(hi, np.repeat(part, 3), corners)
+    # Signed volume about each part's centroid (so an open part's value does not depend on the origin). Corners
+    # as (3, T) rows: contiguous per coordinate, several times faster than (T, 3) columns.
+    P = np.ascontiguousarray(p.T)
+    A, B, C = (np.take(P, np.ascontiguousarray(t[:, k]), axis=1) for k in range(3))
+    first = int(part[0])
+    if count == 1 or (part == first).all():
+        # The usual mesh, one part (loose vertices aside): whole-array reductions, no per-part bookkeeping.
+        centroid = ((A.sum(axis=1) + B.sum(axis=1) + C.sum(axis=1)) / (3.0 * len(t)))[:, None]
+        A, B, C = A - centroid, B - centroid, C - centroid
+        volume = np.zeros(count)
+        volume[first] = _triple(A, B, C).sum() / 6.0
+        lo = np.full((count, 3), np.inf)
+        hi = np.full((count, 3), -np.inf)
+        lo[first] = np.minimum(np.minimum(A.min(axis=1), B.min(axis=1)), C.min(axis=1))
+        hi[first] = np.maximum(np.maximum(A.max(axis=1), B.max(axis=1)), C.max(axis=1))
+    else:
+        weights = np.bincount(part, minlength=count).astype(np.float64) * 3.0
+        S = A + B + C
+        centroid = np.stack([np.bincount(part, S[k], minlength=count) for k in range(3)])
+        centroid /= np.maximum(weights, 1.0)[None]
+        offset = centroid[:, part]
+        A, B, C = A - offset, B - offset, C - offset
+        volume = np.bincount(part, _triple(A, B, C), minlength=count) / 6.0
+        # Per-part boxes by sorted segments (ufunc.at took 60 ms for the bunny's corners), about each part's
+        # own centroid (the box's extent is the same).
+        order = np.argsort(part, kind="stable")
+        sorted_part = part[order]
+        starts = np.flatnonzero(np.r_[True, sorted_part[1:] != sorted_part[:-1]])
+        ids = sorted_part[starts]
+        lo = np.full((count, 3), np.inf)
+        hi = np.full((count, 3), -np.inf)
+        lo[ids] = np.minimum.reduceat(np.minimum(np.minimum(A, B), C)[:, order], starts, axis=1).T
+        hi[ids] = np.maximum.reduceat(np.maximum(np.maximum(A, B), C)[:, order], starts, axis=1).T
     box = np.prod(hi - lo, axis=1)
-    encloses = np.abs(volume) > FLAT_SHARE * box
+    # (a part of loose vertices has no triangle and no box: it encloses nothing)
+    encloses = np.isfinite(box) & (np.abs(volume) > FLAT_SHARE * box)
     inward = encloses & (volume < 0)
     return Orientation(inward[part], int(encloses.sum()), int(inward.sum()))
+
+
+def _triple(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """a . (b x c) per column of (3, N) rows (six times the signed volume of the tetrahedron on the origin)."""
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) + a[2] * (b[0] * c[1] - b[1] * c[0])
 
 
 def turned(flip: np.ndarray, corners: np.ndarray) -> np.ndarray:
