@@ -74,7 +74,8 @@ bench-frame: $(STAMP)
 	$(PY) scripts/bench_frame.py
 
 # Each method at 1920x1080 on the demo and bench scenes, frames per second and the split, the GPU named; at
-# most 5 minutes (what does not fit is listed as skipped). Run it on a machine with a GPU.
+# most 5 minutes (what does not fit is listed as skipped). Run it on a machine with a GPU: on llvmpipe it draws
+# 480x270 and labels its figures software rendering.
 bench-gpu: $(STAMP)
 	$(PY) scripts/bench_frame.py --gpu --budget 270
 
