@@ -19,6 +19,7 @@ minutes a frame at 1920x1080 there), and its figures are labelled software rende
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import platform
@@ -152,8 +153,8 @@ def main() -> int:
     # GPU objects freed while Blender still runs: left to the interpreter's exit they crashed it (SIGSEGV).
     viewport_probe.PROBE.clear()
     bpy.utils.unregister_class(probe)
-    engine.free()
-    mod("blender.extract").clear_caches()
+    bpy.ops.preferences.addon_disable(module=package)  # the extension's own unregister frees its caches
+    gc.collect()
     return 0
 
 

@@ -106,6 +106,8 @@ def _monitored(run, timer: _Timer) -> dict[str, float]:
     finally:
         wall = time.perf_counter() - t0
         mon.set_events(tool, 0)
+        for event in (events.CALL, events.C_RETURN, events.C_RAISE):
+            mon.register_callback(tool, event, None)
         mon.free_tool_id(tool)
     result = _result(wall, timer)
     if seen and timer.calls:
@@ -121,6 +123,10 @@ def _monitored(run, timer: _Timer) -> dict[str, float]:
         per_call = (time.perf_counter() - t1) / n
         result["hook"] = per_call * timer.calls
         result["outside"] = max(result["outside"] - result["hook"], 0.0)
+    # Bound methods of GPU objects (fb.read_color) are keys here: kept, they outlived Blender's GPU context and
+    # crashed the interpreter's exit.
+    known.clear()
+    seen.clear()
     return result
 
 
