@@ -202,6 +202,39 @@ def test_the_viewport_path_draws_the_f12_frame_and_follows_updates(tr, scene, pr
     np.testing.assert_allclose(recoloured, render(scene, SIZE, SIZE), rtol=2e-3, atol=2e-4)
 
 
+# What Blender's depsgraph reports for each edit: a geometry update of the object for mesh and modifier edits,
+# a transform update for the scale, nothing of the object for a material (the material is updated).
+VIEWPORT_EDITS = [(_edit_vertex, "geometry"), (_edit_modifier, "geometry"), (_edit_material, None),
+                  (_edit_scale, "transform"), (_edit_shading, "geometry")]
+
+
+@pytest.mark.parametrize("edit, update", VIEWPORT_EDITS, ids=["mesh", "modifier", "material", "scale", "smooth"])
+def test_each_edit_shows_in_the_next_viewport_frame(tr, scene, probe, edit, update):
+    ball = _scene(scene)
+    before = _viewport_frame(scene)
+    edit(ball)
+    updates = [] if update is None else [viewport_probe.update_of(ball, geometry=update == "geometry",
+                                                                  transform=update == "transform")]
+    after = _viewport_frame(scene, updates)
+    f12 = render(scene, SIZE, SIZE)
+    assert np.abs(f12 - before).max() > 1e-3, "the edit is in sight"
+    np.testing.assert_allclose(after, f12, rtol=2e-3, atol=2e-4)
+
+
+def test_a_preset_change_shows_in_the_next_viewport_frame(tr, scene, probe):
+    """A setting of the object (no geometry update): the medium is read from the settings every frame."""
+    ball = _scene(scene, "IMAGE_SPACE")
+    ball.translucent.preset = "marble"
+    before = _viewport_frame(scene)
+    ball.translucent.preset = "ketchup"
+    after = _viewport_frame(scene)
+    f12 = render(scene, SIZE, SIZE)
+    change = np.abs(f12 - before)[..., :3].mean()
+    assert change > 0.01 * f12[..., :3].mean(), "the preset changes the picture"
+    # IMAGE_SPACE's own sample sequence per path: the viewport equals F12 in the mean, far closer than the change.
+    assert np.abs(after - f12)[..., :3].mean() < 0.25 * change
+
+
 def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
     """Between updates, an object no update named is not read (its ``DrawnMesh`` is reused as it is); one
     that is named is read and compared."""
