@@ -117,7 +117,7 @@ class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
         mat = presets.Material(self.name.strip(), tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g))
         try:
             presets.save_user_preset(props.user_presets_path(), mat)
-        except presets.CoefficientError as err:
+        except (presets.CoefficientError, presets.PresetFileError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
         props.refresh_preset_items()
@@ -138,7 +138,11 @@ class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
         if not name.startswith(presets.USER_PREFIX):
             self.report({"ERROR"}, "the object's preset is not one of yours: only user presets can be removed")
             return {"CANCELLED"}
-        presets.remove_user_preset(props.user_presets_path(), name[len(presets.USER_PREFIX):])
+        try:
+            presets.remove_user_preset(props.user_presets_path(), name[len(presets.USER_PREFIX):])
+        except presets.PresetFileError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
         ob.translucent.preset = "CUSTOM"  # before the list changes under it
         props.refresh_preset_items()
         self.report({"INFO"}, f"preset '{name[len(presets.USER_PREFIX):]}' removed")

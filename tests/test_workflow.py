@@ -115,10 +115,34 @@ def test_user_presets_file_skips_entries_that_are_not_media(tmp_path):
     path.write_text(json.dumps({"good": {"sigma_a": [0, 0, 0], "sigma_s_prime": [1, 1, 1], "eta": 1.3},
                                 "negative": {"sigma_a": [-1, 0, 0], "sigma_s_prime": [1, 1, 1], "eta": 1.3},
                                 "broken": {"eta": 1.3}}))
-    assert list(presets.load_user_presets(path)) == ["good"]
+    problems = []
+    assert list(presets.load_user_presets(path, problems)) == ["good"]
+    assert len(problems) == 2 and "'negative'" in problems[0]
+    assert "'broken'" in problems[1] and "no 'sigma_a'" in problems[1]
     with pytest.raises(presets.CoefficientError, match="sigma_s_prime.R = 0.0 mm\\^-1, must be > 0"):
         presets.save_user_preset(path, presets.Material("zero", (0, 0, 0), (0.0, 1, 1), 1.3))
     assert presets.remove_user_preset(path, "good") and not presets.remove_user_preset(path, "good")
+
+
+@pytest.mark.parametrize("text", ["{not json", "[1, 2, 3]", "\udcff", ""])
+def test_a_damaged_user_presets_file_gives_none_says_why_and_is_not_overwritten(tmp_path, text):
+    """A user presets file that is not JSON, or not an object of presets, lists no user preset and one line
+    saying so (the built-in list is kept); saving into it is refused rather than losing what it held."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from translucent_addon.core.physics import presets
+
+    path = tmp_path / "presets.json"
+    path.write_bytes(text.encode("utf-8", "surrogateescape"))
+    problems = []
+    assert presets.load_user_presets(path, problems) == {}
+    assert len(problems) == 1 and "fix or remove it" in problems[0]
+    assert len(presets.load_presets()) >= 12
+    with pytest.raises(presets.PresetFileError):
+        presets.save_user_preset(path, presets.Material("new", (0.1, 0.1, 0.1), (1.0, 1.0, 1.0), 1.3))
+    assert path.read_bytes() == text.encode("utf-8", "surrogateescape")
 
 
 def test_editing_a_coefficient_makes_the_preset_custom(tr, scene):

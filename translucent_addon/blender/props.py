@@ -9,6 +9,7 @@ from ..core.properties import Prop
 from . import preferences
 
 _PRESET_ITEMS: list = []
+PRESET_PROBLEMS: list[str] = []  # what the user presets file's last reading skipped (the object panel shows it)
 
 
 def user_presets_path():
@@ -26,8 +27,13 @@ def refresh_preset_items() -> None:
     _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand"))
     for name in sorted(load_presets()):
         _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)"))
-    for name in sorted(load_user_presets(user_presets_path())):
+    problems: list[str] = []
+    for name in sorted(load_user_presets(user_presets_path(), problems)):
         _PRESET_ITEMS.append((USER_PREFIX + name, name, f"Your preset '{name}'"))
+    if problems != PRESET_PROBLEMS:
+        for line in problems:
+            print(f"Translucent: {line}")
+    PRESET_PROBLEMS[:] = problems
 
 
 def _preset_items(self, context):

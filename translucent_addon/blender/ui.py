@@ -10,6 +10,7 @@ from .bake_inputs import bake_status
 from .draw_handler import timing_lines
 from .engine import LAST_AUTO_OVERLAP, LAST_TIMINGS
 from .extract import TURNED, grass_status
+from .props import PRESET_PROBLEMS
 from .versions import EEVEE_IDS
 
 _STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
@@ -49,6 +50,8 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
         row.prop(s, "preset")
         row.operator("translucent.save_preset", text="", icon="ADD")
         row.operator("translucent.remove_preset", text="", icon="REMOVE")
+        for line in PRESET_PROBLEMS[:2]:  # the user presets file's entries that were skipped, and why
+            col.label(text=line, icon="ERROR")
         col.prop(s, "sigma_a")
         col.prop(s, "sigma_s_prime")
         col.prop(s, "eta")

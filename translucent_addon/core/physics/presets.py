@@ -87,25 +87,52 @@ def load_presets(path: Path = PRESETS_CSV) -> dict[str, Material]:
 USER_PREFIX = "USER:"
 
 
-def load_user_presets(path: Path | str) -> dict[str, Material]:
+def load_user_presets(path: Path | str, problems: list[str] | None = None) -> dict[str, Material]:
     """User presets from a JSON file ({name: {sigma_a, sigma_s_prime, eta, g}}); none when it is absent.
-    An entry that is not a physical medium is skipped (a hand-edited file must not break the list)."""
-    import json
-
+    Read entry by entry: one that is not a physical medium is skipped, and a file that is not such an object
+    at all gives none, each with a line in ``problems`` (a hand-edited file must not break the list, whose
+    built-in presets come first)."""
     path = Path(path)
     if not path.is_file():
         return {}
+    try:
+        data = _read_user_file(path)
+    except PresetFileError as err:
+        if problems is not None:
+            problems.append(str(err))
+        return {}
     out = {}
-    for name, entry in json.loads(path.read_text()).items():
+    for name, entry in data.items():
         try:
             mat = Material(str(name), tuple(float(x) for x in entry["sigma_a"]),
                            tuple(float(x) for x in entry["sigma_s_prime"]), float(entry["eta"]),
                            float(entry.get("g", 0.0)))
+            if len(mat.sigma_a) != 3 or len(mat.sigma_s_prime) != 3:
+                raise ValueError("sigma_a and sigma_s_prime need three values (R, G, B)")
             validate_coefficients(mat.sigma_a, mat.sigma_s_prime, mat.eta, mat.g, name=mat.name)
-        except (KeyError, TypeError, ValueError):
+        except (KeyError, TypeError, ValueError, AttributeError) as err:
+            if problems is not None:
+                why = f"no {err}" if isinstance(err, KeyError) else str(err)
+                problems.append(f"user preset '{name}' in {path} skipped: {why}")
             continue
         out[mat.name] = mat
     return out
+
+
+class PresetFileError(ValueError):
+    """The user presets file cannot be read as presets (not JSON, not an object of entries)."""
+
+
+def _read_user_file(path: Path) -> dict:
+    import json
+
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise PresetFileError(f"user presets file {path} cannot be read ({err}): fix or remove it") from None
+    if not isinstance(data, dict):
+        raise PresetFileError(f"user presets file {path} is not a set of named presets: fix or remove it")
+    return data
 
 
 def save_user_preset(path: Path | str, mat: Material) -> None:
@@ -116,7 +143,7 @@ def save_user_preset(path: Path | str, mat: Material) -> None:
         raise CoefficientError("a preset needs a name")
     validate_coefficients(mat.sigma_a, mat.sigma_s_prime, mat.eta, mat.g, name=mat.name)
     path = Path(path)
-    data = json.loads(path.read_text()) if path.is_file() else {}
+    data = _read_user_file(path) if path.is_file() else {}  # a damaged file is refused, not overwritten
     data[mat.name] = {"sigma_a": list(mat.sigma_a), "sigma_s_prime": list(mat.sigma_s_prime), "eta": mat.eta,
                       "g": mat.g}
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -127,7 +154,7 @@ def remove_user_preset(path: Path | str, name: str) -> bool:
     import json
 
     path = Path(path)
-    data = json.loads(path.read_text()) if path.is_file() else {}
+    data = _read_user_file(path) if path.is_file() else {}
     if name not in data:
         return False
     del data[name]
