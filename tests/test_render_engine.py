@@ -111,6 +111,25 @@ def test_an_object_scaled_to_zero_leaves_the_frame_as_if_hidden(tr, scene, metho
     np.testing.assert_allclose(flattened, hidden, atol=1e-6)
 
 
+@pytest.mark.parametrize("method", ["OFF", "IMAGE_SPACE"])
+def test_a_mesh_with_nan_vertices_is_skipped_with_a_message_and_the_rest_drawn(tr, scene, method):
+    """A NaN vertex (a broken import, a script) made the frame non-finite or raised. Now that object is not
+    drawn, the frame says which and why, and equals the frame with it hidden."""
+    lit_cube_scene(scene)
+    extra = add_cube(scene, "Extra", size=0.5, location=(1.2, 0.8, 0.3), color=(0.2, 0.7, 0.3))
+    extra.translucent.method = method
+    extra.data.vertices[0].co = (float("nan"), 0.0, 0.0)
+    extra.data.update()
+    frame = _frame_of(tr, scene, 16, 16)
+    assert "Extra" not in [m.name for m in frame.meshes] and "Cube" in [m.name for m in frame.meshes]
+    assert any(w.startswith("'Extra': the mesh has vertices that are not numbers") for w in frame.warnings)
+    broken = render(scene, 48, 48)
+    extra.hide_render = True
+    hidden = render(scene, 48, 48)
+    assert np.isfinite(broken).all() and broken[..., :3].max() > 0.05, "the rest of the frame is drawn"
+    np.testing.assert_allclose(broken, hidden, atol=1e-6)
+
+
 def test_a_medium_read_from_a_file_with_eta_below_1_is_refused_and_the_rest_drawn(tr, scene):
     """The IOR setting stops at 1, a file (or a script writing the ID property) does not: 0.5 drew non-finite
     pixels. Now the object is drawn with its base colour and the frame says why."""

@@ -432,7 +432,12 @@ def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict 
         try:
             if mesh is None or len(mesh.polygons) == 0:
                 return None
-            drawn = drawn_mesh(ob, mesh, mesh_read.read(mesh, cache_key), cache_key)
+            read = mesh_read.read(mesh, cache_key)
+            if not read.finite:
+                frame_warnings.append(f"'{name}': the mesh has vertices that are not numbers (NaN or inf); "
+                                      f"not drawn")
+                return None
+            drawn = drawn_mesh(ob, mesh, read, cache_key)
             relief = relief_surface(original, mesh, drawn.tri_loops, drawn.positions, frame_warnings)
         finally:
             ob.to_mesh_clear()

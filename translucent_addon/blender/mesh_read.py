@@ -54,6 +54,11 @@ class MeshRead:
         return orient_parts(self.vertices, self.triangles, self.parts)
 
     @functools.cached_property
+    def finite(self) -> bool:
+        """Whether every position and normal is a number (a NaN vertex poisons every method's sums)."""
+        return bool(np.isfinite(self.vertices).all() and np.isfinite(self.corner_normals).all())
+
+    @functools.cached_property
     def material_index(self) -> np.ndarray:
         """(T,) int32 material slot per triangle."""
         return self.face_material[self.tri_face]
