@@ -170,3 +170,58 @@ def test_quadgraph_density_refines_a_mesh_with_fewer_triangles_than_it_asks_for(
         return abs(float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum()) / 6.0)
 
     assert volume(v, t) == pytest.approx(volume(got.vertices, got.triangles), rel=0.01)
+
+
+@pytest.mark.parametrize("damage", ["index", "nan", "length", "nan_no_data_hash"])
+def test_a_damaged_bake_is_refused_with_a_message_and_the_rest_drawn(tr, scene, damage):
+    """Bake data changed in the file (out-of-range indices crashed Blender inside SciPy; NaN drew the object
+    black) is never drawn: the object keeps its base colour, the frame says why, the rest is
+    drawn. The data hash written with the bake catches any change; a bake from before it carried one is
+    checked for shapes and finiteness."""
+    from blender_helpers import add_camera, add_light, add_plane, render
+
+    add_plane(scene)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.8, location=(0, 0, 0.9))
+    ball = bpy.context.object
+    ball.translucent.method = "TEXTURE_SPACE"
+    ball.translucent.atlas_resolution = 96
+    ball.translucent.mm_per_unit = 20.0
+    add_light(scene, "POINT", (2.0, -2.0, 3.0), energy=400.0)
+    add_camera(scene, (0, -5, 2), (0, 0, 0.8), lens=50)
+    _select(ball)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    good = render(scene, 32, 32)
+    group = ball["translucent_bake"]["TEXTURE_SPACE"]
+    name = "proxy_triangles"  # indices into the proxy's vertices
+    if damage == "index":
+        values = np.array(group["arrays"][name])
+        values[len(values) // 2] = 2_000_000_000
+        group["arrays"][name] = values
+    elif damage == "length":
+        shorter = np.array(group["arrays"][name])[:-7]
+        del group["arrays"][name]  # (assigning a shorter array in place keeps the old length)
+        group["arrays"][name] = shorter
+    else:
+        floats = "atlas_normal"
+        values = np.array(group["arrays"][floats])
+        values[0] = np.nan
+        group["arrays"][floats] = values
+        if damage == "nan_no_data_hash":
+            del group["data_hash"]
+    ext_module(tr, "translucent_addon.gpu.bake_cache").clear()  # as after reopening the file
+    ext_module(tr, "translucent_addon.blender.engine").free()
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    damaged = render(scene, 32, 32)
+    assert np.isfinite(damaged).all() and damaged[..., :3].max() > 0.05
+    assert np.abs(damaged - good).max() > 1e-3, "the bake is not drawn"
+    ball.translucent.method = "OFF"
+    np.testing.assert_allclose(damaged, render(scene, 32, 32), atol=1e-5, err_msg="drawn with its base colour")
+    ball.translucent.method = "TEXTURE_SPACE"
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, 16, 16))
+    engine = ext_module(tr, "translucent_addon.blender.engine")
+    pipeline = engine.final_pipeline()
+    prepare = ext_module(tr, "translucent_addon.techniques.texture_space.passes").prepare
+    assert prepare(frame) == [] and pipeline is not None
+    assert any(w.startswith("'Icosphere': TEXTURE_SPACE bake is damaged: ") and w.endswith("Press Bake")
+               for w in frame.warnings), frame.warnings

@@ -36,6 +36,23 @@ def inputs_hash(arrays: dict[str, np.ndarray], params: dict) -> str:
     return h.hexdigest()
 
 
+class DamagedBakeError(ValueError):
+    """A stored bake that cannot be what was baked: its data changed since (a different data hash), or its
+    arrays do not fit their own shapes and types, or hold NaN. It is never drawn."""
+
+
+def data_hash(group_arrays: dict, shapes: dict, dtypes: dict, meta: str, digest: str) -> str:
+    """Hash of a bake's data as stored (each array's name, dtype, shape and bytes, the meta, the inputs hash):
+    written with the bake, compared when it is read, so that data changed in the file is refused."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(f"{digest}|{meta}".encode())
+    for name in sorted(group_arrays):
+        a = np.ascontiguousarray(group_arrays[name])
+        h.update(f"{name}:{dtypes[name]}:{list(shapes[name])}:{a.dtype.str}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 @dataclasses.dataclass
 class BakeRecord:
     method: str
@@ -61,34 +78,56 @@ def write(idblock: Any, method: str, digest: str, arrays: dict[str, np.ndarray],
     group["inputs_hash"] = digest
     group["format"] = FORMAT_VERSION
     group["meta"] = json.dumps(meta or {}, sort_keys=True)
+    group["data_hash"] = data_hash(group["arrays"], group["shapes"], group["dtypes"], group["meta"], digest)
     if BAKE_KEY in idblock:
         idblock[BAKE_KEY][method] = group
     else:
         idblock[BAKE_KEY] = {method: group}
 
 
-def _as_array(value, dtype: str, shape) -> np.ndarray:
-    stored = np.dtype(np.int32) if np.dtype(dtype) == _HALF else np.dtype(dtype)
-    try:
-        a = np.frombuffer(value, dtype=stored).copy()
-    except TypeError:  # a plain list (dict-backed tests, empty arrays)
-        a = np.asarray(value, dtype=stored)
+def _as_array(a: np.ndarray, dtype: str, shape) -> np.ndarray:
     if np.dtype(dtype) == _HALF:
         a = a.view(np.float16)[:int(np.prod(shape))]
     return a.reshape(tuple(shape))
 
 
 def read(idblock: Any, method: str) -> BakeRecord | None:
+    """The stored bake of ``method`` (None when there is none of this format). Raises ``DamagedBakeError`` when its
+    data is not what was baked: checked against the data hash written with it (bakes from before it was
+    written: their arrays' shapes, types and finiteness only)."""
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None
     g = idblock[BAKE_KEY][method]
     if int(g.get("format", 0)) != FORMAT_VERSION:
         return None
-    arrays = {
-        name: _as_array(g["arrays"][name], g["dtypes"][name], g["shapes"][name])
-        for name in g["arrays"].keys()
-    }
-    return BakeRecord(method, str(g["inputs_hash"]), json.loads(g["meta"]), arrays)
+    try:
+        stored = {name: _stored(g["arrays"][name], g["dtypes"][name]) for name in g["arrays"].keys()}
+        shapes = {name: [int(d) for d in g["shapes"][name]] for name in stored}
+        dtypes = {name: str(g["dtypes"][name]) for name in stored}
+        meta_text = str(g["meta"])
+        digest = str(g["inputs_hash"])
+        expected = g.get("data_hash")
+        if expected is not None and str(expected) != data_hash(stored, shapes, dtypes, meta_text, digest):
+            raise DamagedBakeError("its data changed since it was baked")
+        arrays = {name: _as_array(stored[name], dtypes[name], shapes[name]) for name in stored}
+        meta = json.loads(meta_text)
+    except DamagedBakeError:
+        raise
+    except (KeyError, TypeError, ValueError) as err:
+        raise DamagedBakeError(f"its arrays cannot be read ({err})") from None
+    for name, a in arrays.items():
+        if a.dtype.kind == "f" and not np.isfinite(a).all():
+            raise DamagedBakeError(f"its array '{name}' holds values that are not numbers")
+    return BakeRecord(method, digest, meta, arrays)
+
+
+def _stored(value, dtype: str) -> np.ndarray:
+    """An ID-property array as the NumPy array it holds (its stored dtype: float16 is kept two to an int32)."""
+    stored = np.dtype(np.int32) if np.dtype(dtype) == _HALF else np.dtype(dtype)
+    try:
+        return np.frombuffer(value, dtype=stored).copy()
+    except TypeError:  # a plain list (dict-backed tests, empty arrays)
+        return np.asarray(value, dtype=stored)
 
 
 def read_meta(idblock: Any, method: str) -> dict | None:

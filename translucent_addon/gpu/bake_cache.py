@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import dataclasses
 
+from ..core.bake_store import DamagedBakeError
+
 _entries: dict = {}
+_damaged: dict = {}  # bake key -> why it was refused (not read again every frame; a new bake forgets it)
 
 
 @dataclasses.dataclass
@@ -27,7 +30,18 @@ def prepare(frame, method: str, build, matches) -> list[Active]:
         handle = getattr(mesh, "bake", None)
         if mesh.method != method or handle is None or mesh.medium is None:
             continue
-        res = get(handle, lambda arrays, m=mesh: build(arrays, m))
+        why = _damaged.get(handle.key)
+        if why is None:
+            try:
+                res = get(handle, lambda arrays, m=mesh: build(arrays, m))
+            except DamagedBakeError as err:
+                why = _damaged[handle.key] = str(err)
+            except (ValueError, IndexError, KeyError) as err:  # arrays that fit no table: damaged too
+                why = _damaged[handle.key] = f"its arrays do not fit together ({type(err).__name__}: {err})"
+        if why is not None:
+            frame.warnings.append(f"'{mesh.name}': {method} bake is damaged: {why}; drawn with its base colour. "
+                                  f"Press Bake")
+            continue
         if not matches(res, mesh):
             frame.warnings.append(f"'{mesh.name}': {method} bake does not match the mesh; press Bake")
             continue
@@ -50,7 +64,10 @@ def forget(owner: str) -> None:
     change with a new bake in another pose, since its hash follows the topology only.)"""
     for key in [k for k in _entries if k.split("#")[0] == owner]:
         del _entries[key]
+    for key in [k for k in _damaged if k.split("#")[0] == owner]:
+        del _damaged[key]
 
 
 def clear() -> None:
     _entries.clear()
+    _damaged.clear()
