@@ -11,7 +11,7 @@ from ..core.geometry.mesh_subdivide import midpoint_subdivision
 from ..core.geometry.orientation import outward_normals, turned
 from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
-from ..techniques.registry import BakeInputError, BakeInputs, needs_bake
+from ..techniques.registry import BakeInputError, BakeInputs, needs_bake, refuse_size
 from ..techniques.texture_space.proxy import surface_area, target_triangles
 from . import mesh_read
 from .bvh_tracer import BVHTracer
@@ -28,6 +28,13 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
     original = ob_eval.original
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
+    if for_bake and read is None:  # the size first: nothing is made of a mesh no bake takes
+        mesh = ob_eval.to_mesh()
+        try:
+            read = mesh_read.read(mesh, (mode, original.name))
+        finally:
+            ob_eval.to_mesh_clear()
+        refuse_size(original.name, len(read.tri_face))
     vertices, triangles, corner_normals, read_triangles = mesh_arrays(
         ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", mode=mode, read=read)
     props = original.translucent
