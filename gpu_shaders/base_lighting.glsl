@@ -35,7 +35,7 @@ void main()
 {
   vec3 n = normalize(v_normal);
   vec3 n_g = cross(dFdx(v_world), dFdy(v_world)); /* the facet's plane; derivatives before any discard */
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     n = -n;
   }
   int slot = int(object.shading.x + 0.5) - 1;

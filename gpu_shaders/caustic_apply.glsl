@@ -23,7 +23,7 @@ void main()
     discard;
   }
   vec3 n = normalize(v_normal);
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     n = -n;
   }
   bool is_point = light.position_kind.w > 0.5;

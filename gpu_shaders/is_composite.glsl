@@ -16,7 +16,7 @@ void main()
 {
   int slot = int(object.shading.x + 0.5) - 1;
   vec3 n = normalize(v_normal);
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     n = -n;
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);

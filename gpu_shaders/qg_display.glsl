@@ -77,7 +77,7 @@ vec3 single_scattering(vec3 p)
 void main()
 {
   vec3 n = normalize(v_normal);
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     n = -n;
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);

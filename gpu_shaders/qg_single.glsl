@@ -229,7 +229,7 @@ void main()
     return;
   }
   vec3 n = normalize(v_normal);
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     n = -n;
   }
   /* Surface gradients from the pixel's derivatives (in uniform control flow):

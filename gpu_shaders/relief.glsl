@@ -33,7 +33,7 @@ vec2 in_frame(vec3 w, vec3 T, vec3 B)
 void main()
 {
   vec3 N = normalize(v_normal);
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     N = -N;
   }
   vec3 T = v_tangent_u;

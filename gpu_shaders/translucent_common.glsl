@@ -67,3 +67,13 @@ vec3 table_lerp(sampler2D table, float u)
   return mix(texelFetch(table, ivec2(k, 0), 0).rgb, texelFetch(table, ivec2(min(k + 1, n - 1), 0), 0).rgb,
              x - float(k));
 }
+
+#ifdef GPU_FRAGMENT_SHADER
+/* Whether this fragment sees the outside of its triangle: gl_FrontFacing under the object's own winding.
+ * A mirrored object (a negative scale, a negative determinant: the object block's shading.y = 1) turns
+ * every triangle's winding on screen, which drew it dark or not at all. */
+bool facing_out(vec4 shading)
+{
+  return gl_FrontFacing != (shading.y > 0.5);
+}
+#endif

@@ -34,7 +34,7 @@ vec4 bilinear(sampler2D map, vec2 p)
 void main()
 {
   vec3 n = normalize(v_normal);
-  if (!gl_FrontFacing) {
+  if (!facing_out(object.shading)) {
     n = -n;
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);

@@ -147,8 +147,10 @@ def frame_block(view, projection, world_color, world_sh) -> bytes:
 
 
 def object_block(model, normal_matrix, subsurface_slot: int = -1) -> bytes:
-    """ObjectData: model, normal matrix, shading (x: subsurface slot + 1, 0 for Lambert)."""
-    shading = np.array([subsurface_slot + 1, 0, 0, 0], np.float32)
+    """ObjectData: model, normal matrix, shading (x: subsurface slot + 1, 0 for Lambert; y: 1 when the model
+    mirrors, its determinant negative: the fragment shaders' ``facing_out`` turns gl_FrontFacing then)."""
+    mirrored = float(np.linalg.det(np.asarray(model, np.float64)[:3, :3]) < 0.0)
+    shading = np.array([subsurface_slot + 1, mirrored, 0, 0], np.float32)
     return np.concatenate([_mat(model), _mat(normal_matrix), shading]).astype(np.float32).tobytes()
 
 
