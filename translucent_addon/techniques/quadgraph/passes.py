@@ -472,18 +472,18 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
                 screen_quad(pipeline, "qg_upsample").draw(shader)
         shader = shaders.get("qg_relax")
         quad = screen_quad(pipeline, "qg_relax")
-        n, tables_bound = 0, False
+        # Bound once a level: its tables, the blend state and the shader stay (each draw binds the shader again;
+        # nothing between two steps binds another), so a step sets phi and draws.
+        gpu.state.blend_set("NONE")
+        shader.bind()
+        _relax_uniforms(shader, lg, t, A)
+        n = 0
         while n < max_iterations:
             step = min(CHECK_EVERY, max_iterations - n)
             for _ in range(step):
                 src, dst = lg.phi[cur], lg.phi[1 - cur]
                 with dst[0].bind():
-                    gpu.state.blend_set("NONE")
-                    shader.bind()
                     shader.uniform_sampler("phi", src[1][0])
-                    if not tables_bound:  # the level's own tables: once, they stay bound
-                        _relax_uniforms(shader, lg, t, A)
-                        tables_bound = True
                     quad.draw(shader)
                 cur = 1 - cur
             n += step
