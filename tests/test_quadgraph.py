@@ -366,3 +366,25 @@ def test_a_surface_with_no_inside_is_refused_with_a_message():
     f = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
     with pytest.raises(BakeInputError, match="'Ball': the tetrahedraliser found no volume inside the surface"):
         _run(_inputs(vertices=v, triangles=f, quadgraph_levels=1))
+
+
+@pytest.mark.parametrize("damage", ["n_surface", "neighbour", "up_index"])
+def test_stored_counts_and_indices_out_of_range_are_refused_before_anything_is_allocated(damage):
+    """n_surface = 2^31 - 1 in a file asked for 16 GiB; a link or an upsampling index past its level read past
+    an array. The tables refuse them (ValueError: ``bake_cache`` draws the base colour and says why)."""
+    from translucent_addon.techniques.quadgraph.model import level_tables
+
+    (arrays, _), _ = _run(_inputs())
+    arrays = dict(arrays)
+    coarse = level_tables(arrays, 0, None)
+    assert level_tables(arrays, 1, coarse).count == len(arrays["qg1_positions"])  # as baked
+    if damage == "n_surface":
+        arrays["qg1_n_surface"] = np.array([2**31 - 1], np.int32)
+    elif damage == "neighbour":
+        arrays["qg1_neighbours"] = arrays["qg1_neighbours"].copy()
+        arrays["qg1_neighbours"][0, 0] = len(arrays["qg1_positions"]) + 5
+    else:
+        arrays["qg1_up_index"] = arrays["qg1_up_index"].copy()
+        arrays["qg1_up_index"][0, 0] = 10**6
+    with pytest.raises(ValueError, match="level 1: "):
+        level_tables(arrays, 1, coarse)

@@ -69,6 +69,16 @@ def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTabl
     nb = arrays[p + "neighbours"].astype(np.int64)
     S = int(arrays[p + "n_surface"][0])
     positions = arrays[p + "positions"].astype(np.float64)
+    # A stored count or index out of range asked for 16 GiB (n_surface 2^31 - 1) or read past an array:
+    # refused as a bake whose arrays do not fit together (``bake_cache`` says so and draws the base colour).
+    if not 0 < S <= len(positions):
+        raise ValueError(f"level {h}: {S} surface nodes of {len(positions)}")
+    if nb.size and (nb.min() < -1 or nb.max() >= len(positions)):
+        raise ValueError(f"level {h}: a link to a node that does not exist")
+    if coarser is not None and p + "up_index" in arrays:
+        up = arrays[p + "up_index"]
+        if up.size and (up.min() < 0 or up.max() >= coarser.count):
+            raise ValueError(f"level {h}: an upsampling index past the coarser level")
     layout = layout_for(S, len(positions))
     slots = np.where(nb >= 0, layout.slots(np.maximum(nb, 0)), -1)
     d = arrays[p + "d_surface"].astype(np.float64)
