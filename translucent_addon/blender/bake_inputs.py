@@ -29,11 +29,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
     if for_bake and read is None:  # the size first: nothing is made of a mesh no bake takes
-        mesh = ob_eval.to_mesh()
-        try:
-            read = mesh_read.read(mesh, (mode, original.name))
-        finally:
-            ob_eval.to_mesh_clear()
+        read = _read(ob_eval, mode)
         refuse_size(original.name, len(read.tri_face))
     vertices, triangles, corner_normals, read_triangles = mesh_arrays(
         ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", mode=mode, read=read)
@@ -81,7 +77,16 @@ def homogeneous_profile(setting: str) -> str:
 
 
 _ARRAYS: dict = {}  # (read key, corner normals?) -> (MeshRead, arrays): a bake's geometry, per mesh as read
-_HASHES: dict = {}  # (read key, method) -> (MeshRead, parameters as JSON, inputs hash): the status of a bake
+_HASHES: dict = {}  # (mode, object, method) -> (geometry arrays, parameters as JSON, inputs hash)
+
+
+def _read(ob_eval, mode: str) -> mesh_read.MeshRead:
+    """The evaluated object's mesh through ``mesh_read`` (cached under its depsgraph mode and name)."""
+    mesh = ob_eval.to_mesh()
+    try:
+        return mesh_read.read(mesh, (mode, ob_eval.original.name))
+    finally:
+        ob_eval.to_mesh_clear()
 
 
 def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT", read=None):
@@ -91,11 +96,7 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT"
     the caller read it, not read again)."""
     key = (mode, ob_eval.original.name)
     if read is None:
-        mesh = ob_eval.to_mesh()
-        try:
-            read = mesh_read.read(mesh, key)
-        finally:
-            ob_eval.to_mesh_clear()
+        read = _read(ob_eval, mode)
     cached = _ARRAYS.get((key, corner_normals))
     if cached is not None and cached[0] is read:
         return cached[1]
@@ -206,17 +207,17 @@ def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read
 
 def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT") -> str:
     """``inputs.hash()``, hashed again only when the mesh or a parameter changed: a frame and a panel redraw ask
-    for it every time."""
+    for it every time. The geometry is compared by identity: ``mesh_arrays`` hands out the same arrays while the
+    mesh is unchanged, and the memo holds them, so an equal identity is equal content."""
     geometry, params = inputs.hash_parts()
-    read = _ARRAYS.get(((mode, inputs.name), inputs.method == "TEXTURE_SPACE"), (None,))[0]
     key = (mode, inputs.name, inputs.method)
     text = json.dumps(params, sort_keys=True, default=float)
     cached = _HASHES.get(key)
-    if read is not None and cached is not None and cached[0] is read and cached[1] == text:
+    if (cached is not None and cached[1] == text and cached[0].keys() == geometry.keys()
+            and all(cached[0][k] is a for k, a in geometry.items())):
         return cached[2]
     digest = store.inputs_hash(geometry, params)
-    if read is not None:
-        _HASHES[key] = (read, text, digest)
+    _HASHES[key] = (geometry, text, digest)
     return digest
 
 

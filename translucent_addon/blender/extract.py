@@ -338,11 +338,27 @@ _DRAWN: dict = {}  # (depsgraph mode, object name) -> DrawnMesh
 _drawn_serials = itertools.count(1)
 
 
+def _palette(ob) -> np.ndarray:
+    """(slots, 3) float32 base colours of the object's material slots."""
+    return np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
+                    dtype=np.float32)
+
+
+def _corner_colors(palette: np.ndarray, read: mesh_read.MeshRead) -> np.ndarray:
+    """(3T, 3) each corner's base colour from its triangle's material slot."""
+    return palette[np.clip(read.material_index, 0, len(palette) - 1)].repeat(3, axis=0)
+
+
+def _drawn_key(cache_key) -> str:
+    """A new GPU-cache key for an object's arrays: object, depsgraph mode and a serial."""
+    mode, name = cache_key
+    return f"{name}:{mode}#{next(_drawn_serials)}"
+
+
 def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key) -> DrawnMesh:
     """The object's ``DrawnMesh``: the cached one when made of the same read, materials and paint."""
     name = ob.original.name
-    palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
-                       dtype=np.float32)
+    palette = _palette(ob)
     weights, tint_source = paint_sources(ob, mesh)
     old = _DRAWN.get(cache_key)
     if old is not None and old.made_of(read, palette, weights, tint_source):
@@ -353,13 +369,13 @@ def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key) -> DrawnMesh:
     note = orientation.message(name)
     if note:
         positions, normals, tri_loops = turn_outward(orientation.flip, positions, normals, tri_loops)
-    colors = palette[np.clip(read.material_index, 0, len(palette) - 1)].repeat(3, axis=0)
+    colors = _corner_colors(palette, read)
     paint, tint = paint_arrays(weights, tint_source, tri_loops, read.corner_vert)  # in the turned order
     if paint is None:  # made here once, not by every frame's MeshInstance
         paint = np.tile(np.asarray(NEUTRAL_PAINT, np.float32), (len(tri_loops), 1))
         tint = np.ones((len(tri_loops), 3), np.float32)
     drawn = DrawnMesh(read, palette, weights, tint_source, positions, normals, colors, paint, tint, tri_loops, note,
-                      key=f"{name}:{cache_key[0]}#{next(_drawn_serials)}")
+                      key=_drawn_key(cache_key))
     _DRAWN[cache_key] = drawn
     return drawn
 
@@ -367,13 +383,11 @@ def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key) -> DrawnMesh:
 def recoloured(ob, drawn: DrawnMesh, cache_key) -> DrawnMesh:
     """A trusted object's ``DrawnMesh`` with its materials' colours read again (a material edit updates the
     material, not the object)."""
-    palette = np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
-                       dtype=np.float32)
+    palette = _palette(ob)
     if np.array_equal(palette, drawn.palette):
         return drawn
-    colors = palette[np.clip(drawn.read.material_index, 0, len(palette) - 1)].repeat(3, axis=0)
-    new = dataclasses.replace(drawn, palette=palette, colors=colors,
-                              key=f"{ob.original.name}:{cache_key[0]}#{next(_drawn_serials)}")
+    new = dataclasses.replace(drawn, palette=palette, colors=_corner_colors(palette, drawn.read),
+                              key=_drawn_key(cache_key))
     _DRAWN[cache_key] = new
     return new
 
@@ -447,7 +461,7 @@ def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict 
     # Read settings from the original: editing a property does not re-evaluate the object.
     method = s.method
     baked = method != "OFF" and bake_registry.needs_bake(method)
-    handle = bake_handle(ob, method, mode, frame_warnings, drawn.read if trusted else None) if baked else None
+    handle = bake_handle(ob, method, mode, frame_warnings, drawn.read) if baked else None  # the mesh as read here
     method, medium = medium_of(original, method, frame_warnings)
     return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
                 method=method, medium=medium, paint=drawn.paint, tint=drawn.tint,

@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import itertools
 
 import numpy as np
 
 from ..core.geometry.orientation import Orientation, components, orient_parts
 
-_serials = itertools.count(1)
 _CACHE: dict = {}  # key -> MeshRead
 _SEEN: dict = {}  # key -> the sweep it was last read in (``sweep``)
 _sweep = 0
@@ -37,8 +35,8 @@ class MeshRead:
     tri_loops: np.ndarray  # (T, 3) int32: the corners of each loop triangle, as Blender triangulates
     face_material: np.ndarray  # (F,) int32: material slot per face
     loops_in_order: bool = False  # tri_loops is 0, 1, 2, ...: every face a triangle
-    serial: int = dataclasses.field(default_factory=lambda: next(_serials))  # new with every change
     parts: tuple | None = None  # (count, label per triangle): connectivity, kept while the topology is
+    uses: int = 0  # frames that drew this read (``bound_points``)
 
     @functools.cached_property
     def triangles(self) -> np.ndarray:
@@ -88,8 +86,8 @@ class MeshRead:
     def bound_points(self) -> np.ndarray:
         """What bounds the drawn mesh: every used vertex the first frame a mesh is drawn (a deforming mesh is
         new every frame), the hull's vertices once it is drawn again unchanged."""
-        self._uses = getattr(self, "_uses", 0) + 1
-        return self.drawn_vertices if self._uses == 1 else self.hull_vertices
+        self.uses += 1
+        return self.drawn_vertices if self.uses == 1 else self.hull_vertices
 
     def corner_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions (3T, 3), normals (3T, 3)) float32 per triangle corner, as read."""

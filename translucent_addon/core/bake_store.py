@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -28,12 +29,17 @@ def inputs_hash(arrays: dict[str, np.ndarray], params: dict) -> str:
     """Hash of everything a bake depends on: arrays by name, dtype, shape and bytes, and params."""
     h = hashlib.blake2b(digest_size=16)
     h.update(f"format={FORMAT_VERSION}".encode())
-    for name in sorted(arrays):
-        a = np.ascontiguousarray(arrays[name])
-        h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
-        h.update(a.tobytes())
+    _hash_arrays(h, arrays, lambda name, a: f"{name}:{a.dtype.str}:{a.shape}")
     h.update(json.dumps(params, sort_keys=True, default=float).encode())
     return h.hexdigest()
+
+
+def _hash_arrays(h: Any, arrays: dict, label: Callable[[str, np.ndarray], str]) -> None:
+    """Feed arrays to a hash in name order: each one's ``label(name, array)``, then its bytes."""
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(label(name, a).encode())
+        h.update(a.tobytes())
 
 
 class DamagedBakeError(ValueError):
@@ -46,10 +52,7 @@ def data_hash(group_arrays: dict, shapes: dict, dtypes: dict, meta: str, digest:
     written with the bake, compared when it is read, so that data changed in the file is refused."""
     h = hashlib.blake2b(digest_size=16)
     h.update(f"{digest}|{meta}".encode())
-    for name in sorted(group_arrays):
-        a = np.ascontiguousarray(group_arrays[name])
-        h.update(f"{name}:{dtypes[name]}:{list(shapes[name])}:{a.dtype.str}".encode())
-        h.update(a.tobytes())
+    _hash_arrays(h, group_arrays, lambda name, a: f"{name}:{dtypes[name]}:{list(shapes[name])}:{a.dtype.str}")
     return h.hexdigest()
 
 

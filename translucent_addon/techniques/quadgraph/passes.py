@@ -160,6 +160,7 @@ class Resources:
                            for h in range(len(self.levels))]
         self._embeddings = None
         self.pose = None  # the surface vertices [mm] the nodes were last placed for
+        self.followed = None  # the mesh key (its corner arrays) the nodes were last placed for
         self.paint = None  # the painted corner values (paint, tint) the nodes were last set for
         self.M_d = [None] * len(self.levels)  # painted blur per node, None where unpainted
         self.q_factors = [np.ones((t.count, 3)) for t in self.rest_levels]
@@ -229,7 +230,7 @@ class Resources:
         """Move the nodes to the mesh's current pose (armature, lattice, shape keys): Wang Sec. 6's
         deformable objects; raises DeformationError when the pose folds the volume over (more than
         ``volume_deformation.FOLD_LIMIT`` of it in tetrahedra turned inside out)."""
-        if self.pose is not None and getattr(self, "followed", None) == mesh.key:
+        if self.pose is not None and self.followed == mesh.key:
             return  # the same corner arrays as last frame (a mesh key names its content)
         self.followed = mesh.key
         vertices = self.rest_vertices.copy()  # loose vertices (in no triangle) keep their rest place
