@@ -30,13 +30,16 @@ void main()
     out_vertex = vec4(0.0);
     return;
   }
-  int width = textureSize(F_indices, 0).x;
-  int begin = row_start(j);
-  int end = row_start(j + 1);
+  ivec2 table = textureSize(F_indices, 0);
+  int width = table.x;
+  /* The loop and its fetches stay inside the tables whatever a row start holds (the bake is checked
+   * when read, texture_space/model.check; this bounds the GPU's work on its own). */
+  int begin = max(row_start(j), 0);
+  int end = min(row_start(j + 1), table.x * table.y);
   vec3 B = texelFetch(B_direct, p, 0).rgb;
   for (int e = begin; e < end; e++) {
     ivec2 at = entry(e, width);
-    int i = int(texelFetch(F_indices, at, 0).r + 0.5);
+    int i = clamp(int(texelFetch(F_indices, at, 0).r + 0.5), 0, vertex_count - 1);
     B += texelFetch(F_data, at, 0).rgb * texelFetch(E_vertex, ivec2(i % vertex_width, i / vertex_width), 0).rgb;
   }
   vec3 T_p = max(texelFetch(T_p_vertex, p, 0).rgb, vec3(1e-4));

@@ -52,10 +52,15 @@ class ModalJob:
         ob, inputs = prepared
         self._t0 = time.perf_counter()
         job = self._job_for(inputs)
+        printed = (None, 0.0)
         try:
             while True:
                 fraction, text = next(job)
-                print(f"{self._title} '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
+                # A step waiting on a child process reports every 50 ms: a line when the step changes, or 5 s on.
+                step, now = text.split(" (")[0], time.perf_counter()
+                if step != printed[0] or now - printed[1] >= 5.0:
+                    print(f"{self._title} '{ob.name}': {100 * fraction:5.1f} % {text}", flush=True)
+                    printed = (step, now)
         except StopIteration as done:
             self._finish(ob, inputs, done.value)
         except self._errors as err:  # found by a step (e.g. tetrahedra): one line, object unchanged

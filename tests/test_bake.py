@@ -173,7 +173,7 @@ def test_quadgraph_density_refines_a_mesh_with_fewer_triangles_than_it_asks_for(
 
 
 @pytest.mark.parametrize("damage", ["index", "nan", "length", "nan_no_data_hash"])
-def test_a_damaged_bake_is_refused_with_a_message_and_the_rest_drawn(tr, scene, damage):
+def test_a_damaged_bake_is_refused_with_a_message_and_the_rest_drawn(tr, scene, damage, capfd):
     """Bake data changed in the file (out-of-range indices crashed Blender inside SciPy; NaN drew the object
     black) is never drawn: the object keeps its base colour, the frame says why, the rest is
     drawn. The data hash written with the bake catches any change; a bake from before it carried one is
@@ -211,6 +211,13 @@ def test_a_damaged_bake_is_refused_with_a_message_and_the_rest_drawn(tr, scene, 
     ext_module(tr, "translucent_addon.gpu.bake_cache").clear()  # as after reopening the file
     ext_module(tr, "translucent_addon.blender.engine").free()
     extract = ext_module(tr, "translucent_addon.blender.extract")
+    # A batch render (these tests run in background mode) says so on stderr and fails: no FINISHED frame.
+    capfd.readouterr()
+    with pytest.raises(RuntimeError, match=r"Translucent: frame 1 lost 1 object\(s\): 'Icosphere': TEXTURE_SPACE "
+                                           r"bake is damaged: "):
+        render(scene, 32, 32)
+    assert "Translucent: frame 1: 'Icosphere': TEXTURE_SPACE bake is damaged: " in capfd.readouterr().err
+    scene.translucent.fail_on_lost_objects = False  # the frame as drawn: the object with its base colour
     damaged = render(scene, 32, 32)
     assert np.isfinite(damaged).all() and damaged[..., :3].max() > 0.05
     assert np.abs(damaged - good).max() > 1e-3, "the bake is not drawn"
@@ -245,3 +252,34 @@ def test_a_mesh_too_large_to_bake_is_refused_before_anything_is_made_of_it(tr, s
     print(f"refused in {seconds:.1f} s")
     assert seconds < 60.0
     assert "translucent_bake" not in grid
+
+
+@pytest.mark.parametrize("case", ["mm_per_unit_inf", "mm_per_unit_1e11", "coordinates_1e30", "scale_zero"])
+@pytest.mark.parametrize("method", ["TEXTURE_SPACE", "QUADGRAPH"])
+def test_geometry_the_compiled_steps_cannot_take_is_refused_before_them(tr, scene, method, case):
+    """Issue 37: xatlas spun for ever at coordinates x1e30 and at mm per unit inf or >= 1e11; fTetWild crashed
+    Blender on an object scaled to zero. Each is one line now, in well under a second, the object unchanged.
+    (Were the check gone, the compiled step runs in a child process: a crash there is a message too.)"""
+    import time
+
+    cube = add_cube(scene)
+    cube.translucent.method = method
+    cube.translucent.atlas_resolution = 96
+    _select(cube)
+    if case == "mm_per_unit_inf":
+        cube.translucent["mm_per_unit"] = float("inf")  # a file or a script: the property's range is not asked
+        expected = "'Cube': mm per unit is inf, must be a positive number"
+    elif case == "mm_per_unit_1e11":
+        cube.translucent["mm_per_unit"] = 1e11
+        expected = "'Cube': it is 1.73e+11 mm across (scale times mm per unit); a bake takes 0.001 mm to 10 km"
+    elif case == "coordinates_1e30":
+        cube.data.vertices.foreach_set("co", np.array([v.co for v in cube.data.vertices]).ravel() * 1e30)
+        cube.data.update()
+        expected = "mm across (scale times mm per unit); a bake takes 0.001 mm to 10 km"
+    else:
+        cube.scale = (1.0, 0.0, 1.0)
+        expected = "'Cube': its scale is zero (or not a number) along an axis, so it has no volume to bake"
+    t0 = time.perf_counter()
+    assert expected in _bake_error()
+    assert time.perf_counter() - t0 < 5.0
+    assert "translucent_bake" not in cube

@@ -132,6 +132,9 @@ def test_a_mesh_with_nan_vertices_is_skipped_with_a_message_and_the_rest_drawn(t
     frame = _frame_of(tr, scene, 16, 16)
     assert "Extra" not in [m.name for m in frame.meshes] and "Cube" in [m.name for m in frame.meshes]
     assert any(w.startswith("'Extra': the mesh has vertices that are not numbers") for w in frame.warnings)
+    with pytest.raises(RuntimeError, match=r"frame 1 lost 1 object\(s\): 'Extra': the mesh has vertices that"):
+        render(scene, 48, 48)  # batch (background mode): the render fails rather than finish a wrong frame
+    scene.translucent.fail_on_lost_objects = False
     broken = render(scene, 48, 48)
     extra.hide_render = True
     hidden = render(scene, 48, 48)
@@ -150,6 +153,9 @@ def test_a_medium_read_from_a_file_with_eta_below_1_is_refused_and_the_rest_draw
     frame = _frame_of(tr, scene, 16, 16)
     assert any(w.startswith("'Cube': eta = 0.5, must be an index of refraction of at least 1")
                and w.endswith("drawn with its base colour") for w in frame.warnings), frame.warnings
+    with pytest.raises(RuntimeError, match=r"frame 1 lost 1 object\(s\): 'Cube': eta = 0.5, must be"):
+        render(scene, 48, 48)
+    scene.translucent.fail_on_lost_objects = False
     image = render(scene, 48, 48)
     assert np.isfinite(image).all() and image[..., :3].max() > 0.05
 

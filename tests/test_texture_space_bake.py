@@ -332,3 +332,47 @@ def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):
     np.testing.assert_array_equal(halves[:, 0].astype(np.int64) * tsd.ROW_SPLIT + halves[:, 1].astype(np.int64),
                                   starts)
     assert t.vertex_size[0] * t.vertex_size[1] >= len(v)
+
+
+@pytest.fixture(scope="module")
+def stored_sphere():
+    """A TEXTURE_SPACE bake of a small sphere as the registry makes and stores it (xatlas in a child)."""
+    v, f = sphere(radius_mm=20.0, rings=8, segments=12)
+    inputs = registry.BakeInputs(name="s", method="TEXTURE_SPACE", vertices=v.astype(np.float32),
+                                 triangles=f.astype(np.int32), mm_per_unit=1.0, sigma_a=(0.01,) * 3,
+                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0, atlas_resolution=64)
+    job = registry.run(inputs)
+    try:
+        while True:
+            next(job)
+    except StopIteration as done:
+        return done.value[0]
+
+
+def _damaged(arrays, name, at, value):
+    a = dict(arrays)
+    a[name] = np.array(a[name])
+    a[name][at] = value
+    return a
+
+
+@pytest.mark.parametrize("name, at, value, why", [
+    ("lensch_F_indices", 3, 2_000_000_000, r"'lensch_F_indices' holds indices outside \[0, "),
+    ("lensch_F_indices", -1, -2_000_000_000, r"'lensch_F_indices' holds indices outside \[0, "),
+    ("lensch_F_indptr", 5, 2**31 - 2, r"'lensch_F_indptr' holds indices outside"),
+    ("lensch_F_indptr", 5, 0, r"'lensch_F_indptr' does not point at rows of .* entries in order"),
+    ("proxy_triangles", (0, 1), 10**6, r"'proxy_triangles' holds indices outside"),
+    ("atlas_source", 0, -1, r"'atlas_source' holds indices outside"),
+    ("atlas_shape", 0, 10**6, r"its atlas width is 1000000, outside \[1, 16384\]"),
+])
+def test_a_stored_bake_whose_indices_do_not_fit_is_refused_before_scipy_or_the_gpu(stored_sphere, name, at, value,
+                                                                                     why):
+    """Issue 37: ``lensch_F_indices`` of 2e9 or a row pointer near 2^31 crashed Blender inside SciPy's compiled
+    product (a bake with a rewritten data hash, or one from before it, reaches it). ``load`` checks every index
+    first; both the GPU tables and the CPU product go through it."""
+    tsd.check(stored_sphere)  # as baked
+    damaged = _damaged(stored_sphere, name, at, value)
+    with pytest.raises(store.DamagedBakeError, match=why):
+        tsd.load(damaged)
+    with pytest.raises(store.DamagedBakeError, match=why):
+        tsd.gpu_tables(damaged, 1.0)

@@ -11,7 +11,7 @@ from ..core.geometry.mesh_subdivide import midpoint_subdivision
 from ..core.geometry.orientation import outward_normals, turned
 from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
-from ..techniques.registry import BakeInputError, BakeInputs, needs_bake, refuse_size
+from ..techniques.registry import BakeInputError, BakeInputs, check_physical_size, needs_bake, refuse_size
 from ..techniques.texture_space.proxy import surface_area, target_triangles
 from . import mesh_read
 from .bvh_tracer import BVHTracer
@@ -56,6 +56,8 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
         geocube_resolution=int(props.geocube_resolution),
         tracer_factory=BVHTracer,  # GEOCUBE casts its rays through Blender's BVH
     )
+    if for_bake and len(inputs.triangles):  # before Blender's decimation, xatlas or fTetWild see the geometry
+        check_physical_size(inputs)
     if for_bake and inputs.method == "GEOCUBE" and inputs.geocube_resolution == 0:
         inputs.screen_pixels = screen_pixels(ob_eval)  # the automatic cube resolution follows it
     if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):

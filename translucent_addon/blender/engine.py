@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import sys
 import time
 
 import bpy
@@ -176,6 +177,12 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         _keep_timings(pipeline, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
         for message in frame.warnings:  # after drawing: the passes add their own
             self.report({"WARNING"}, f"Translucent: {message}")
+        lost = frame.lost
+        if lost and bpy.app.background and scene.translucent.fail_on_lost_objects:
+            # A batch render nobody watches: say so on stderr and fail, rather than FINISHED with a wrong frame.
+            for message in lost:
+                print(f"Translucent: frame {scene.frame_current}: {message}", file=sys.stderr, flush=True)
+            self.report({"ERROR"}, f"Translucent: frame {scene.frame_current} lost {len(lost)} object(s): {lost[0]}")
         LAST_CAPTURE.clear()
         if pipeline.capture is not None:
             LAST_CAPTURE.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))

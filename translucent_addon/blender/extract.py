@@ -22,6 +22,7 @@ from ..core.frame import (
     Environment,
     FrameInputs,
     GrassLayer,
+    Lost,
     Medium,
     MeshInstance,
     ReliefSurface,
@@ -402,7 +403,7 @@ def medium_of(original, method: str, frame_warnings) -> tuple[str, Medium | None
     try:
         validate_coefficients(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g), name=f"'{name}'")
     except CoefficientError as err:
-        frame_warnings.append(f"{err}; drawn with its base colour")
+        frame_warnings.append(Lost(f"{err}; drawn with its base colour"))
         return "OFF", None
     layer = {}
     if s.profile == "MULTIPOLE":
@@ -448,8 +449,8 @@ def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict 
                 return None
             read = mesh_read.read(mesh, cache_key)
             if not read.finite:
-                frame_warnings.append(f"'{name}': the mesh has vertices that are not numbers (NaN or inf); "
-                                      f"not drawn")
+                frame_warnings.append(Lost(f"'{name}': the mesh has vertices that are not numbers (NaN or inf); "
+                                           f"not drawn"))
                 return None
             drawn = drawn_mesh(ob, mesh, read, cache_key)
             relief = relief_surface(original, mesh, drawn.tri_loops, drawn.positions, frame_warnings)

@@ -191,6 +191,12 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",
         default=False, options={"HIDDEN"},
     )
+    fail_on_lost_objects: bpy.props.BoolProperty(
+        name="Fail on undrawable objects",
+        description="In a batch render (blender -b), a frame with an object that cannot be drawn as the file asks "
+                    "(a damaged bake, vertices that are not numbers) is an error and is not written",
+        default=True,
+    )
     overlay_other_engines: bpy.props.BoolProperty(
         name="Draw in other engines",
         description="Draw objects with a translucency method over the viewport of other render engines",

@@ -23,6 +23,9 @@ FORMAT_VERSION = 1
 # tables) are stored two to an int32.
 _STORABLE = {np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.int32)}
 _HALF = np.dtype(np.float16)
+# No stored value is this large (positions in mm, weights, form factors, kernels); a product of two such stays
+# finite in float32, so a value past it is damage that would draw inf (issue 37's fuzz found 1e30 doing so).
+MAX_MAGNITUDE = 1e18
 
 
 def inputs_hash(arrays: dict[str, np.ndarray], params: dict) -> str:
@@ -121,6 +124,8 @@ def read(idblock: Any, method: str) -> BakeRecord | None:
     for name, a in arrays.items():
         if a.dtype.kind == "f" and not np.isfinite(a).all():
             raise DamagedBakeError(f"its array '{name}' holds values that are not numbers")
+        if a.dtype.kind == "f" and a.size and float(np.abs(a).max()) > MAX_MAGNITUDE:
+            raise DamagedBakeError(f"its array '{name}' holds values beyond {MAX_MAGNITUDE:g}")
     return BakeRecord(method, digest, meta, arrays)
 
 

@@ -97,6 +97,11 @@ class ReliefSurface:
 NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
 
 
+class Lost(str):
+    """A frame warning that says an object is not drawn as the file asks because its data is bad (a damaged
+    bake, vertices that are not numbers, a medium out of range): a batch render fails on it (issue 37)."""
+
+
 class BakeHandle:
     """An up-to-date bake of a drawn object: ``key`` names it (object and inputs hash), ``load()``
     reads its arrays (only when the GPU data of that key is not cached yet)."""
@@ -225,9 +230,14 @@ class FrameInputs:
     environment: Environment | None = None  # None: the uniform world_color in every direction
     shadow_resolution: int = 1024  # texels per shadow-map face
     caustics: CausticSettings = dataclasses.field(default_factory=CausticSettings)
-    warnings: list[str] = dataclasses.field(default_factory=list)
+    warnings: list[str] = dataclasses.field(default_factory=list)  # ``Lost`` ones name undrawable objects
     settings: DrawSettings = dataclasses.field(default_factory=DrawSettings)
     _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
+
+    @property
+    def lost(self) -> list[str]:
+        """The warnings of objects not drawn as the file asks (``Lost``)."""
+        return [w for w in self.warnings if isinstance(w, Lost)]
 
     def world_sh(self) -> np.ndarray:
         """The world's radiance in SH bands 0-2, L_lm (9, 3): the environment image's (projected once per

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 
 from ..core.bake_store import DamagedBakeError
+from ..core.frame import Lost
 
 _entries: dict = {}
 _damaged: dict = {}  # bake key -> why it was refused (not read again every frame; a new bake forgets it)
@@ -30,23 +31,29 @@ def prepare(frame, method: str, build, matches) -> list[Active]:
         handle = getattr(mesh, "bake", None)
         if mesh.method != method or handle is None or mesh.medium is None:
             continue
-        why = _damaged.get(handle.key)
-        if why is None:
-            try:
-                res = get(handle, lambda arrays, m=mesh: build(arrays, m))
-            except DamagedBakeError as err:
-                why = _damaged[handle.key] = str(err)
-            except (ValueError, IndexError, KeyError) as err:  # arrays that fit no table: damaged too
-                why = _damaged[handle.key] = f"its arrays do not fit together ({type(err).__name__}: {err})"
-        if why is not None:
-            frame.warnings.append(f"'{mesh.name}': {method} bake is damaged: {why}; drawn with its base colour. "
-                                  f"Press Bake")
+        res = checked(frame, mesh.name, method, handle, lambda arrays, m=mesh: build(arrays, m))
+        if res is None:
             continue
         if not matches(res, mesh):
             frame.warnings.append(f"'{mesh.name}': {method} bake does not match the mesh; press Bake")
             continue
         active.append(Active(k, mesh, res))
     return active
+
+
+def checked(frame, name: str, label: str, handle, build):
+    """``get``, or None when the bake is damaged: its arrays fail their checks (``core/bake_checks``), its
+    data hash, or fit no table. The frame then says why once (``Lost``); the refusal is kept until a new bake."""
+    why = _damaged.get(handle.key)
+    if why is None:
+        try:
+            return get(handle, build)
+        except DamagedBakeError as err:
+            why = _damaged[handle.key] = str(err)
+        except (ValueError, IndexError, KeyError, TypeError) as err:  # arrays that fit no table: damaged too
+            why = _damaged[handle.key] = f"its arrays do not fit together ({type(err).__name__}: {err})"
+    frame.warnings.append(Lost(f"'{name}': {label} bake is damaged: {why}; drawn with its base colour. Press Bake"))
+    return None
 
 
 def get(handle, build):

@@ -13,6 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..core import bake_store as store
+from ..core import native
 from ..core.geometry.mesh_checks import check_mesh, self_intersections
 from ..core.physics.presets import validate_coefficients
 from . import get
@@ -135,6 +136,35 @@ def refuse_size(name: str, triangles: int) -> None:
                              f"({MAX_BAKE_TRIANGLES:,}); decimate it or bake a proxy")
 
 
+# What a bake takes, in physical size across (mm): from a micrometre to 10 km. Past these the compiled steps get
+# coordinates they were not made for: xatlas spun for ever at 1e30 and at mm per unit >= 1e11, fTetWild crashed
+# on a surface scaled to zero.
+PHYSICAL_SIZE_MM = (1e-3, 1e7)
+
+
+def check_physical_size(inputs: BakeInputs) -> None:
+    """BakeInputError unless the object's physical geometry (stretch, then mm per unit) is finite, has volume
+    along every axis of its scale, and lies within ``PHYSICAL_SIZE_MM``: checked before xatlas, fTetWild or
+    SciPy sees it."""
+    name, mm = inputs.name, inputs.mm_per_unit
+    if not (0.0 < mm < np.inf):
+        raise BakeInputError(f"'{name}': mm per unit is {mm}, must be a positive number")
+    S = inputs.stretch_matrix()
+    scale = np.linalg.svd(S, compute_uv=False) if np.isfinite(S).all() else np.array([np.nan])
+    if not np.isfinite(scale).all() or scale.min() <= 1e-9 * scale.max():
+        raise BakeInputError(f"'{name}': its scale is zero (or not a number) along an axis, so it has no "
+                             "volume to bake; give it a size or hide it")
+    vertices = np.asarray(inputs.vertices, np.float64)
+    if not np.isfinite(vertices).all():
+        raise BakeInputError(f"'{name}': some of its vertices are not numbers (NaN or infinite)")
+    with np.errstate(over="ignore", invalid="ignore"):
+        size = float(np.linalg.norm(np.ptp(vertices @ S.T, axis=0)) * mm) if len(vertices) else 0.0
+    lo, hi = PHYSICAL_SIZE_MM
+    if not np.isfinite(size) or not (lo <= size <= hi):
+        raise BakeInputError(f"'{name}': it is {size:.3g} mm across (scale times mm per unit); a bake takes "
+                             f"{lo:g} mm to {hi / 1e6:g} km: check its scale, its vertices and mm per unit")
+
+
 def validate(inputs: BakeInputs) -> list[str]:
     """Raise BakeInputError for input no bake can use; return warnings for the rest."""
     if not needs_bake(inputs.method):
@@ -142,8 +172,6 @@ def validate(inputs: BakeInputs) -> list[str]:
     if len(inputs.triangles) == 0:
         raise BakeInputError(f"'{inputs.name}': the mesh is empty (no faces), nothing to bake")
     refuse_size(inputs.name, len(inputs.triangles))
-    if not (inputs.mm_per_unit > 0):
-        raise BakeInputError(f"'{inputs.name}': mm per unit is {inputs.mm_per_unit}, must be > 0")
     try:
         validate_coefficients(inputs.sigma_a, inputs.sigma_s_prime, inputs.eta, inputs.g, name=f"'{inputs.name}'")
     except ValueError as err:
@@ -151,6 +179,7 @@ def validate(inputs: BakeInputs) -> list[str]:
     report = check_mesh(inputs.vertices, inputs.triangles)
     if report.zero_area_triangles == report.triangles:
         raise BakeInputError(f"'{inputs.name}': every face has zero area, nothing to bake")
+    check_physical_size(inputs)
     warnings = []
     if report.zero_area_triangles:
         warnings.append(f"'{inputs.name}': {report.zero_area_triangles} zero-area faces carry no light and are ignored")
@@ -182,8 +211,10 @@ def run(inputs: BakeInputs):
                 yield (i + fraction) / len(stages), text
         except StopIteration as done:
             stage_arrays, stage_meta = done.value
-        except technique.bake_errors as err:
+        except (*technique.bake_errors, native.NativeStepError) as err:
             raise BakeInputError(f"'{inputs.name}': {err}") from None
+        finally:
+            job.close()  # cancelled (Esc closes this generator): the stage's child process is stopped now
         arrays.update(stage_arrays)
         meta_extra.update(stage_meta)
     yield 1.0, f"{inputs.method}: done"

@@ -32,6 +32,7 @@ import time
 
 import numpy as np
 
+from ...core.bake_checks import count, indices, shaped
 from ...core.geometry import cubemap
 from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import vertex_normals
@@ -403,11 +404,18 @@ def to_arrays(g: GeocubeSet) -> dict[str, np.ndarray]:
     }
 
 
+# The largest cube face a bake makes is 256 texels; a stored side past this is damage.
+MAX_RES = 1024
+
+
 def from_arrays(a: dict) -> GeocubeSet:
-    res, coverage, min_step, size = (float(x) for x in np.asarray(a["gc_scalars"]))
-    res = int(res)
+    """The GeocubeSet of a stored bake, checked (DamagedBakeError: ``core/bake_checks``): the shaders loop over
+    its cubes and fetch at the cube indices it stores."""
+    res, coverage, min_step, size = (float(x) for x in shaped(a, "gc_scalars", (4,)))
+    res = count(res, "cube resolution", 1, MAX_RES)
     centres = np.asarray(a["gc_centres"], np.float64).reshape(-1, 3)
     C, w = len(centres), res + 2
+    indices(a, "gc_start_cube", (None,), C)
     return GeocubeSet(
         centres=centres, radius_D=np.asarray(a["gc_radius_D"], np.float64), res=res,
         cones=np.asarray(a["gc_cones"], np.float32).reshape(C, 6, w, w, 4),

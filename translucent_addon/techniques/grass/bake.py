@@ -12,6 +12,7 @@ import time
 import numpy as np
 
 from ...core import bake_store as store
+from ...core.bake_checks import count, shaped
 from . import acquire as btf_acquire
 from . import compress as btf_compress
 from .patch import GrassParams, build_patch
@@ -89,8 +90,27 @@ def package(images, spectra, params: GrassParams, resolution: int, target_error:
     return arrays, meta
 
 
+# The largest BTF image side a bake makes is 512; a stored shape past this is damage.
+MAX_RESOLUTION = 2048
+
+
+def check(arrays: dict) -> None:
+    """DamagedBakeError unless a stored BTF's arrays fit together: the shader's loops over eigen-textures and
+    its fetches follow these shapes (``core/bake_checks``)."""
+    depth = shaped(arrays, "depth", (None, None, None))
+    n_v, R = depth.shape[0], count(depth.shape[1], "BTF resolution", 1, MAX_RESOLUTION)
+    shaped(arrays, "depth", (n_v, R, R))
+    shaped(arrays, "views", (n_v, 3))
+    n_l = len(shaped(arrays, "lights", (None, 3)))
+    for n in CHANNELS:
+        k = shaped(arrays, f"basis_{n}", (R, R, None)).shape[2]
+        count(k, f"{n} eigen-texture count", 1, R * R)
+        shaped(arrays, f"coeffs_{n}", (k, n_v, n_l + 1))
+
+
 def from_arrays(arrays: dict, meta: dict) -> btf_compress.CompressedBTF:
-    """The CompressedBTF of a stored bake."""
+    """The CompressedBTF of a stored bake, checked (``check``)."""
+    check(arrays)
     if isinstance(meta, str):
         meta = json.loads(meta)
     return btf_compress.CompressedBTF(

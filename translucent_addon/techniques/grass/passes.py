@@ -78,7 +78,9 @@ def prepare(frame) -> list[Active]:
         layer = getattr(mesh, "grass", None)
         if layer is None:
             continue
-        active.append(Active(k, mesh, bake_cache.get(layer.bake, build)))
+        res = bake_cache.checked(frame, mesh.name, "grass BTF", layer.bake, build)
+        if res is not None:
+            active.append(Active(k, mesh, res))
     return active
 
 

@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from ...core import native
 from ...core.geometry import world_visibility
 from ...core.geometry.mesh_measures import vertex_normals
 from . import graph as quadgraph
@@ -112,9 +113,13 @@ def bake(inputs):
     for h in range(levels):  # h = 0 is the coarsest
         surface_v, surface_t = surfaces[h]
         fraction = INTERIOR_EDGE * 2.0 ** (levels - 1 - h)
-        yield 0.05 + 0.8 * h / levels, f"QUADGRAPH: tetrahedra of level {h + 1}/{levels} ({len(surface_t):,} triangles)"
+        text = f"QUADGRAPH: tetrahedra of level {h + 1}/{levels} ({len(surface_t):,} triangles)"
+        yield 0.05 + 0.8 * h / levels, text
         t1 = time.perf_counter()
-        points, tets = tetra.tetrahedralize(surface_v, surface_t, fraction)
+        points, tets = yield from native.run(tetra.tetrahedralize, {"vertices_mm": surface_v, "triangles": surface_t},
+                                             {"edge_fraction": float(fraction)}, what="fTetWild",
+                                             timeout=native.time_limit(300.0, len(surface_t), 1e-2),
+                                             fraction=0.05 + 0.8 * h / levels, text=text)
         t_tet += time.perf_counter() - t1
         yield 0.05 + 0.8 * (h + 0.6) / levels, f"QUADGRAPH: graph of level {h + 1}/{levels} ({len(tets):,} tetrahedra)"
         graph, _ = quadgraph.pack(quadgraph.build(points, tets, surface_v, surface_t))

@@ -11,6 +11,8 @@ import dataclasses
 
 import numpy as np
 
+from ...core.bake_checks import count, indices, shaped
+from ...core.bake_store import DamagedBakeError
 from ...core.geometry.mesh_measures import vertex_normals
 from ...core.physics import diffusion as df
 from ...core.physics.lut import BLUR_MIN
@@ -66,33 +68,33 @@ class LevelTables:
 
 def level_tables(arrays: dict, h: int, coarser: LevelTables | None) -> LevelTables:
     p = f"qg{h}_"
-    nb = arrays[p + "neighbours"].astype(np.int64)
-    S = int(arrays[p + "n_surface"][0])
-    positions = arrays[p + "positions"].astype(np.float64)
-    # A stored count or index out of range asked for 16 GiB (n_surface 2^31 - 1) or read past an array:
-    # refused as a bake whose arrays do not fit together (``bake_cache`` says so and draws the base colour).
-    if not 0 < S <= len(positions):
-        raise ValueError(f"level {h}: {S} surface nodes of {len(positions)}")
-    if nb.size and (nb.min() < -1 or nb.max() >= len(positions)):
-        raise ValueError(f"level {h}: a link to a node that does not exist")
-    if coarser is not None and p + "up_index" in arrays:
-        up = arrays[p + "up_index"]
-        if up.size and (up.min() < 0 or up.max() >= coarser.count):
-            raise ValueError(f"level {h}: an upsampling index past the coarser level")
-    layout = layout_for(S, len(positions))
+    # A stored count or index out of range asked for 16 GiB (n_surface 2^31 - 1) or read past an array, and a
+    # zero distance or negative weight divides by zero: refused as damage (``bake_cache`` says so and draws the
+    # base colour). ``core/bake_checks``.
+    positions = shaped(arrays, p + "positions", (None, 3)).astype(np.float64)
+    N = len(positions)
+    S = count(np.asarray(arrays.get(p + "n_surface", [None])).reshape(-1)[0], f"level {h} surface node count", 1, N)
+    nb = indices(arrays, p + "neighbours", (N, 4), N, none=True).astype(np.int64)
+    d = shaped(arrays, p + "d_surface", (S,)).astype(np.float64)
+    weights = shaped(arrays, p + "weights", (N, 4)).astype(np.float64)
+    if not (d > 0).all() or (weights < 0).any():
+        raise DamagedBakeError(f"its level {h} holds a distance that is not positive or a negative weight")
+    normals = shaped(arrays, p + "normals", (S, 3)).astype(np.float64)
+    if coarser is not None:
+        indices(arrays, p + "up_index", (N, 8), coarser.count)
+        if (shaped(arrays, p + "up_weight", (N, 8)) < 0).any():
+            raise DamagedBakeError(f"its level {h} holds a negative upsampling weight")
+    layout = layout_for(S, N)
     slots = np.where(nb >= 0, layout.slots(np.maximum(nb, 0)), -1)
-    d = arrays[p + "d_surface"].astype(np.float64)
-    weights = arrays[p + "weights"].astype(np.float64)
-    normals = arrays[p + "normals"].astype(np.float64)
     # A bake from before the facets were stored: its normals stand in (no facet rule).
-    facets = arrays[p + "facets"].astype(np.float64) if p + "facets" in arrays else normals
+    facets = shaped(arrays, p + "facets", (S, 3)).astype(np.float64) if p + "facets" in arrays else normals
     t = LevelTables(layout=layout, positions_mm=positions, normals=normals, facets=facets,
                     neighbours=nb, weights=weights, d_surface=d, links_image=None, weights_image=None,
                     surface_texels=layout.texels(np.arange(S)).astype(np.float32))
     t.links_image = t.image(slots)
     t.weights_image = t.link_image()
     # A bake from before the sky was stored sees all of it.
-    t.sky = arrays[p + "sky"].astype(np.float32) if p + "sky" in arrays else np.ones(S, np.float32)
+    t.sky = shaped(arrays, p + "sky", (S,)).astype(np.float32) if p + "sky" in arrays else np.ones(S, np.float32)
     if coarser is not None:
         t.up_index = arrays[p + "up_index"].astype(np.int64)
         t.up_weight = arrays[p + "up_weight"].astype(np.float64)
@@ -177,11 +179,21 @@ def node_paint(embedding: LevelEmbedding, paint: np.ndarray, tint: np.ndarray):
     return M_d, q_factor
 
 
+# A bake makes at most 5 levels (the Levels setting); a stored count past this is damage.
+MAX_LEVELS = 8
+
+
 def load(arrays: dict) -> list[LevelTables]:
-    """Tables of every level, coarsest first."""
+    """Tables of every level, coarsest first, and the arrays that map them to the mesh, checked."""
     levels: list[LevelTables] = []
-    for h in range(int(arrays["qg_levels"][0])):
+    for h in range(count(shaped(arrays, "qg_levels", (1,))[0], "level count", 1, MAX_LEVELS)):
         levels.append(level_tables(arrays, h, levels[-1] if levels else None))
+        points = shaped(arrays, f"qg{h}_points", (None, 3))
+        tets = indices(arrays, f"qg{h}_tets", (None, 4), len(points))
+        shaped(arrays, f"qg{h}_inner_bary", (len(tets), 4))
+    corners = len(indices(arrays, "qg_display_index", (None, 4), levels[-1].count))
+    shaped(arrays, "qg_display_weight", (corners, 4))
+    indices(arrays, "qg_rest_triangles", (None, 3), len(shaped(arrays, "qg_rest_vertices", (None, 3))))
     return levels
 
 

@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 
+from ...core.frame import Lost
 from ...core.geometry.mesh_measures import vertex_normals
 from ...core.physics import diffusion as df
 from ...core.physics import single_scattering as ss
@@ -328,7 +329,7 @@ def prepare(frame) -> list[Active]:
         try:
             a.resources.follow(a.mesh, f"'{a.mesh.name}': ")
         except DeformationError as err:
-            frame.warnings.append(f"{err} (QUADGRAPH; drawn with its base colour)")
+            frame.warnings.append(Lost(f"{err} (QUADGRAPH; drawn with its base colour)"))
             continue
         a.resources.set_paint(a.mesh)
         a.resources.set_material(a.mesh.medium)

@@ -137,19 +137,20 @@ def rasterize(uv: np.ndarray, width: int, height: int):
 
 
 def build_atlas(vertices_mm: np.ndarray, triangles: np.ndarray, resolution: int = 512,
-                corner_normals: np.ndarray | None = None) -> TexelAtlas:
+                corner_normals: np.ndarray | None = None, charts: tuple | None = None) -> TexelAtlas:
     """The atlas of a proxy mesh (vertices in mm) with its surface and gutter texels.
 
     ``corner_normals`` (T, 3, 3): the shading normals at the triangles' corners, interpolated to
     each texel (default: the area-weighted vertex normals). The bake passes the display's: light
-    at grazing incidence changes with a few degrees of normal.
+    at grazing incidence changes with a few degrees of normal. ``charts``: what ``parametrize`` returned
+    for this mesh (the bake runs xatlas in a child process, ``core/native.py``), or None to run it here.
     """
     from scipy import ndimage
     from scipy.spatial import cKDTree
 
     v = np.asarray(vertices_mm, np.float64)
     t = np.asarray(triangles, np.int64)
-    uv, chart, width, height = parametrize(v, t, resolution)
+    uv, chart, width, height = parametrize(v, t, resolution) if charts is None else charts
     xy, tri, bary = rasterize(uv, width, height)
     normals = vertex_normals(v, t)[t] if corner_normals is None else np.asarray(corner_normals, np.float64)
     corners = v[t]  # (T, 3, 3)

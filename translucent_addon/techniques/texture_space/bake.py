@@ -10,10 +10,11 @@ import time
 
 import numpy as np
 
+from ...core import native
 from ...core.geometry.mesh_measures import vertex_normals
 from . import proxy
 from . import throughput as lensch
-from .atlas import build_atlas
+from .atlas import build_atlas, parametrize
 
 # A display corner may lie off its proxy triangle (the two meshes differ); its atlas position is
 # extrapolated at most this many texels past the triangle, into the chart's border.
@@ -51,9 +52,13 @@ def bake(inputs):
         proxy_v, proxy_t = refinement.vertices, refinement.triangles
         # The refined display's corners carry its normals, interpolated like the positions.
         proxy_n = refinement.corners(display_n.reshape(-1, 3)).reshape(-1, 3, 3)
-    yield 0.05, f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
+    text = f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
+    yield 0.05, text
     t_atlas = time.perf_counter()
-    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n)
+    charts = yield from native.run(parametrize, {"vertices_mm": proxy_v, "triangles": proxy_t},
+                                   {"resolution": int(inputs.atlas_resolution)}, what="xatlas",
+                                   timeout=native.time_limit(120.0, len(proxy_t), 1e-3), fraction=0.05, text=text)
+    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n, charts=charts)
     t_atlas = time.perf_counter() - t_atlas
     material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta), inputs.profile)
     job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)

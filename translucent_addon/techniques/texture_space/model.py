@@ -11,6 +11,8 @@ import dataclasses
 
 import numpy as np
 
+from ...core.bake_checks import count, indices, row_pointers, shaped
+from ...core.bake_store import DamagedBakeError
 from ...core.geometry.mesh_measures import facing_side
 from .atlas import TexelAtlas
 from .proxy import carry_corners
@@ -93,10 +95,53 @@ class GpuTables:
                 and int(self.display_parent.max()) < display_corner_count // 3)
 
 
-def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
-    """The atlas and Lensch tables of a stored bake. Kernel taps are not stored: with ``taps`` they
-    are recomputed from the atlas (the CPU twin needs them, the GPU finds its taps itself)."""
+# The least texture side OpenGL 4.5 guarantees: an atlas larger than this was never baked.
+MAX_ATLAS_SIDE = 16384
+# Local kernels of at most (2 * 8 + 1)^2 taps; bakes make 7x7. A stored shape past this is damage, and would
+# make the filter pass's loop over taps as long as the shape says.
+MAX_LOCAL_HALF = 8
 
+
+def check(arrays: dict) -> None:
+    """DamagedBakeError unless a stored TEXTURE_SPACE bake's arrays fit together: every index in range, the
+    form factors' rows in order (SciPy's compiled product and the GPU's loop over a row trust them)."""
+    width, height, n = shaped(arrays, "atlas_shape", (3,)).tolist()
+    width = count(width, "atlas width", 1, MAX_ATLAS_SIDE)
+    height = count(height, "atlas height", 1, MAX_ATLAS_SIDE)
+    xy = indices(arrays, "atlas_texel_xy", (None, 2), max(width, height))
+    N = len(xy)
+    if N and (xy[:, 0].max() >= width or xy[:, 1].max() >= height):
+        raise DamagedBakeError("its array 'atlas_texel_xy' holds texels outside the atlas")
+    n = count(n, "surface texel count", 1, N)
+    V = len(shaped(arrays, "proxy_vertices_mm", (None, 3)))
+    T = len(indices(arrays, "proxy_triangles", (None, 3), V))
+    for name, shape in (("atlas_uv", (T, 3, 2)), ("atlas_chart", (T,)), ("atlas_bary", (N, 3)),
+                        ("atlas_position_mm", (N, 3)), ("atlas_normal", (N, 3)), ("atlas_area_mm2", (N,)),
+                        ("lensch_A_v", (V,)), ("lensch_dual_weights", (n, 3)), ("lensch_blend_weights", (n, 3, 3)),
+                        ("stretch", (3, 3))):
+        shaped(arrays, name, shape)
+    indices(arrays, "atlas_source", (N,), n)
+    indices(arrays, "atlas_triangle", (N,), T)
+    indices(arrays, "lensch_dual_vertices", (n, 3), V)
+    taps = shaped(arrays, "lensch_kernels", (n, None, 3)).shape[1]
+    half = local_half(arrays["lensch_kernels"])
+    if (2 * half + 1) ** 2 != taps or half > MAX_LOCAL_HALF:
+        raise DamagedBakeError(f"its local kernels have {taps} taps, not a square of at most "
+                               f"{(2 * MAX_LOCAL_HALF + 1) ** 2}")
+    entries = len(indices(arrays, "lensch_F_indices", (None,), V))
+    row_pointers(arrays, "lensch_F_indptr", V, entries)
+    shaped(arrays, "lensch_F_data", (entries, 3))
+    C = len(shaped(arrays, "display_uv", (None, 2)))
+    indices(arrays, "vertex_corner", (V,), C)
+    if "display_parent" in arrays:  # a refined display: its parents are checked against the mesh (``fits``)
+        parents = len(indices(arrays, "display_parent", (None,), 2**31 - 1))
+        shaped(arrays, "display_bary", (parents, 3, 3))
+
+
+def load(arrays: dict, taps: bool = True) -> tuple[TexelAtlas, LenschBake]:
+    """The atlas and Lensch tables of a stored bake, checked (``check``). Kernel taps are not stored: with
+    ``taps`` they are recomputed from the atlas (the CPU twin needs them, the GPU finds its taps itself)."""
+    check(arrays)
     atlas = TexelAtlas.from_arrays(arrays)
     fields = {f.name: arrays.get(f"lensch_{f.name}") for f in dataclasses.fields(LenschBake)}
     fields["kernels"] = np.asarray(fields["kernels"], np.float32)
