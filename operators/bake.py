@@ -16,17 +16,10 @@ from ..translucent_addon.blender.quality_apply import apply_auto
 from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
+from . import polls
+from .polls import active_mesh as _active_mesh
 
 BAKED_AUTO = {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}  # methods whose Auto resolutions a bake uses
-
-
-def _active_mesh(context):
-    ob = context.active_object
-    if ob is None:
-        return None, "no active object: select the object to bake"
-    if ob.type != "MESH":
-        return None, f"'{ob.name}' is a {ob.type.lower()}, not a mesh"
-    return ob, None
 
 
 class ModalJob:
@@ -121,6 +114,10 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
     bl_label = "Bake"
     bl_options = {"REGISTER", "UNDO"}
 
+    @classmethod
+    def poll(cls, context):
+        return polls.bakeable(cls, context)
+
     def _prepare(self, context):
         ob, error = _active_mesh(context)
         if error:
@@ -161,7 +158,12 @@ class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):
     bl_label = "Clear Bake"
     bl_options = {"REGISTER", "UNDO"}
 
-    all_methods: bpy.props.BoolProperty(name="All methods", default=False)
+    all_methods: bpy.props.BoolProperty(name="All methods", default=False,
+                                        description="Remove the bakes of every method, not only the current one")
+
+    @classmethod
+    def poll(cls, context):
+        return polls.baked(cls, context)
 
     def execute(self, context):
         ob, error = _active_mesh(context)

@@ -3,6 +3,7 @@ import bpy
 
 from ..translucent_addon.blender import compare_runner as runner
 from ..translucent_addon.blender import preferences
+from . import polls
 from .bake import ModalJob
 
 
@@ -17,7 +18,12 @@ class TRANSLUCENT_OT_compare_cycles(ModalJob, bpy.types.Operator):
     _what = "comparison"
     _errors = (runner.CompareError,)
 
-    output_dir: bpy.props.StringProperty(name="Output folder", subtype="DIR_PATH", default="//translucent_compare")
+    @classmethod
+    def poll(cls, context):
+        return polls.camera(cls, context)
+
+    output_dir: bpy.props.StringProperty(name="Output folder", subtype="DIR_PATH", default="//translucent_compare",
+                                         description="Where the report, images and chart are written")
     quick: bpy.props.BoolProperty(name="Quick", description="Few samples: a first look in minutes", default=False)
     cache_dir: bpy.props.StringProperty(name="Cache folder", subtype="DIR_PATH", default="",
                                         description="Where reference renders are cached (default: the preferences' "

@@ -13,12 +13,16 @@ class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     kind: bpy.props.EnumProperty(
-        name="Scene",
+        name="Scene", description="Which demo scene to add",
         items=(("BUNNY", "Marble bunny", "A back-lit marble Stanford bunny on a ground plane"),
                ("CAUSTICS", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
                ("CAUSTICS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics")),
         default="BUNNY",
     )
+
+    @classmethod
+    def poll(cls, context):
+        return True  # a new scene can always be added
 
     def execute(self, context):
         if self.kind == "BUNNY":

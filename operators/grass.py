@@ -12,6 +12,7 @@ import bpy
 from ..translucent_addon.blender.extract import grass_status
 from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.techniques.grass import bake as grass_btf
+from . import polls
 from .bake import ModalJob, _active_mesh
 
 
@@ -29,6 +30,10 @@ class TRANSLUCENT_OT_bake_grass_btf(ModalJob, bpy.types.Operator):
     bl_idname = "translucent.bake_grass_btf"
     bl_label = "Bake Grass BTF"
     bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return polls.ground(cls, context)
     _title = "Translucent grass BTF"
 
     def _prepare(self, context):
@@ -67,6 +72,10 @@ class TRANSLUCENT_OT_add_grass_field(bpy.types.Operator):
     bl_idname = "translucent.add_grass_field"
     bl_label = "Add Grass Field"
     bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return polls.ground(cls, context)
 
     def execute(self, context):
         return self._run(context, "EXEC_DEFAULT")

@@ -8,6 +8,7 @@ QUADGRAPH, which carries them into its volume.
 import bpy
 
 from ..translucent_addon.blender.extract import BLUR_GROUP, GLOW_GROUP, MASK_GROUP, TINT_ATTRIBUTE
+from . import polls
 
 LAYERS = (
     (BLUR_GROUP, "Blur", "Weight Paint: spread the scattering up to 4x where painted"),
@@ -24,8 +25,14 @@ class TRANSLUCENT_OT_add_paint_layer(bpy.types.Operator):
     bl_label = "Paint Translucency"
     bl_options = {"REGISTER", "UNDO"}
 
-    layer: bpy.props.EnumProperty(name="Layer", items=LAYERS, default=BLUR_GROUP)
-    enter_paint_mode: bpy.props.BoolProperty(name="Enter paint mode", default=True)
+    layer: bpy.props.EnumProperty(name="Layer", items=LAYERS, default=BLUR_GROUP,
+                                  description="Which property of the translucency to paint")
+    enter_paint_mode: bpy.props.BoolProperty(name="Enter paint mode", default=True,
+                                             description="Switch to Weight or Vertex Paint for the layer")
+
+    @classmethod
+    def poll(cls, context):
+        return polls.mesh(cls, context)
 
     def execute(self, context):
         ob = context.active_object

@@ -7,6 +7,7 @@ from ..translucent_addon.blender.quality_apply import apply_auto
 from ..translucent_addon.core import quality
 from ..translucent_addon.core.physics import presets
 from ..translucent_addon.techniques.registry import BakeInputError
+from . import polls
 
 
 class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
@@ -17,7 +18,15 @@ class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
     bl_label = "Set Real Size"
     bl_options = {"REGISTER", "UNDO"}
 
-    size_mm: bpy.props.FloatProperty(name="Longest side (mm)", min=1e-3, soft_max=10000.0, default=50.0)
+    size_mm: bpy.props.FloatProperty(name="Longest side (mm)", min=1e-3, soft_max=10000.0, default=50.0,
+                                     description="How long the object's longest side is in reality")
+
+    @classmethod
+    def poll(cls, context):
+        if not polls.mesh(cls, context):
+            return False
+        ob = context.active_object
+        return max(ob.dimensions) > 0.0 or polls.refuse(cls, f"'{ob.name}' has no extent")
 
     def invoke(self, context, event):
         ob = context.active_object
@@ -50,8 +59,12 @@ class TRANSLUCENT_OT_apply_quality(bpy.types.Operator):
     tier: bpy.props.EnumProperty(
         name="Quality", items=[(t, t.capitalize(), "") for t in quality.TIERS] + [("DEFAULT", "Default",
                                                                                     "The preferences' default")],
-        default="DEFAULT",
+        default="DEFAULT", description="The tier whose resolutions to set",
     )
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None or polls.refuse(cls, "no scene")
 
     def execute(self, context):
         tier = self.tier
@@ -75,7 +88,13 @@ class TRANSLUCENT_OT_auto_quality(bpy.types.Operator):
     bl_label = "Choose Resolutions"
     bl_options = {"REGISTER", "UNDO"}
 
-    all_objects: bpy.props.BoolProperty(name="Every Auto object", default=False)
+    all_objects: bpy.props.BoolProperty(name="Every Auto object", default=False,
+                                        description="Every mesh of the scene whose quality is Auto, not only the "
+                                                    "active one")
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None or polls.refuse(cls, "no scene")
 
     def execute(self, context):
         if self.all_objects:
@@ -103,7 +122,11 @@ class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
     bl_idname = "translucent.save_preset"
     bl_label = "Save Preset"
 
-    name: bpy.props.StringProperty(name="Name", default="My material")
+    name: bpy.props.StringProperty(name="Name", default="My material", description="The preset's name in the list")
+
+    @classmethod
+    def poll(cls, context):
+        return polls.mesh(cls, context)
 
     def invoke(self, context, event):
         return context.window_manager.invoke_props_dialog(self)
@@ -131,6 +154,14 @@ class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
 
     bl_idname = "translucent.remove_preset"
     bl_label = "Remove Preset"
+
+    @classmethod
+    def poll(cls, context):
+        if not polls.mesh(cls, context):
+            return False
+        if not context.active_object.translucent.preset.startswith(presets.USER_PREFIX):
+            return polls.refuse(cls, "the object's preset is not one of yours: only user presets can be removed")
+        return True
 
     def execute(self, context):
         ob = context.active_object

@@ -144,9 +144,11 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
     )
     base_sigma_a: bpy.props.FloatVectorProperty(
         name="Base absorption (mm⁻¹)", size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071),
+        description="Absorption coefficient of the medium under the layer, per RGB channel",
     )
     base_sigma_s_prime: bpy.props.FloatVectorProperty(
         name="Base reduced scattering (mm⁻¹)", size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.0),
+        description="Reduced scattering coefficient of the medium under the layer, per RGB channel",
     )
     mm_per_unit: bpy.props.FloatProperty(
         name="mm per unit",

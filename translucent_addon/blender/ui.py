@@ -22,125 +22,119 @@ _STATUS_TEXT = {
 }
 
 
-class VIEW3D_PT_translucent_object(bpy.types.Panel):
-    bl_label = "Translucent Object"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Translucent"
-
-    def draw(self, context):
-        layout = self.layout
-        ob = context.active_object
-        if ob is not None and ob.type == "LIGHT":
-            layout.prop(ob.data.translucent, "caustics")
-            return
-        if ob is None or ob.type != "MESH":
-            layout.label(text="Select a mesh object", icon="INFO")
-            return
-        s = ob.translucent
-        layout.prop(s, "method")
-        layout.label(text=METHOD_DESCRIPTIONS[s.method])
-        turned = TURNED.get(ob.name, 0)
-        if turned:  # as the last frame found it (extract.frame_inputs): the panel reads no mesh
-            parts = "the mesh is" if turned == 1 else f"{turned} closed parts are"
-            layout.label(text=f"{parts.capitalize()} wound inward: drawn turned outward", icon="ERROR")
-            layout.label(text="Mesh > Normals > Recalculate Outside fixes the mesh")
-        col = layout.column(align=True)
-        row = col.row(align=True)
-        row.prop(s, "preset")
-        row.operator("translucent.save_preset", text="", icon="ADD")
-        row.operator("translucent.remove_preset", text="", icon="REMOVE")
-        for line in PRESET_PROBLEMS[:2]:  # the user presets file's entries that were skipped, and why
-            col.label(text=line, icon="ERROR")
-        col.prop(s, "sigma_a")
-        col.prop(s, "sigma_s_prime")
-        col.prop(s, "eta")
-        col.prop(s, "g")
-        layout.prop(s, "mm_per_unit")
-        longest = max(ob.dimensions)
-        if longest > 0:  # the size helper: scattering depends on the real size
-            row = layout.row(align=True)
-            size_mm = [d * s.mm_per_unit for d in ob.dimensions]
-            row.label(text="Size: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
-            row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
-        if s.method != "OFF" or s.grass:
-            box = layout.box()
-            row = box.row(align=True)
-            row.prop(s, "quality", expand=True)
-            if s.quality == "AUTO":
-                row = box.row(align=True)
-                row.prop(s, "target_error")
-                row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
-                for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
-                    box.label(text=line)
-                if s.method == "IMAGE_SPACE":
-
-                    k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
-                    if k is not None:
-                        box.label(text=f"Last frame: splat overlap {k:g} for this object, "
-                                       f"{LAST_AUTO_OVERLAP['overlap']:g} in the scene", icon="CAMERA_DATA")
-        if s.method == "IMAGE_SPACE":
-            layout.prop(s, "profile")
-            if s.profile == "MULTIPOLE":
-                col = layout.column(align=True)
-                col.prop(s, "layer_thickness")
-                col.prop(s, "base_sigma_a")
-                col.prop(s, "base_sigma_s_prime")
-        if s.method == "TEXTURE_SPACE":
-            col = layout.column(align=True)
-            col.prop(s, "atlas_resolution")
-            col.prop(s, "proxy_spacing")
-            col.prop(s, "texture_blending")
-        if s.method == "QUADGRAPH":
-            col = layout.column(align=True)
-            col.prop(s, "quadgraph_K")
-            col.prop(s, "quadgraph_levels")
-            col.prop(s, "single_scattering")
-            col = layout.column(align=True)
-            col.prop(s, "veins")
-            col.prop(s, "veins_scale")
-        if s.method == "GEOCUBE":
-            col = layout.column(align=True)
-            col.prop(s, "geocube_resolution")
-            col.prop(s, "geocube_steps")
-        status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
-        layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
-        if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}:
-            _bake_statistics(layout, ob, s.method)
+def draw_object(layout, context) -> None:
+    """The active object's method, medium, quality and bake: the Object properties' panel and the sidebar's."""
+    ob = context.active_object
+    if ob is not None and ob.type == "LIGHT":
+        layout.prop(ob.data.translucent, "caustics")
+        return
+    if ob is None or ob.type != "MESH":
+        layout.label(text="Select a mesh object", icon="INFO")
+        return
+    s = ob.translucent
+    layout.prop(s, "method")
+    layout.label(text=METHOD_DESCRIPTIONS[s.method])
+    turned = TURNED.get(ob.name, 0)
+    if turned:  # as the last frame found it (extract.frame_inputs): the panel reads no mesh
+        parts = "the mesh is" if turned == 1 else f"{turned} closed parts are"
+        layout.label(text=f"{parts.capitalize()} wound inward: drawn turned outward", icon="ERROR")
+        layout.label(text="Mesh > Normals > Recalculate Outside fixes the mesh")
+    col = layout.column(align=True)
+    row = col.row(align=True)
+    row.prop(s, "preset")
+    row.operator("translucent.save_preset", text="", icon="ADD")
+    row.operator("translucent.remove_preset", text="", icon="REMOVE")
+    for line in PRESET_PROBLEMS[:2]:  # the user presets file's entries that were skipped, and why
+        col.label(text=line, icon="ERROR")
+    col.prop(s, "sigma_a")
+    col.prop(s, "sigma_s_prime")
+    col.prop(s, "eta")
+    col.prop(s, "g")
+    layout.prop(s, "mm_per_unit")
+    longest = max(ob.dimensions)
+    if longest > 0:  # the size helper: scattering depends on the real size
         row = layout.row(align=True)
-        row.operator("translucent.bake", icon="RENDER_STILL")
-        row.operator("translucent.clear_bake", icon="TRASH")
-        layout.operator("translucent.compare_cycles", icon="IMAGE_REFERENCE")
+        size_mm = [d * s.mm_per_unit for d in ob.dimensions]
+        row.label(text="Size: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
+        row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
+    if s.method != "OFF" or s.grass:
         box = layout.box()
-        box.prop(s, "caustics_caster")
-        if s.caustics_caster != "NONE":
-            col = box.column(align=True)
-            if s.caustics_caster == "REFRACTIVE":
-                col.prop(s, "caustics_ior")
-                col.prop(s, "caustics_surfaces")
-                col.prop(s, "caustics_dispersion")
-                col.prop(s, "caustics_color")
-                col.prop(s, "caustics_distance")
-            else:
-                col.prop(s, "caustics_color", text="Reflectance")
-        _grass_box(layout, ob)
+        row = box.row(align=True)
+        row.prop(s, "quality", expand=True)
+        if s.quality == "AUTO":
+            row = box.row(align=True)
+            row.prop(s, "target_error")
+            row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
+            for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
+                box.label(text=line)
+            if s.method == "IMAGE_SPACE":
+
+                k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
+                if k is not None:
+                    box.label(text=f"Last frame: splat overlap {k:g} for this object, "
+                                   f"{LAST_AUTO_OVERLAP['overlap']:g} in the scene", icon="CAMERA_DATA")
+    if s.method == "IMAGE_SPACE":
+        layout.prop(s, "profile")
+        if s.profile == "MULTIPOLE":
+            col = layout.column(align=True)
+            col.prop(s, "layer_thickness")
+            col.prop(s, "base_sigma_a")
+            col.prop(s, "base_sigma_s_prime")
+    if s.method == "TEXTURE_SPACE":
+        col = layout.column(align=True)
+        col.prop(s, "atlas_resolution")
+        col.prop(s, "proxy_spacing")
+        col.prop(s, "texture_blending")
+    if s.method == "QUADGRAPH":
+        col = layout.column(align=True)
+        col.prop(s, "quadgraph_K")
+        col.prop(s, "quadgraph_levels")
+        col.prop(s, "single_scattering")
+        col = layout.column(align=True)
+        col.prop(s, "veins")
+        col.prop(s, "veins_scale")
+    if s.method == "GEOCUBE":
+        col = layout.column(align=True)
+        col.prop(s, "geocube_resolution")
+        col.prop(s, "geocube_steps")
+    status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
+    layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
+    if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}:
+        _bake_statistics(layout, ob, s.method)
+    row = layout.row(align=True)
+    row.operator("translucent.bake", icon="RENDER_STILL")
+    row.operator("translucent.clear_bake", icon="TRASH")
+    layout.operator("translucent.compare_cycles", icon="IMAGE_REFERENCE")
+    box = layout.box()
+    box.prop(s, "caustics_caster")
+    if s.caustics_caster != "NONE":
+        col = box.column(align=True)
+        if s.caustics_caster == "REFRACTIVE":
+            col.prop(s, "caustics_ior")
+            col.prop(s, "caustics_surfaces")
+            col.prop(s, "caustics_dispersion")
+            col.prop(s, "caustics_color")
+            col.prop(s, "caustics_distance")
+        else:
+            col.prop(s, "caustics_color", text="Reflectance")
+    _grass_box(layout, ob)
+    box = layout.box()
+    box.prop(s, "relief")
+    if s.relief != "OFF":
+        col = box.column(align=True)
+        col.template_ID(s, "relief_image", open="image.open")
+        for name in ("relief_depth", "relief_linear_steps", "relief_iterations", "relief_shadows"):
+            col.prop(s, name)
+        if not ob.data.uv_layers:
+            box.label(text="Needs a UV map", icon="ERROR")
+    if s.method in {"IMAGE_SPACE", "QUADGRAPH"}:  # QUADGRAPH carries the paint into its volume
         box = layout.box()
-        box.prop(s, "relief")
-        if s.relief != "OFF":
-            col = box.column(align=True)
-            col.template_ID(s, "relief_image", open="image.open")
-            for name in ("relief_depth", "relief_linear_steps", "relief_iterations", "relief_shadows"):
-                col.prop(s, name)
-            if not ob.data.uv_layers:
-                box.label(text="Needs a UV map", icon="ERROR")
-        if s.method in {"IMAGE_SPACE", "QUADGRAPH"}:  # QUADGRAPH carries the paint into its volume
-            box = layout.box()
-            box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
-            grid = box.grid_flow(columns=2, align=True)
-            for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
-                                 ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
-                op = grid.operator("translucent.add_paint_layer", text=label)
-                op.layer = layer
+        box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
+        grid = box.grid_flow(columns=2, align=True)
+        for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
+                             ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
+            op = grid.operator("translucent.add_paint_layer", text=label)
+            op.layer = layer
 
 
 def _wrap(text: str, width: int) -> list[str]:
@@ -230,7 +224,74 @@ def _last_frame(layout) -> None:
         col.label(text=line.strip())
 
 
+def _scene_general(layout, context) -> None:
+    s = context.scene.translucent
+    col = layout.column(align=True)
+    col.prop(s, "shadow_resolution")
+    col.prop(s, "area_light_samples")
+    layout.prop(context.scene.render, "film_transparent")
+    layout.prop(s, "fail_on_lost_objects")
+    layout.prop(s, "overlay_other_engines")
+    layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")
+
+
+def _scene_image_space(layout, context) -> None:
+    s = context.scene.translucent
+    col = layout.column(align=True)
+    for name in ("splat_threshold", "splat_overlap", "splat_max_grid"):
+        col.prop(s, name)
+    if LAST_AUTO_OVERLAP:
+        col.label(text=f"Last frame: overlap {LAST_AUTO_OVERLAP['overlap']:g}, {LAST_AUTO_OVERLAP['max_grid']} "
+                       "per side, chosen by Auto objects", icon="INFO")
+    for name in ("splat_world_layers", "splat_world_overlap", "temporal_coherence"):
+        col.prop(s, name)
+
+
+def _scene_texture_space(layout, context) -> None:
+    layout.prop(context.scene.translucent, "texture_product")
+
+
+def _scene_quadgraph(layout, context) -> None:
+    col = layout.column(align=True)
+    col.prop(context.scene.translucent, "quadgraph_tolerance")
+    col.prop(context.scene.translucent, "quadgraph_iterations")
+
+
+def _scene_caustics(layout, context) -> None:
+    col = layout.column(align=True)
+    for name in ("caustics_grid", "caustics_estimator", "caustics_iterations", "caustics_guard", "caustics_map",
+                 "caustics_splat", "caustics_adaptive"):
+        col.prop(context.scene.translucent, name)
+
+
+def _scene_last_frame(layout, context) -> None:
+    _last_frame(layout)
+    row = layout.row(align=True)
+    row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
+    row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "CAUSTICS"
+
+
+# The scene's settings in sections: each a sub-panel of the Render properties, all of them in the sidebar.
+SCENE_SECTIONS = (("Image Space", _scene_image_space), ("Texture Space", _scene_texture_space),
+                  ("QuadGraph Solver", _scene_quadgraph), ("Caustics", _scene_caustics),
+                  ("Last Frame", _scene_last_frame))
+
+
+class VIEW3D_PT_translucent_object(bpy.types.Panel):
+    """The sidebar's shortcut to the Object properties' Translucent panel."""
+
+    bl_label = "Translucent Object"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Translucent"
+
+    def draw(self, context):
+        draw_object(self.layout, context)
+
+
 class VIEW3D_PT_translucent_scene(bpy.types.Panel):
+    """The sidebar's shortcut to the Render properties' Translucent panels."""
+
     bl_label = "Translucent Scene"
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -238,48 +299,82 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
-        s = context.scene.translucent
-        layout = self.layout
-        layout.prop(s, "shadow_resolution")
-        layout.prop(s, "area_light_samples")
-        col = layout.column(align=True)
-        col.label(text="Image-space splatting")
-        col.prop(s, "splat_threshold")
-        col.prop(s, "splat_overlap")
-        col.prop(s, "splat_max_grid")
-
-        if LAST_AUTO_OVERLAP:
-            col.label(text=f"Last frame: overlap {LAST_AUTO_OVERLAP['overlap']:g}, {LAST_AUTO_OVERLAP['max_grid']} "
-                           "per side, chosen by Auto objects", icon="INFO")
-        col.prop(s, "splat_world_layers")
-        col.prop(s, "splat_world_overlap")
-        col.prop(s, "temporal_coherence")
-        layout.prop(s, "texture_product")
-        col = layout.column(align=True)
-        col.label(text="QuadGraph solver")
-        col.prop(s, "quadgraph_tolerance")
-        col.prop(s, "quadgraph_iterations")
-        col = layout.column(align=True)
-        col.label(text="Caustics (Shah ch. 5)")
-        col.prop(s, "caustics_grid")
-        col.prop(s, "caustics_estimator")
-        col.prop(s, "caustics_iterations")
-        col.prop(s, "caustics_guard")
-        col.prop(s, "caustics_map")
-        col.prop(s, "caustics_splat")
-        col.prop(s, "caustics_adaptive")
-        layout.prop(s, "overlay_other_engines")
-        layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")
-        _last_frame(layout)
-        row = layout.row(align=True)
-        row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
-        row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "CAUSTICS"
+        _scene_general(self.layout, context)
+        for label, draw in SCENE_SECTIONS:
+            self.layout.label(text=label)
+            draw(self.layout, context)
 
 
-classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene)
+class _OursInProperties:
+    """A panel of the Properties editor shown only while our engine renders the scene."""
 
-# Blender's own panels (lights, world, materials, render dimensions) show only for
-# the engines in their COMPAT_ENGINES; add ours beside EEVEE's and remove it again.
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    COMPAT_ENGINES = {"TRANSLUCENT_RT"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_translucent(_OursInProperties, bpy.types.Panel):
+    bl_label = "Translucent"
+    bl_context = "render"
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        _scene_general(self.layout, context)
+
+
+class _Section(_OursInProperties):
+    """A sub-panel of RENDER_PT_translucent drawing one of SCENE_SECTIONS."""
+
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_translucent"
+    bl_options = {"DEFAULT_CLOSED"}
+    section = None
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        type(self).section(self.layout, context)
+
+
+def _section_panel(label: str, draw) -> type:
+    return type(f"RENDER_PT_translucent_{label.lower().replace(' ', '_')}", (_Section, bpy.types.Panel),
+                {"bl_label": label, "section": staticmethod(draw)})
+
+
+class OBJECT_PT_translucent(_OursInProperties, bpy.types.Panel):
+    bl_label = "Translucent"
+    bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.object
+        return super().poll(context) and ob is not None and ob.type in {"MESH", "LIGHT"}
+
+    def draw(self, context):
+        draw_object(self.layout, context)
+
+
+classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene, RENDER_PT_translucent,
+           *(_section_panel(label, draw) for label, draw in SCENE_SECTIONS), OBJECT_PT_translucent)
+
+# Blender's own panels show only for the engines in their COMPAT_ENGINES. Ours is added beside EEVEE's where the
+# panel acts for it: everything generic (output, object data, physics, particles, textures) and, of the render-
+# specific ones, what the engine reads: colour management and simplify, the lights' type, colour, power, size and
+# spot shape, the world's and the materials' surface nodes and slots. EEVEE's own settings (sampling, raytracing,
+# volumes, light probes, its light and shadow options, material blend modes, passes) do nothing here, so these
+# stay EEVEE's (by name prefix; a child of a panel left out is left out with it).
+NOT_OURS = ("RENDER_PT_eevee", "RENDER_PT_freestyle", "RENDER_PT_gpencil", "RENDER_PT_grease_pencil",
+            "RENDER_PT_simplify_greasepencil", "RENDER_PT_stereoscopy", "RENDER_PT_output_views",
+            "VIEWLAYER_PT_eevee", "VIEWLAYER_PT_freestyle", "VIEWLAYER_PT_layer_passes", "VIEWLAYER_PT_filter",
+            "DATA_PT_EEVEE_light_", "DATA_PT_lightprobe", "DATA_PT_context_lightprobe", "DATA_PT_camera_dof",
+            "DATA_PT_camera_stereoscopy", "DATA_PT_preview", "DATA_PT_volume_render", "EEVEE_MATERIAL_PT_settings",
+            "EEVEE_MATERIAL_PT_displacement", "EEVEE_MATERIAL_PT_thickness", "EEVEE_MATERIAL_PT_volume",
+            "MATERIAL_PT_preview", "MATERIAL_PT_freestyle", "EEVEE_WORLD_PT_mist", "EEVEE_WORLD_PT_settings",
+            "EEVEE_WORLD_PT_sun", "EEVEE_WORLD_PT_volume", "EEVEE_WORLD_PT_lightprobe", "OBJECT_PT_shading",
+            "OBJECT_PT_shadow_terminator", "SCENE_PT_eevee", "NODE_EEVEE", "VIEW3D_PT_shading_render_pass")
 _ENGINE = "TRANSLUCENT_RT"
 _patched: list = []
 
@@ -287,6 +382,8 @@ _patched: list = []
 def register_compat_panels() -> None:
     for panel in bpy.types.Panel.__subclasses__():
         engines = getattr(panel, "COMPAT_ENGINES", None)
+        if panel.__name__.startswith(NOT_OURS):
+            continue
         if isinstance(engines, set) and engines.intersection(EEVEE_IDS) and _ENGINE not in engines:
             engines.add(_ENGINE)
             _patched.append(panel)

@@ -353,9 +353,10 @@ class Caustics(Technique):
         }),
         Prop("caustics_iterations", "IntProperty", {
             "name": "Iterations",
-            "description": ("Look-ups of the intersection estimate, through the caster's back faces and to the "
-                            "receivers (Shah 5.3.4: one for a flat floor, about five on rugged receivers; light "
-                            "leaving a ball near its rim needs 4 with Secant)"),
+            # Shah 5.3.4: one for a flat floor, about five on rugged receivers; light leaving a ball near its
+            # rim needs 4 with Secant.
+            "description": ("Look-ups of the intersection estimate through the caster's back faces and onto the "
+                            "receivers: more for rugged receivers"),
             "min": 1,
             "max": 16,
             "default": 4,

@@ -589,11 +589,11 @@ class Quadgraph(Technique):
         }),
         Prop("single_scattering", "BoolProperty", {
             "name": "Surface term",
-            "description": ("QUADGRAPH: draw the surface's own response to each light: light scattered once "
-                            "(marched along the view ray through the light's distance map) and the multiple "
-                            "scattering of a lit half-space (Chandrasekhar), where the diffusion alone is "
-                            "Lambertian and leaves out the first order: the bright rims where a light grazes a "
-                            "back-lit object"),
+            # Light scattered once (marched along the view ray through the light's distance map) and the
+            # multiple scattering of a lit half-space (Chandrasekhar): the diffusion alone is Lambertian and
+            # leaves out the first order.
+            "description": ("QUADGRAPH: add the surface's own response to each light (single scattering): the "
+                            "bright rims where a light grazes a back-lit object"),
             "default": True,
         }),
         Prop("veins_scale", "FloatProperty", {
@@ -607,10 +607,10 @@ class Quadgraph(Technique):
     scene_props = (
         Prop("quadgraph_tolerance", "FloatProperty", {
             "name": "Solver tolerance",
+            # Checked every 16 iterations, relative to the largest flux; the GPU holds the flux in 32-bit floats,
+            # so 1e-6 is the smallest change it can resolve.
             "description": ("QUADGRAPH: a level's relaxation stops when one iteration changes the flux by less "
-                            "than this (relative to its largest value; checked every 16 iterations), or at the "
-                            "cap. The GPU holds the flux in 32-bit floats: 1e-6 is the smallest change it can "
-                            "resolve"),
+                            "than this, relative to its largest value"),
             "min": 1e-06,
             "max": 0.1,
             "default": 2e-05,

@@ -249,10 +249,10 @@ class TextureSpace(Technique):
         }),
         Prop("proxy_spacing", "FloatProperty", {
             "name": "Proxy spacing",
-            "description": ("TEXTURE_SPACE: mean edge of the proxy mesh, in atlas texels. Finer follows shadow "
-                            "edges more closely (back-lit bunny, atlas 512: 6.9 % from the dipole model at 3.5, "
-                            "4.7 % at 2.4) but bakes longer (44 s and 76 s here) and stores 3.4 times the form "
-                            "factors. Changing it needs a new bake"),
+            # Measured (docs/texture_space.md): back-lit bunny, atlas 512: 6.9 % from the dipole model at 3.5 and
+            # 4.7 % at 2.4, baked in 44 s and 76 s, with 3.4 times the form factors.
+            "description": ("Mean edge of the proxy mesh in atlas texels: finer follows shadow edges more "
+                            "closely, but bakes longer and stores more (needs a new bake)"),
             "min": 1.5,
             "max": 8.0,
             "default": 3.5,
