@@ -9,6 +9,7 @@ from .operators import grass as _op_grass
 from .operators import paint as _op_paint
 from .operators import workflow as _op_workflow
 from .translucent_addon import techniques as _techniques
+from .translucent_addon.blender import bake_files as _bake_files
 from .translucent_addon.blender import draw_handler as _draw_handler
 from .translucent_addon.blender import engine as _engine
 from .translucent_addon.blender import extract as _extract
@@ -41,11 +42,13 @@ def register():
     _props.register_pointers()
     _ui.register_compat_panels()
     _draw_handler.register()
+    _bake_files.register()
 
 
 def unregister():
     import bpy
 
+    _bake_files.unregister()
     _draw_handler.unregister()
     _techniques.clear_caches()
     _extract.clear_caches()

@@ -11,9 +11,9 @@ import time
 
 import bpy
 
+from ..translucent_addon.blender import bake_files
 from ..translucent_addon.blender.bake_inputs import gather
 from ..translucent_addon.blender.quality_apply import apply_auto
-from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
 from . import polls
@@ -146,7 +146,7 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
     def _finish(self, ob, inputs, result):
         arrays, meta = result
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
-        store.write(ob, inputs.method, inputs.hash(), arrays, meta)
+        bake_files.write(ob, inputs.method, inputs.hash(), arrays, meta, bpy.context.scene)
         bake_cache.forget(ob.name)
         self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
 
@@ -171,7 +171,7 @@ class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):
             self.report({"ERROR"}, error)
             return {"CANCELLED"}
         method = None if self.all_methods else ob.translucent.method
-        if store.clear(ob, method):
+        if bake_files.clear(ob, method):
             bake_cache.forget(ob.name)
             self.report({"INFO"}, f"'{ob.name}': bake cleared")
         else:

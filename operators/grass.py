@@ -9,8 +9,8 @@ import time
 
 import bpy
 
+from ..translucent_addon.blender import bake_files
 from ..translucent_addon.blender.extract import grass_status
-from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.techniques.grass import bake as grass_btf
 from . import polls
 from .bake import ModalJob, _active_mesh
@@ -56,7 +56,7 @@ class TRANSLUCENT_OT_bake_grass_btf(ModalJob, bpy.types.Operator):
     def _finish(self, ob, inputs, result):
         arrays, meta = result
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
-        store.write(ob, grass_btf.BAKE_KEY, grass_btf.settings_hash(*inputs), arrays, meta)
+        bake_files.write(ob, grass_btf.BAKE_KEY, grass_btf.settings_hash(*inputs), arrays, meta, bpy.context.scene)
         ob.translucent.grass = True
         mb = meta["storage"]["total"] / 2**20
         if not meta["target_met"]:

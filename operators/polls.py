@@ -1,5 +1,6 @@
 """What an operator needs before it can run, as ``poll()``: a button greys out and its tooltip says why
 (``poll_message_set``), instead of an error after the click. Cheap: polls run on every redraw."""
+from ..translucent_addon.blender import bake_files
 from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.techniques import registry
 
@@ -40,7 +41,7 @@ def baked(cls, context) -> bool:
     ob, why = active_mesh(context)
     if why:
         return refuse(cls, why)
-    if store.BAKE_KEY not in ob:
+    if store.BAKE_KEY not in bake_files.owner(ob):
         return refuse(cls, f"'{ob.name}' holds no bake")
     return True
 
@@ -57,5 +58,5 @@ def ground(cls, context) -> bool:
 
 def camera(cls, context) -> bool:
     if context.scene is None or context.scene.camera is None:
-        return refuse(cls, "the scene has no camera: add one and make it active (Ctrl Numpad 0)")
+        return refuse(cls, "the scene has no active camera: the comparison renders the camera's view")
     return True

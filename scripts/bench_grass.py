@@ -144,7 +144,7 @@ def unsampled_phase(mod, btf, spectra) -> list[dict]:
 
 
 def _store_btf(mod, ob, arrays, meta, tile):
-    store, grass_btf, gp = mod("core.bake_store"), mod("techniques.grass.bake"), mod("techniques.grass.patch")
+    store, grass_btf, gp = mod("blender.bake_files"), mod("techniques.grass.bake"), mod("techniques.grass.patch")
     s = ob.translucent
     target = float(meta["target_error"])
     s.grass, s.grass_tile, s.grass_blade_height = True, tile, 0.45 * tile

@@ -37,6 +37,7 @@ def scene_with_bakes():
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "TRANSLUCENT_RT"
+    scene.translucent.bake_storage = "PACKED"  # the arrays in the ID, where the cases damage them
     bpy.ops.mesh.primitive_plane_add(size=8.0)
     bpy.ops.object.light_add(type="SUN", location=(2, -2, 4))
     bpy.ops.object.camera_add(location=(0, -7, 3), rotation=(1.2, 0, 0))
@@ -56,7 +57,7 @@ def scene_with_bakes():
 
 
 def snapshot(ball, method):
-    g = ball["translucent_bake"][method]
+    g = ball.data["translucent_bake"][method]
     return {"arrays": {n: np.array(g["arrays"][n]) for n in g["arrays"].keys()},
             "shapes": {n: list(g["shapes"][n]) for n in g["shapes"].keys()},
             "dtypes": {n: str(g["dtypes"][n]) for n in g["dtypes"].keys()},
@@ -64,7 +65,7 @@ def snapshot(ball, method):
 
 
 def restore(ball, method, saved):
-    g = ball["translucent_bake"][method]
+    g = ball.data["translucent_bake"][method]
     for part in ("arrays", "shapes", "dtypes"):
         del g[part]
         g[part] = saved[part]
@@ -73,7 +74,7 @@ def restore(ball, method, saved):
 
 def damage(rng, ball, method, saved):
     """Damage one array (or the meta) of the stored bake; returns a description."""
-    g = ball["translucent_bake"][method]
+    g = ball.data["translucent_bake"][method]
     names = sorted(saved["arrays"])
     name = names[rng.integers(len(names))]
     a = saved["arrays"][name].copy()

@@ -37,7 +37,7 @@ def test_bake_survives_save_and_reload_and_edits_mark_it_stale(tr, scene, tmp_pa
     assert _status(tr, ob) == "MISSING"
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     assert _status(tr, ob) == "OK"
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")  # on the mesh, arrays beside the .blend
     before = store.read(ob, "TEXTURE_SPACE")
     assert before.arrays["display_uv"].shape == (3 * 5856, 2)  # a corner per displayed triangle
     assert before.meta["proxy_vertices"] > 100 and before.arrays["lensch_kernels"].dtype == np.float16
@@ -85,9 +85,9 @@ def test_texture_space_bakes_the_shading_normals_and_goes_stale_when_they_change
 def test_clear_bake_removes_it(tr, scene):
     ob = _spot(tr, scene)
     bpy.ops.translucent.bake()
-    assert "translucent_bake" in ob
+    assert "translucent_bake" in ob.data  # on the mesh: linked duplicates share it
     assert bpy.ops.translucent.clear_bake() == {"FINISHED"}
-    assert "translucent_bake" not in ob
+    assert "translucent_bake" not in ob.data and "translucent_bake" not in ob
     assert _status(tr, ob) == "MISSING"
 
 
@@ -186,12 +186,13 @@ def test_a_damaged_bake_is_refused_with_a_message_and_the_rest_drawn(tr, scene, 
     ball.translucent.method = "TEXTURE_SPACE"
     ball.translucent.atlas_resolution = 96
     ball.translucent.mm_per_unit = 20.0
+    scene.translucent.bake_storage = "PACKED"  # the arrays in the ID, where this test damages them
     add_light(scene, "POINT", (2.0, -2.0, 3.0), energy=400.0)
     add_camera(scene, (0, -5, 2), (0, 0, 0.8), lens=50)
     _select(ball)
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     good = render(scene, 32, 32)
-    group = ball["translucent_bake"]["TEXTURE_SPACE"]
+    group = ball.data["translucent_bake"]["TEXTURE_SPACE"]
     name = "proxy_triangles"  # indices into the proxy's vertices
     if damage == "index":
         values = np.array(group["arrays"][name])
@@ -251,7 +252,7 @@ def test_a_mesh_too_large_to_bake_is_refused_before_anything_is_made_of_it(tr, s
     seconds = time.perf_counter() - t0
     print(f"refused in {seconds:.1f} s")
     assert seconds < 60.0
-    assert "translucent_bake" not in grid
+    assert "translucent_bake" not in grid.data
 
 
 @pytest.mark.parametrize("case", ["mm_per_unit_inf", "mm_per_unit_1e11", "coordinates_1e30", "scale_zero"])
@@ -282,4 +283,113 @@ def test_geometry_the_compiled_steps_cannot_take_is_refused_before_them(tr, scen
     t0 = time.perf_counter()
     assert expected in _bake_error()
     assert time.perf_counter() - t0 < 5.0
-    assert "translucent_bake" not in cube
+    assert "translucent_bake" not in cube.data
+
+
+def _blend_mb(path) -> float:
+    import os
+
+    return os.path.getsize(path) / 2**20
+
+
+def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(tr, scene, tmp_path):
+    """Issue 38: a TEXTURE_SPACE bake was stored on the object, so the demo's took the .blend from 2 MB to 98 MB,
+    and every Alt+D duplicate as much again. Now the mesh holds its hashes and the arrays are in a file beside the
+    .blend, named by their hash: a linked duplicate shares both, Save As copies the file, and a missing file is
+    said, not drawn."""
+    from blender_helpers import add_camera, add_light, render
+
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.8, location=(0, 0, 0.9))
+    ball = bpy.context.object
+    ball.translucent.method = "TEXTURE_SPACE"
+    ball.translucent.atlas_resolution = 96
+    ball.translucent.mm_per_unit = 20.0
+    add_light(scene, "POINT", (2.0, -2.0, 3.0), energy=400.0)
+    add_camera(scene, (0, -5, 2), (0, 0, 0.8), lens=50)
+    empty = tmp_path / "empty.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(empty))
+    _select(ball)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    group = ball.data["translucent_bake"]["TEXTURE_SPACE"]
+    bake_mb = _meta_mb(group)
+    assert group["file"].startswith("//empty_translucent/") and len(group["arrays"]) == 0
+    good = render(scene, 32, 32)
+
+    path = tmp_path / "baked.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    assert group["file"].startswith("//baked_translucent/") and (tmp_path / group["file"][2:]).is_file()
+    grown = _blend_mb(path) - _blend_mb(empty)
+    bpy.ops.object.duplicate(linked=True)  # Alt+D
+    twin = bpy.context.object
+    assert twin.data == ball.data and _status(tr, twin) == "OK"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    duplicated = _blend_mb(path) - _blend_mb(empty) - grown
+    print(f"bake {bake_mb:.2f} MB: the .blend grew {grown:.3f} MB, the duplicate added {duplicated:.3f} MB")
+    assert grown < 0.1 * bake_mb and duplicated < 0.05
+    twin.hide_render = True
+
+    other = tmp_path / "elsewhere" / "moved.blend"
+    other.parent.mkdir()
+    bpy.ops.wm.save_as_mainfile(filepath=str(other))
+    name = ball.name
+    bpy.ops.wm.open_mainfile(filepath=str(other))
+    ball = bpy.data.objects[name]
+    ref = ball.data["translucent_bake"]["TEXTURE_SPACE"]["file"]
+    assert ref.startswith("//moved_translucent/") and (other.parent / ref[2:]).is_file()
+    assert _status(tr, ball) == "OK"
+    np.testing.assert_allclose(render(bpy.context.scene, 32, 32), good, atol=1e-5)
+
+    import shutil
+
+    shutil.rmtree(other.parent / "moved_translucent")
+    ext_module(tr, "translucent_addon.gpu.bake_cache").clear()
+    ext_module(tr, "translucent_addon.blender.engine").free()
+    with pytest.raises(RuntimeError, match=r"TEXTURE_SPACE bake is damaged: its file //moved_translucent/\w+\.npz "
+                                           r"is missing \(was the \.blend moved without its bake folder\?\)"):
+        render(bpy.context.scene, 32, 32)
+    bpy.ops.wm.read_homefile(use_empty=True)
+
+
+def _meta_mb(group) -> float:
+    import json
+
+    return json.loads(group["meta"])["bytes"] / 2**20
+
+
+def test_a_bake_made_before_the_file_is_saved_moves_beside_it_and_packed_bakes_stay_inside(tr, scene, tmp_path):
+    ob = _spot(tr, scene)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    group = ob.data["translucent_bake"]["TEXTURE_SPACE"]
+    assert group["file"].startswith(bpy.app.tempdir)  # unsaved: Blender's temporary folder
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "first.blend"))
+    assert group["file"].startswith("//first_translucent/") and (tmp_path / group["file"][2:]).is_file()
+    assert _status(tr, ob) == "OK"
+    scene = bpy.context.scene
+    scene.translucent.bake_storage = "PACKED"
+    ob.translucent.atlas_resolution = 64
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    group = ob.data["translucent_bake"]["TEXTURE_SPACE"]
+    assert "file" not in group and len(group["arrays"]) > 10 and _status(tr, ob) == "OK"
+    bpy.ops.wm.read_homefile(use_empty=True)
+
+
+def test_a_tampered_bake_file_is_refused(tr, scene, tmp_path):
+    store = ext_module(tr, "translucent_addon.core.bake_store")
+    sidecar = store.Sidecar(tmp_path)
+    idblock = {}
+    arrays = {"big": np.arange(store.SIDECAR_MIN_BYTES // 4, dtype=np.float32), "small": np.ones(3, np.int32)}
+    store.write(idblock, "TEXTURE_SPACE", "h", arrays, {"a": 1}, sidecar=sidecar)
+    ref = idblock["translucent_bake"]["TEXTURE_SPACE"]["file"]
+    np.testing.assert_array_equal(store.read(idblock, "TEXTURE_SPACE", sidecar).arrays["big"], arrays["big"])
+    with pytest.raises(store.DamagedBakeError, match="cannot be read here"):
+        store.read(idblock, "TEXTURE_SPACE")
+    with np.load(ref) as data:
+        changed = {k: data[k].copy() for k in data.files}
+    changed["big"][7] = -1.0
+    np.savez(ref, **changed)
+    with pytest.raises(store.DamagedBakeError, match="its data changed since it was baked"):
+        store.read(idblock, "TEXTURE_SPACE", sidecar)
+    (tmp_path / "x.npz").write_bytes(b"not a zip")
+    idblock["translucent_bake"]["TEXTURE_SPACE"]["file"] = str(tmp_path / "x.npz")
+    with pytest.raises(store.DamagedBakeError, match="cannot be read"):
+        store.read(idblock, "TEXTURE_SPACE", sidecar)

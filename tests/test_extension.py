@@ -15,7 +15,9 @@ OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT
                "TRANSLUCENT_OT_apply_quality", "TRANSLUCENT_OT_auto_quality", "TRANSLUCENT_OT_save_preset",
                "TRANSLUCENT_OT_remove_preset", "TranslucentPreferences", "VIEW3D_PT_translucent_object",
                "VIEW3D_PT_translucent_scene", "TranslucentObjectSettings", "TranslucentSceneSettings",
-               "TranslucentLightSettings")
+               "TranslucentLightSettings", "RENDER_PT_translucent", "RENDER_PT_translucent_image_space",
+               "RENDER_PT_translucent_texture_space", "RENDER_PT_translucent_quadgraph_solver",
+               "RENDER_PT_translucent_caustics", "RENDER_PT_translucent_last_frame", "OBJECT_PT_translucent")
 _CLASSES = ()
 
 
@@ -25,7 +27,8 @@ def _footprint():
 
     draw_handler = __import__("sys").modules.get(f"{_PKG}.translucent_addon.blender.draw_handler")
     compat = [p.__name__ for p in T.Panel.__subclasses__()
-              if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set())]
+              if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set()) and p.is_registered]
+    handlers = [h for h in bpy.app.handlers.save_pre if getattr(h, "__module__", "").startswith(_PKG)]
     return {
         "classes": sorted(c.__name__ for c in _CLASSES if c.is_registered),
         "engine": _engine_selectable(),
@@ -35,6 +38,7 @@ def _footprint():
         "operators": "bake" in dir(bpy.ops.translucent),
         "draw_handler": bool(draw_handler and draw_handler.is_registered()),
         "compat_panels": len(compat) > 0,
+        "save_handler": len(handlers) == 1,
     }
 
 
@@ -63,7 +67,8 @@ def test_enable_disable_three_times_leaves_nothing(installed):
         bpy.ops.preferences.addon_disable(module=installed)
         off = _footprint()
         assert off == {"classes": [], "engine": False, "object_prop": False, "scene_prop": False,
-                       "light_prop": False, "operators": False, "draw_handler": False, "compat_panels": False}, off
+                       "light_prop": False, "operators": False, "draw_handler": False, "compat_panels": False,
+                       "save_handler": False}, off
         bpy.ops.preferences.addon_enable(module=installed)
         assert _footprint() == on
 

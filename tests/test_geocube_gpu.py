@@ -55,7 +55,7 @@ def test_gpu_exit_search_matches_its_numpy_twin(tr, scene):
     p1, steps = outputs[1][..., :3], outputs[1][..., 3]
     p2, premature = outputs[2][..., :3], outputs[2][..., 3]
     r1, cube = outputs[3][..., :3], outputs[3][..., 3]
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     geocube = ext_module(tr, "translucent_addon.techniques.geocube.bake")
     gd = ext_module(tr, "translucent_addon.techniques.geocube.model")
     g = geocube.from_arrays(store.read(ob, "GEOCUBE").arrays)
@@ -133,7 +133,7 @@ def test_automatic_cube_resolution_follows_the_size_on_the_camera_image(tr, scen
     # spans about sqrt(2) * 0.1 / 0.4 * 50 / 36 * 200 = 98 px (the box is nearer than the ball's centre).
     assert 90 < px < 130, px
     assert bpy.ops.translucent.bake() == {"FINISHED"}
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     assert store.read_meta(ob, "GEOCUBE")["geocube_res"] == geocube.resolution_for(px) == 64
     scene.camera.location.y = -2.0  # moving the camera later does not stale an automatic resolution
     assert inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), "GEOCUBE") == "OK"

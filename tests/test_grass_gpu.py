@@ -36,7 +36,7 @@ def btf_record(installed):
     _grass_settings(ob)
     bpy.context.view_layer.objects.active = ob
     assert bpy.ops.translucent.add_grass_field() == {"FINISHED"}
-    store = __import__(f"{installed}.translucent_addon.core.bake_store", fromlist=["x"])
+    store = __import__(f"{installed}.translucent_addon.blender.bake_files", fromlist=["x"])
     record = store.read(ob, "GRASS")
     assert ob.translucent.grass and record is not None
     return record
@@ -46,7 +46,7 @@ def _field(tr, scene, record, ob=None):
     ob = ob or _ground(scene)
     _grass_settings(ob)
     ob.translucent.grass = True
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     store.write(ob, "GRASS", record.inputs_hash, record.arrays, record.meta)
     return ob
 

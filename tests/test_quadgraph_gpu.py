@@ -104,7 +104,7 @@ def test_a_thick_slab_under_a_white_world_matches_what_cycles_brute_force_render
 
 def test_material_edits_and_light_moves_re_render_without_a_new_bake(tr, scene):
     ob = _baked_ball(scene)
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     digest = store.stored_hash(ob, "QUADGRAPH")
     before = render(scene, 64, 48)
     ball = np.abs(before[..., :3] - np.array([0.02, 0.02, 0.025])).max(axis=2) > 1e-3  # not the world
@@ -150,7 +150,7 @@ def test_a_deformed_mesh_moves_the_nodes_and_re_solves_without_a_new_bake(tr, sc
     follow the mesh, the GPU relaxation equals the direct solution on the moved graph, and the image
     follows the new silhouette."""
     ob = _baked_ball(scene)
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     digest = store.stored_hash(ob, "QUADGRAPH")
     scene.translucent.quadgraph_tolerance = 1e-6  # diffusion.FLOAT32_TOLERANCE, the floor
     scene.translucent.quadgraph_iterations = 6000

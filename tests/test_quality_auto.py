@@ -263,7 +263,7 @@ def test_auto_quality_operator_and_bake(tr, scene):
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     assert cube.translucent.atlas_resolution in qa.ATLAS_CHOICES and cube.translucent.atlas_resolution < 1024
     assert "atlas_resolution" in cube.translucent.auto_summary
-    store = __import__("conftest").ext_module(tr, "translucent_addon.core.bake_store")
+    store = __import__("conftest").ext_module(tr, "translucent_addon.blender.bake_files")
     assert store.read_meta(cube, "TEXTURE_SPACE")["proxy_vertices"] > 0
 
     cube.translucent.method = "OFF"

@@ -83,7 +83,7 @@ def test_a_facet_turned_away_from_the_light_gets_only_the_world(tr, scene):
 
 def test_cpu_product_draws_the_same_image_as_the_gpu_product(tr, scene):
     ob = _baked_ball(scene, tr)
-    meta = ext_module(tr, "translucent_addon.core.bake_store").read_meta(ob, "TEXTURE_SPACE")
+    meta = ext_module(tr, "translucent_addon.blender.bake_files").read_meta(ob, "TEXTURE_SPACE")
     split = ext_module(tr, "translucent_addon.techniques.texture_space.model").ROW_SPLIT
     assert meta["form_factors"] > 2 * split  # row starts with a high half: the shader joins both halves
     gpu_image = render(scene, 64, 48)
@@ -95,7 +95,7 @@ def test_cpu_product_draws_the_same_image_as_the_gpu_product(tr, scene):
 
 def test_moving_the_light_re_renders_without_a_new_bake(tr, scene):
     ob = _baked_ball(scene, tr)
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     digest = store.stored_hash(ob, "TEXTURE_SPACE")
     before = render(scene, 64, 48)
     light = bpy.data.objects["POINT light"]

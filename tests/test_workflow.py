@@ -68,7 +68,7 @@ def test_last_frame_timings_per_pass(tr, scene):
 def test_a_stage_failure_reports_one_line_and_changes_nothing(tr, scene):
     """A bake whose stage refuses the mesh (here: no volume for the tetrahedra) ends with one line and
     no bake stored; in batch mode the operator does not raise a traceback."""
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     sheet = add_mesh(scene, "Sheet", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2, 3)])
     _select(sheet)
     sheet.translucent.method = "QUADGRAPH"
@@ -158,7 +158,7 @@ def test_editing_a_coefficient_makes_the_preset_custom(tr, scene):
 
 def test_undo_after_bake_and_after_clear(tr, scene):
     """Ctrl+Z after Bake leaves the object unbaked; after Clear it has its bake back."""
-    store = ext_module(tr, "translucent_addon.core.bake_store")
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
     cube = add_cube(scene, name="Undo cube")
     _select(cube)
     cube.translucent.method = "GEOCUBE"

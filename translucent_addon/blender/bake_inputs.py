@@ -13,7 +13,7 @@ from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, check_physical_size, needs_bake, refuse_size
 from ..techniques.texture_space.proxy import surface_area, target_triangles
-from . import mesh_read
+from . import bake_files, mesh_read
 from .bvh_tracer import BVHTracer
 from .demo import mesh_from_arrays
 
@@ -201,10 +201,10 @@ def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read
     method = method or ob_eval.original.translucent.method
     if not needs_bake(method):
         return "NONE"
-    original = ob_eval.original
-    if store.stored_hash(original, method) is None:
+    holder = bake_files.owner(ob_eval.original)
+    if store.stored_hash(holder, method) is None:
         return "MISSING"
-    return store.status(original, method, inputs_hash(gather(ob_eval, method, mode=mode, read=read), mode))
+    return store.status(holder, method, inputs_hash(gather(ob_eval, method, mode=mode, read=read), mode))
 
 
 def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT") -> str:

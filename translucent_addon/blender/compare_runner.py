@@ -21,7 +21,6 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core import bake_store as store
 from ..core.geometry.camera import pixel_rays
 from ..core.geometry.orientation import orient_outward
 from ..core.metrics import median_relative_error, relative_rmse, ssim
@@ -38,8 +37,8 @@ from ..core.report.report import (
 )
 from ..techniques import registry
 from ..techniques.texture_space.proxy import SPACING_TEXELS
+from . import bake_files, extract, twin_materials
 from . import engine as engine_mod
-from . import extract, twin_materials
 from .bake_inputs import gather
 from .bvh_tracer import BVHTracer
 from .quality_apply import apply_auto
@@ -469,7 +468,7 @@ def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict
                 next(job)
         except StopIteration as done:
             arrays, meta = done.value
-        store.write(ob, method, inputs.hash(), arrays, meta)
+        bake_files.write(ob, method, inputs.hash(), arrays, meta, bpy.context.scene)
         metas.append(meta)
         progress(f"baked {ob.name} ({method}): {meta.get('proxy_vertices', '?')} proxy vertices, "
                  f"{time.perf_counter() - t0:.1f} s")

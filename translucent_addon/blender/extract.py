@@ -34,7 +34,7 @@ from ..core.physics.lut import BLUR_MIN
 from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
-from . import mesh_read
+from . import bake_files, mesh_read
 from .bake_inputs import bake_status, homogeneous_profile
 from .bake_inputs import clear_caches as clear_bake_inputs
 
@@ -211,7 +211,7 @@ def grass_status(ob) -> tuple[str, str | None]:
     except grass_btf.GrassSettingsError as err:
         return "INVALID", str(err)
     digest = grass_btf.settings_hash(params, int(s.grass_resolution), s.grass_target_error)
-    return bake_store.status(ob, grass_btf.BAKE_KEY, digest), digest
+    return bake_store.status(bake_files.owner(ob), grass_btf.BAKE_KEY, digest), digest
 
 
 def grass_layer(original, frame_warnings) -> GrassLayer | None:
@@ -226,7 +226,7 @@ def grass_layer(original, frame_warnings) -> GrassLayer | None:
         return None
 
     def load(o=original):
-        record = bake_store.read(o, grass_btf.BAKE_KEY)
+        record = bake_files.read(o, grass_btf.BAKE_KEY)
         return record.arrays, record.meta
 
     return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
@@ -426,8 +426,8 @@ def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHa
         frame_warnings.append(
             f"'{original.name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake")
         return None
-    return BakeHandle(f"{original.name}#{bake_store.stored_hash(original, method)}",
-                      lambda o=original, m=method: bake_store.read(o, m).arrays)
+    return BakeHandle(f"{original.name}#{bake_store.stored_hash(bake_files.owner(original), method)}",
+                      lambda o=original, m=method: bake_files.read(o, m).arrays)
 
 
 def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict | None:

@@ -193,6 +193,15 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",
         default=False, options={"HIDDEN"},
     )
+    bake_storage: bpy.props.EnumProperty(
+        name="Bake storage",
+        description="Where new bakes keep their arrays",
+        items=(("SIDECAR", "Beside the .blend", "In a folder next to the .blend (<name>_translucent): a small "
+                                                 "file, one copy for linked duplicates, light undo", 0),
+               ("PACKED", "In the .blend", "Inside the .blend, one file to hand on; a TEXTURE_SPACE bake can add "
+                                           "100 MB, for every copy", 1)),
+        default="SIDECAR",
+    )
     fail_on_lost_objects: bpy.props.BoolProperty(
         name="Fail on undrawable objects",
         description="In a batch render (blender -b), a frame with an object that cannot be drawn as the file asks "

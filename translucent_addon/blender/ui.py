@@ -6,6 +6,7 @@ import bpy
 from ..core import bake_store as store
 from ..techniques import METHOD_DESCRIPTIONS
 from ..techniques.grass import bake as grass_btf
+from . import bake_files
 from .bake_inputs import bake_status
 from .draw_handler import timing_lines
 from .engine import LAST_AUTO_OVERLAP, LAST_TIMINGS
@@ -162,7 +163,7 @@ def _grass_box(layout, ob) -> None:
         box.label(text=detail, icon="ERROR")
     else:
         box.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
-    meta = store.read_meta(ob, grass_btf.BAKE_KEY)
+    meta = store.read_meta(bake_files.owner(ob), grass_btf.BAKE_KEY)
     if meta is not None:
         col = box.column(align=True)
         col.scale_y = 0.8
@@ -185,7 +186,7 @@ def _length(mm: float) -> str:
 def _bake_statistics(layout, ob, method) -> None:
     """What the bake holds, from its metadata (read without loading the arrays)."""
 
-    meta = store.read_meta(ob, method)
+    meta = store.read_meta(bake_files.owner(ob), method)
     if meta is None:
         return
     col = layout.column(align=True)
@@ -230,6 +231,7 @@ def _scene_general(layout, context) -> None:
     col.prop(s, "shadow_resolution")
     col.prop(s, "area_light_samples")
     layout.prop(context.scene.render, "film_transparent")
+    layout.prop(s, "bake_storage")
     layout.prop(s, "fail_on_lost_objects")
     layout.prop(s, "overlay_other_engines")
     layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")

@@ -4,15 +4,20 @@ Pure: works on anything with ``__getitem__``/``__setitem__``/``get``/``__contain
 (a ``bpy.types.Object`` or a dict in tests). ID-property arrays take NumPy
 buffers directly and survive save and reload.
 
-Layout: ``id["translucent_bake"][method] = {"inputs_hash", "format", "meta" (JSON),
-"arrays": {name: flat array}, "shapes": {name: [dims]}, "dtypes": {name: str}}``.
+Layout: ``id["translucent_bake"][method] = {"inputs_hash", "format", "meta" (JSON), "data_hash",
+"arrays": {name: flat array}, "shapes": {name: [dims]}, "dtypes": {name: str}}``. A bake of at least
+``SIDECAR_MIN_BYTES`` written with a ``Sidecar`` keeps its arrays in a file instead (``"file"``: where, as the
+sidecar names it; ``"arrays"`` empty): a TEXTURE_SPACE bake of the demo bunny is 125 MB, which the .blend, every
+linked duplicate and the undo memory carried. The file is named by the data hash, so equal bakes share one.
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 import json
+import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -59,6 +64,40 @@ def data_hash(group_arrays: dict, shapes: dict, dtypes: dict, meta: str, digest:
     return h.hexdigest()
 
 
+# Bakes from this size on go to the sidecar file when there is one; smaller ones stay in the ID.
+SIDECAR_MIN_BYTES = 256 * 1024
+
+
+@dataclasses.dataclass
+class Sidecar:
+    """Bake files in one folder, ``<data hash>.npz`` each. ``ref_of`` names a file as the ID stores it and
+    ``path_of`` finds it again (the Blender side: relative to the .blend, ``//...``)."""
+
+    folder: Path
+    ref_of: Callable[[Path], str] = str
+    path_of: Callable[[str], Path] = Path
+
+    def save(self, name: str, arrays: dict[str, np.ndarray]) -> str:
+        """Write the stored (flat) arrays unless a file of this data hash is there already; its reference."""
+        path = Path(self.folder) / f"{name}.npz"
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            partial = path.with_name(f"{name}.{os.getpid()}.partial.npz")
+            np.savez(partial, **arrays)
+            partial.replace(path)  # whole or absent, also when Blender is killed while writing
+        return self.ref_of(path)
+
+    def load(self, ref: str) -> dict[str, np.ndarray]:
+        path = self.path_of(ref)
+        if not Path(path).is_file():
+            raise DamagedBakeError(f"its file {ref} is missing (was the .blend moved without its bake folder?)")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                return {name: data[name] for name in data.files}
+        except (OSError, ValueError, EOFError) as err:
+            raise DamagedBakeError(f"its file {ref} cannot be read ({err})") from None
+
+
 @dataclasses.dataclass
 class BakeRecord:
     method: str
@@ -67,8 +106,10 @@ class BakeRecord:
     arrays: dict[str, np.ndarray]
 
 
-def write(idblock: Any, method: str, digest: str, arrays: dict[str, np.ndarray], meta: dict | None = None) -> None:
-    """Store (replace) one method's bake on the ID."""
+def write(idblock: Any, method: str, digest: str, arrays: dict[str, np.ndarray], meta: dict | None = None,
+          sidecar: Sidecar | None = None) -> None:
+    """Store (replace) one method's bake on the ID; its arrays in a ``sidecar`` file when given and the bake is
+    at least ``SIDECAR_MIN_BYTES``."""
     group = {"arrays": {}, "shapes": {}, "dtypes": {}}
     for name, a in arrays.items():
         a = np.ascontiguousarray(a)
@@ -85,6 +126,9 @@ def write(idblock: Any, method: str, digest: str, arrays: dict[str, np.ndarray],
     group["format"] = FORMAT_VERSION
     group["meta"] = json.dumps(meta or {}, sort_keys=True)
     group["data_hash"] = data_hash(group["arrays"], group["shapes"], group["dtypes"], group["meta"], digest)
+    if sidecar is not None and sum(a.nbytes for a in group["arrays"].values()) >= SIDECAR_MIN_BYTES:
+        group["file"] = sidecar.save(group["data_hash"], group["arrays"])
+        group["arrays"] = {}
     if BAKE_KEY in idblock:
         idblock[BAKE_KEY][method] = group
     else:
@@ -97,17 +141,23 @@ def _as_array(a: np.ndarray, dtype: str, shape) -> np.ndarray:
     return a.reshape(tuple(shape))
 
 
-def read(idblock: Any, method: str) -> BakeRecord | None:
+def read(idblock: Any, method: str, sidecar: Sidecar | None = None) -> BakeRecord | None:
     """The stored bake of ``method`` (None when there is none of this format). Raises ``DamagedBakeError`` when its
     data is not what was baked: checked against the data hash written with it (bakes from before it was
-    written: their arrays' shapes, types and finiteness only)."""
+    written: their arrays' shapes, types and finiteness only), or when its file is missing."""
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None
     g = idblock[BAKE_KEY][method]
     if int(g.get("format", 0)) != FORMAT_VERSION:
         return None
     try:
-        stored = {name: _stored(g["arrays"][name], g["dtypes"][name]) for name in g["arrays"].keys()}
+        if "file" in g:
+            if sidecar is None:
+                raise DamagedBakeError(f"its file {g['file']} cannot be read here")
+            source = sidecar.load(str(g["file"]))
+        else:
+            source = g["arrays"]
+        stored = {name: _stored(source[name], g["dtypes"][name]) for name in source.keys()}
         shapes = {name: [int(d) for d in g["shapes"][name]] for name in stored}
         dtypes = {name: str(g["dtypes"][name]) for name in stored}
         meta_text = str(g["meta"])
@@ -136,6 +186,18 @@ def _stored(value, dtype: str) -> np.ndarray:
         return np.frombuffer(value, dtype=stored).copy()
     except TypeError:  # a plain list (dict-backed tests, empty arrays)
         return np.asarray(value, dtype=stored)
+
+
+def files(idblock: Any) -> dict[str, str]:
+    """The sidecar file of each bake on the ID that has one: {method: reference}."""
+    if BAKE_KEY not in idblock:
+        return {}
+    return {m: str(g["file"]) for m, g in idblock[BAKE_KEY].items() if "file" in g}
+
+
+def refer(idblock: Any, method: str, ref: str) -> None:
+    """Point a bake at its file's new reference (the file was copied beside a .blend saved elsewhere)."""
+    idblock[BAKE_KEY][method]["file"] = ref
 
 
 def read_meta(idblock: Any, method: str) -> dict | None:
