@@ -108,7 +108,7 @@ class ModalJob:
 
 
 class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
-    """Precompute what the active object's translucency method needs and store it on the object"""
+    """Precompute what the active object's translucency method needs and keep it with its mesh"""
 
     bl_idname = "translucent.bake"
     bl_label = "Bake"

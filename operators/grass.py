@@ -1,7 +1,7 @@
 """translucent.bake_grass_btf and translucent.add_grass_field (Shah ch. 4).
 
 The BTF bake renders the procedural patch under 81 views and 21 lights and compresses it; it is
-stored on the ground object (``techniques/grass/bake.py``). Add Grass Field turns the field on for the
+kept with the ground's mesh (``blender/bake_files.py``). Add Grass Field turns the field on for the
 selected mesh and bakes its BTF when there is no current one.
 """
 
