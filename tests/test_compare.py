@@ -46,6 +46,13 @@ def test_compare_writes_report_images_chart_and_reproduces_from_cache(tr, scene,
             assert -1 <= r["ssim"] <= 1
             assert (tmp_path / "a" / r["error_image"]).exists()
     assert (tmp_path / "a" / "chart.png").stat().st_size > 10_000
+    # The reference's own noise (its two independent halves), beside every error: the 4 spp random walk is well
+    # above it, and an entry is flagged exactly when its error is not.
+    noise = report["meta"]["reference_noise"]
+    assert 0 < noise["rel_rmse"] < 0.2 and 0 < noise["median_rel_error"] < 0.2
+    for r in report["renders"]:
+        if r["reference"] != "itself":
+            assert r["below_reference_noise"] == (r["rel_rmse"] <= noise["rel_rmse"])
     by_series = {r["series"]: r for r in report["renders"]}
     # More samples, less error: the 4 spp random walk is noisier than the 64 spp reference of itself.
     assert by_series["Cycles random walk"]["rel_rmse"] > 0.02
@@ -91,7 +98,8 @@ def test_compare_steps_report_progress_and_stop_cleanly(tr, scene, tmp_path):
         except StopIteration as done:
             entries, _ = done.value
             break
-    assert len(fractions) == 4 and fractions == sorted(fractions) and fractions[-1] == 1.0  # ref, 2 spp, ours, report
+    # The reference's two halves, 2 spp, ours, the report.
+    assert len(fractions) == 5 and fractions == sorted(fractions) and fractions[-1] == 1.0
     assert len(entries) == 3
     engine, materials = scene.render.engine, [s.material for s in ob.material_slots]
     job = runner.run_steps(scene, tmp_path / "b", settings)
@@ -123,3 +131,24 @@ def test_compare_quadgraph_and_auto_series_restore_the_object(tr, scene, tmp_pat
     assert ball.translucent.method == "IMAGE_SPACE" and ball.translucent.quality == "MANUAL"
     assert ball.translucent.atlas_resolution == 384 and ball.translucent.auto_summary == ""
     assert scene.translucent.splat_overlap == overlap
+
+
+def test_the_dialog_says_how_long_each_comparison_takes_and_an_unsaved_file_reports_elsewhere(tr, scene):
+    """Quick could not be chosen from the UI (the button ran the full set: hours at 640x480), and an unsaved file
+    wrote its report into the working directory."""
+    import os
+    import tempfile
+
+    _scene(tr, scene)
+    runner = ext_module(tr, "translucent_addon.blender.compare_runner")
+    quick = runner.expected_seconds(scene, runner.CompareSettings.quick())
+    full = runner.expected_seconds(scene, runner.CompareSettings())
+    overhead, per_sample = runner.cycles_rate(scene)
+    print(f"expected here: quick {quick:.0f} s, full {full:.0f} s (Cycles {overhead:.2f} s + {per_sample:.4f} s/spp)")
+    assert 0 < quick < full and per_sample > 0
+    assert runner.CompareSettings().cycles_pixel_samples() > 10 * runner.CompareSettings.quick().cycles_pixel_samples()
+    operator = __import__(tr.__name__ + ".operators.compare", fromlist=["x"])
+    assert not bpy.data.filepath
+    folder = operator._output_folder(bpy.context, "//translucent_compare")
+    assert not folder.startswith(os.getcwd()) and folder.startswith(tempfile.gettempdir())
+    assert folder.endswith(os.path.join("translucent", "translucent_compare"))

@@ -30,6 +30,7 @@ from ..core.reference.lambert import scene_triangles
 from ..core.report.report import (
     Entry,
     error_against_samples_chart,
+    reference_noise,
     save_error_png,
     save_image_png,
     speed_accuracy_chart,
@@ -80,6 +81,51 @@ class CompareSettings:
         return cls(our_quality=OUR_QUALITY[:2], cycles_random_walk_samples=(4, 16),
                    cycles_brute_force_samples=(16,), eevee_samples=(1, 4), reference_samples=64,
                    brute_force_reference_samples=64, model_reference_samples=20_000, texture_space_atlas=())
+
+
+    def cycles_pixel_samples(self) -> int:
+        """Samples per pixel the comparison asks of Cycles, every render together (the reference's two halves,
+        its check, the random walk and brute force series)."""
+        return int(2 * max(1, self.reference_samples // 2) + self.brute_force_reference_samples
+                   + sum(self.cycles_random_walk_samples) + sum(self.cycles_brute_force_samples))
+
+    def renders(self) -> int:
+        return (2 + bool(self.brute_force_reference_samples) + len(self.cycles_random_walk_samples)
+                + len(self.cycles_brute_force_samples) + len(self.eevee_samples) + len(self.our_quality)
+                + 2 * len(self.texture_space_atlas) + len(self.quadgraph_K) + 2 * len(self.auto_targets))
+
+
+_CYCLES_RATE: dict = {}  # (scene, width, height) -> (seconds per render, seconds per sample), measured
+
+
+def cycles_rate(scene) -> tuple[float, float]:
+    """Cycles' cost on this scene and machine: (seconds a render costs whatever its samples, seconds per sample
+    at the scene's resolution), from two renders of a quarter of its pixels (1 and 5 samples, the random walk
+    as the scene stands; about a second), kept for the session."""
+    scale = scene.render.resolution_percentage / 100
+    width, height = max(1, int(scene.render.resolution_x * scale)), max(1, int(scene.render.resolution_y * scale))
+    key = (scene.name, width, height)
+    if key not in _CYCLES_RATE:
+        small = (max(1, width // 2), max(1, height // 2))
+        timed = []
+        for samples in (1, 5):
+            with engine_setup(scene, "CYCLES", **cycles_options(samples, 64)):
+                timed.append(render_pixels(scene, *small)[1])
+        per_sample = max(timed[1] - timed[0], 1e-4) / 4.0 * (width * height) / (small[0] * small[1])
+        _CYCLES_RATE[key] = (max(timed[0] - per_sample / 4.0, 0.0), per_sample)
+    return _CYCLES_RATE[key]
+
+
+def expected_seconds(scene, settings: CompareSettings) -> float:
+    """About how long a comparison takes here: Cycles at its measured rate (``cycles_rate``), the rest at a
+    few seconds a render (bakes of the TEXTURE_SPACE series at about a minute each). Cached references count
+    as nothing only when they are found; this says the time without a cache."""
+    overhead, per_sample = cycles_rate(scene)
+    cycles_renders = (2 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
+                      + len(settings.cycles_brute_force_samples))
+    cycles = cycles_renders * overhead + settings.cycles_pixel_samples() * per_sample
+    others = 3.0 * (settings.renders() - cycles_renders) + 60.0 * len(settings.texture_space_atlas)
+    return cycles + others
 
 
 def exact_reference_converges(scene, objects) -> tuple[bool, str]:
@@ -321,7 +367,7 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     description = scene_description(depsgraph, frame, objects)
     images: dict[str, np.ndarray] = {}
     entries: list[Entry] = []
-    total = (1 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
+    total = (2 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
              + len(settings.cycles_brute_force_samples) + len(settings.eevee_samples) + len(settings.our_quality)
              + 2 * len(settings.texture_space_atlas) + len(settings.quadgraph_K) + 2 * len(settings.auto_targets)
              + bool(settings.model_reference_samples) + 1)
@@ -337,16 +383,16 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         entries.append(Entry(series=series, engine=engine, settings={"label": label, **extra}, seconds=seconds,
                              reference="", cached=cached))
 
-    def cached_cycles(kind, samples):
+    def cached_cycles(kind, samples, seed=1):
         desc = {**description, "engine": "CYCLES", "kind": kind, "samples": samples,
-                "bounces": settings.cycles_bounces}
+                "bounces": settings.cycles_bounces, **({"seed": seed} if seed != 1 else {})}
         hit = cache.load(cache_dir, desc)
         if hit is not None:
             yield step(f"Cycles {kind} {samples} spp: from the cache")
             return hit[0], hit[1], True
         yield step(f"Cycles {kind} {samples} spp ...")
         with twin_materials_applied(objects, kind), \
-                engine_setup(scene, "CYCLES", **cycles_options(samples, settings.cycles_bounces)):
+                engine_setup(scene, "CYCLES", **cycles_options(samples, settings.cycles_bounces, seed)):
             image, seconds = render_pixels(scene, width, height)
         cache.store(cache_dir, desc, image, seconds)
         return image, seconds, False
@@ -357,7 +403,13 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     ref_kind, check_kind = ("brute_force", "random_walk") if exact else ("random_walk", "brute_force")
     ref_title = ref_kind.replace("_", " ")
     ref_name = f"Cycles {ref_title} {settings.reference_samples} spp"
-    ref_image, ref_seconds, ref_cached = yield from cached_cycles(ref_kind, settings.reference_samples)
+    # Two independent halves (seeds 1 and 2), averaged: the reference at its full samples, and from their
+    # difference its own noise, below which no error is resolved (report.reference_noise).
+    half = max(1, settings.reference_samples // 2)
+    half_a, seconds_a, cached_a = yield from cached_cycles(ref_kind, half, seed=1)
+    half_b, seconds_b, cached_b = yield from cached_cycles(ref_kind, half, seed=2)
+    ref_image, ref_seconds, ref_cached = 0.5 * (half_a + half_b), seconds_a + seconds_b, cached_a and cached_b
+    noise = reference_noise(half_a, half_b, mask)
     add(f"Cycles {ref_title} (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
         ref_cached, samples=settings.reference_samples)
     check_image = None
@@ -433,6 +485,7 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
         e.rel_rmse = relative_rmse(img, ref_image, mask)
         e.ssim = ssim(img, ref_image, mask)
         e.median_rel_error = median_relative_error(img, ref_image, mask)
+        e.below_reference_noise = bool(e.rel_rmse <= noise["rel_rmse"])
         if model_image is not None and e.engine == "TRANSLUCENT_RT":
             e.rel_rmse_model = relative_rmse(img, model_image, mask)
         if brute_image is not None and not e.series.startswith("Cycles brute force"):
@@ -442,13 +495,15 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     meta = {
         "scene": scene.name, "size": [width, height], "objects": sorted(names), "reference": ref_name,
         "reference_exact": exact, "reference_why": why,
+        "reference_noise": {k: round(float(v), 6) for k, v in noise.items()},
+        "reference_noise_how": "each metric between the reference's two independent halves (seeds 1 and 2) over 2",
         "mask_pixels": int(mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
         "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels "
                  "(their silhouette pixels excluded)",
     }
     write_report(out / "report.json", entries, meta)
     speed_accuracy_chart(entries, out / "chart.png", f"{scene.name}: speed against accuracy ({width}x{height}); "
-                                                      f"reference {ref_name}")
+                                                      f"reference {ref_name}", noise=noise)
     yield 1.0, f"wrote {out / 'report.json'} and {out / 'chart.png'}"
     return entries, meta
 

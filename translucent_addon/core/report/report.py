@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..metrics import display, relative_error_image
+from ..metrics import display, median_relative_error, relative_error_image, relative_rmse
 from . import raster_chart
 from .colormaps import TAB10, hex_rgb, inferno, series_colours
 from .png import write_png
@@ -32,6 +32,8 @@ class Entry:
     image: str = ""
     error_image: str = ""
     cached: bool = False
+    # Its error is within the reference's own noise (report meta "reference_noise"): the reference cannot rank it.
+    below_reference_noise: bool = False
 
 
 def save_png(path: Path, rgb8: np.ndarray) -> None:
@@ -57,7 +59,15 @@ def write_report(path: Path, entries: list[Entry], meta: dict) -> None:
 
 def read_report(path: Path) -> tuple[list[Entry], dict]:
     data = json.loads(Path(path).read_text())
-    return [Entry(**e) for e in data["renders"]], data["meta"]
+    fields = {f.name for f in dataclasses.fields(Entry)}
+    return [Entry(**{k: v for k, v in e.items() if k in fields}) for e in data["renders"]], data["meta"]
+
+
+def reference_noise(half_a: np.ndarray, half_b: np.ndarray, mask: np.ndarray) -> dict[str, float]:
+    """The reference's own error, per chart metric, from the two independent halves it averages: their
+    difference has four times the variance of their mean, so each metric of (a, b) halved."""
+    return {"rel_rmse": relative_rmse(half_a, half_b, mask) / 2.0,
+            "median_rel_error": median_relative_error(half_a, half_b, mask) / 2.0}
 
 
 # What each chart panel plots: the RMSE, and the median that fireflies in the reference cannot move.
@@ -83,6 +93,7 @@ def _measured(entries, metric: str):
 
 
 PARETO_COLOUR = (0.3, 0.3, 0.3)
+NOISE_COLOUR = (0.62, 0.62, 0.62)
 
 
 def _speed_accuracy_panel(ax, entries, metric: str, ylabel: str, colours: dict, labels: bool = True) -> None:
@@ -118,16 +129,22 @@ def _legend_items(colours: dict) -> list[dict]:
             + [dict(label="Pareto front", colour=PARETO_COLOUR, marker=None, width=1.2, dashed=True)])
 
 
-def speed_accuracy_chart(entries: list[Entry], path: Path, title: str) -> None:
+def speed_accuracy_chart(entries: list[Entry], path: Path, title: str, noise: dict | None = None) -> None:
     """Error against seconds per frame (log-log), one line per series, labels with settings: the relative
-    RMSE (which a few fireflies in the reference can dominate) and the median relative error beside it.
+    RMSE (which a few fireflies in the reference can dominate) and the median relative error beside it, and
+    the reference's own ``noise`` per metric as a grey dashed line (errors below it are not resolved).
     The legend sits to the right of the panels, off the data."""
     colours = series_colours(e.series for e in entries)
     legend_w = max([raster_chart.text_width(n, raster_chart.TICK_SIZE) for n in colours] + [80.0])
     fig = raster_chart.Figure(int(1300 + legend_w), 560, rows=1, cols=2, title=title)
     for ax, (metric, ylabel) in zip(fig.axes, CHART_METRICS):
         _speed_accuracy_panel(ax, entries, metric, ylabel, colours)
-    fig.legend("right", _legend_items(colours))
+        if noise and np.isfinite(noise.get(metric, np.nan)) and noise[metric] > 0:
+            ax.axhline(noise[metric], NOISE_COLOUR, width=1.2, dashed=True)
+    items = _legend_items(colours)
+    if noise:
+        items.append(dict(label="reference noise", colour=NOISE_COLOUR, marker=None, width=1.2, dashed=True))
+    fig.legend("right", items)
     fig.save(path)
 
 
