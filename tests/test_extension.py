@@ -28,7 +28,8 @@ def _footprint():
     draw_handler = __import__("sys").modules.get(f"{_PKG}.translucent_addon.blender.draw_handler")
     compat = [p.__name__ for p in T.Panel.__subclasses__()
               if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set()) and p.is_registered]
-    handlers = [h for h in bpy.app.handlers.save_pre if getattr(h, "__module__", "").startswith(_PKG)]
+    handlers = [h for h in (*bpy.app.handlers.save_pre, *bpy.app.handlers.load_post)
+                if getattr(h, "__module__", "").startswith(_PKG)]
     return {
         "classes": sorted(c.__name__ for c in _CLASSES if c.is_registered),
         "engine": _engine_selectable(),
@@ -38,7 +39,7 @@ def _footprint():
         "operators": "bake" in dir(bpy.ops.translucent),
         "draw_handler": bool(draw_handler and draw_handler.is_registered()),
         "compat_panels": len(compat) > 0,
-        "save_handler": len(handlers) == 1,
+        "handlers": len(handlers) == 2,
     }
 
 
@@ -68,7 +69,7 @@ def test_enable_disable_three_times_leaves_nothing(installed):
         off = _footprint()
         assert off == {"classes": [], "engine": False, "object_prop": False, "scene_prop": False,
                        "light_prop": False, "operators": False, "draw_handler": False, "compat_panels": False,
-                       "save_handler": False}, off
+                       "handlers": False}, off
         bpy.ops.preferences.addon_enable(module=installed)
         assert _footprint() == on
 

@@ -332,3 +332,28 @@ def test_a_mirrored_object_renders_as_the_mirrored_mesh(tr, scene, method):
     # A baked method bakes each mesh on its own (proxy, atlas, graph): two bakes differ texel by texel
     # (TEXTURE_SPACE measured 0.090).
     assert rel < (0.15 if method in {"TEXTURE_SPACE", "QUADGRAPH"} else 0.02)
+
+
+def test_counts_a_file_holds_out_of_range_are_clamped_in_the_frame_and_on_load(tr, scene, tmp_path, capfd):
+    """A file (or a script writing ID properties) is not asked for a setting's range: GEOCUBE steps of 2^31 - 1
+    would hold the GPU in one loop until the driver resets it, a shadow map of 10^6 texels a side asks for
+    terabytes. The frame takes each count within its range, and opening such a file sets it there, saying so."""
+    cube = add_cube(scene)
+    cube.translucent.method = "GEOCUBE"
+    cube.translucent["geocube_steps"] = 2**31 - 1
+    scene.translucent["shadow_resolution"] = 10**6
+    steps = cube.translucent.bl_rna.properties["geocube_steps"].hard_max
+    texels = scene.translucent.bl_rna.properties["shadow_resolution"].hard_max
+    add_camera(scene, (3, -3, 2), (0, 0, 0))
+    frame = _frame_of(tr, scene, 16, 16)
+    assert frame.shadow_resolution == texels and frame.meshes[0].medium.max_steps == steps
+    path = str(tmp_path / "out_of_range.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    capfd.readouterr()
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert bpy.data.objects["Cube"].translucent.geocube_steps == steps
+    assert bpy.context.scene.translucent.shadow_resolution == texels
+    out = capfd.readouterr().out
+    assert f"Translucent: object 'Cube': Max steps was {2**31 - 1}, outside 1-{steps}; set to {steps}" in out, out
+    assert f"Translucent: scene 'Scene': Shadow resolution was {10**6}, outside 64-{texels}; set to {texels}" in out
+    bpy.ops.wm.read_homefile(use_empty=True)

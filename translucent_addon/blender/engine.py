@@ -15,6 +15,7 @@ from ..techniques import REGISTRY
 from ..techniques.image_space import quality as image_space_auto
 from ..techniques.image_space.model import SamplingSettings
 from . import extract
+from .props import bounded
 
 # Read-backs of the last F12's intermediate passes when Scene.translucent.capture_passes is on.
 LAST_CAPTURE: dict = {}
@@ -46,7 +47,7 @@ def auto_sampling(frame, manual: SamplingSettings) -> SamplingSettings:
 def technique_settings(scene) -> dict:
     """Each registered technique's settings, made from the Scene.translucent properties it declares."""
     s = scene.translucent
-    return {t.id: t.settings({name: getattr(s, name) for name in t.scene_properties}) for t in REGISTRY
+    return {t.id: t.settings({name: bounded(s, name) for name in t.scene_properties}) for t in REGISTRY
             if t.scene_properties}
 
 

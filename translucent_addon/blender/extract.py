@@ -37,6 +37,7 @@ from ..techniques.grass import bake as grass_btf
 from . import bake_files, mesh_read
 from .bake_inputs import bake_status, homogeneous_profile
 from .bake_inputs import clear_caches as clear_bake_inputs
+from .props import bounded
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -285,13 +286,14 @@ def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> Reli
     du, dv = uv_tangents(positions, uv)
     key = f"{s.relief_image.name}:{digest}"
     return ReliefSurface(key, height, float(s.relief_depth), 0 if s.relief == "INTERVAL" else 1,
-                         int(s.relief_linear_steps), int(s.relief_iterations), bool(s.relief_shadows), uv, du, dv)
+                         bounded(s, "relief_linear_steps"), bounded(s, "relief_iterations"), bool(s.relief_shadows), uv,
+                         du, dv)
 
 
 def caustic_settings(s) -> CausticSettings:
-    return CausticSettings(grid=int(s.caustics_grid), iterations=int(s.caustics_iterations),
+    return CausticSettings(grid=bounded(s, "caustics_grid"), iterations=bounded(s, "caustics_iterations"),
                            guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
-                           texels=int(s.caustics_map),
+                           texels=bounded(s, "caustics_map"),
                            splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
 
 
@@ -413,7 +415,7 @@ def medium_of(original, method: str, frame_warnings) -> tuple[str, Medium | None
         layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
                      single_scattering=bool(s.single_scattering))
     if method == "GEOCUBE":
-        layer = dict(max_steps=int(s.geocube_steps))
+        layer = dict(max_steps=bounded(s, "geocube_steps"))
     return method, Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
                           profile=homogeneous_profile(s.profile), **layer)
 
@@ -522,7 +524,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 area_shape=getattr(light, "shape", "SQUARE"),
                 size=getattr(light, "size", 0.0),
                 size_y=getattr(light, "size_y", 0.0),
-                area_samples=settings.area_light_samples,
+                area_samples=bounded(settings, "area_light_samples"),
             )
             if not light.translucent.caustics:
                 lit = [dataclasses.replace(x, caustics=False) for x in lit]
@@ -537,7 +539,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
         world_color=world_color(scene, environment),
         environment=environment,
         film_transparent=scene.render.film_transparent,
-        shadow_resolution=settings.shadow_resolution,
+        shadow_resolution=bounded(settings, "shadow_resolution"),
         caustics=caustic_settings(settings),
         warnings=warnings,
     )

@@ -238,16 +238,54 @@ def _join_technique_properties() -> None:
 _join_technique_properties()
 
 
+def bounded(group, name: str):
+    """A setting as a frame may use it: an integer that a file or a script stored outside its range (an ID
+    property is not asked for its range) clamped into it. Counts, steps and resolutions reach GPU loops and
+    allocations: a stored 2^31 - 1 steps would hold the GPU until the driver resets it (issue 37)."""
+    value = getattr(group, name)
+    prop = group.bl_rna.properties[name]
+    if prop.type == "INT" and not prop.is_array:
+        return min(max(value, prop.hard_min), prop.hard_max)
+    return value
+
+
+def _groups():
+    for collection, label in ((bpy.data.objects, "object"), (bpy.data.scenes, "scene"), (bpy.data.lights, "light")):
+        for idblock in collection:
+            group = getattr(idblock, "translucent", None)
+            if group is not None:
+                yield f"{label} '{idblock.name}'", group
+
+
+@bpy.app.handlers.persistent
+def clamp_loaded_settings(*_args) -> None:
+    """load_post: integers the opened file holds outside their range are set into it, each said in one line."""
+    for where, group in _groups():
+        for prop in group.bl_rna.properties:
+            if prop.type != "INT" or prop.is_array or prop.identifier not in group:
+                continue
+            value = getattr(group, prop.identifier)
+            kept = min(max(value, prop.hard_min), prop.hard_max)
+            if kept != value:
+                setattr(group, prop.identifier, kept)
+                print(f"Translucent: {where}: {prop.name} was {value}, outside {prop.hard_min}-{prop.hard_max}; "
+                      f"set to {kept}")
+
+
 def register_pointers() -> None:
     techniques._listeners.append(refresh_methods)
     bpy.types.Object.translucent = bpy.props.PointerProperty(type=TranslucentObjectSettings)
     bpy.types.Scene.translucent = bpy.props.PointerProperty(type=TranslucentSceneSettings)
     bpy.types.Light.translucent = bpy.props.PointerProperty(type=TranslucentLightSettings)
+    if clamp_loaded_settings not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(clamp_loaded_settings)
 
 
 def unregister_pointers() -> None:
     if refresh_methods in techniques._listeners:
         techniques._listeners.remove(refresh_methods)
+    if clamp_loaded_settings in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(clamp_loaded_settings)
     del bpy.types.Light.translucent
     del bpy.types.Scene.translucent
     del bpy.types.Object.translucent

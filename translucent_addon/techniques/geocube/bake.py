@@ -414,7 +414,8 @@ def from_arrays(a: dict) -> GeocubeSet:
     res, coverage, min_step, size = (float(x) for x in shaped(a, "gc_scalars", (4,)))
     res = count(res, "cube resolution", 1, MAX_RES)
     centres = np.asarray(a["gc_centres"], np.float64).reshape(-1, 3)
-    C, w = len(centres), res + 2
+    # The shaders' cube switch loops over every cube for each step of each pixel: at most what a bake makes.
+    C, w = count(len(centres), "cube count", 1, 4 * MAX_CUBES), res + 2
     indices(a, "gc_start_cube", (None,), C)
     return GeocubeSet(
         centres=centres, radius_D=np.asarray(a["gc_radius_D"], np.float64), res=res,
