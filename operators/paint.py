@@ -32,7 +32,7 @@ class TRANSLUCENT_OT_add_paint_layer(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return polls.mesh(cls, context)
+        return polls.mesh(cls, context, "paint")
 
     def execute(self, context):
         ob = context.active_object

@@ -5,11 +5,11 @@ from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.techniques import registry
 
 
-def active_mesh(context):
-    """(the active mesh object, None) or (None, why not)."""
+def active_mesh(context, what: str = "bake"):
+    """(the active mesh object, None) or (None, why not); ``what`` the operator does with it."""
     ob = context.active_object
     if ob is None:
-        return None, "no active object: select the object to bake"
+        return None, f"no active object: select a mesh object to {what}"
     if ob.type != "MESH":
         return None, f"'{ob.name}' is a {ob.type.lower()}, not a mesh"
     return ob, None
@@ -21,8 +21,8 @@ def refuse(cls, why: str) -> bool:
     return False
 
 
-def mesh(cls, context) -> bool:
-    _, why = active_mesh(context)
+def mesh(cls, context, what: str) -> bool:
+    _, why = active_mesh(context, what)
     return refuse(cls, why) if why else True
 
 
@@ -38,7 +38,7 @@ def bakeable(cls, context) -> bool:
 
 def baked(cls, context) -> bool:
     """An active mesh holding a bake."""
-    ob, why = active_mesh(context)
+    ob, why = active_mesh(context, "clear its bake")
     if why:
         return refuse(cls, why)
     if store.BAKE_KEY not in bake_files.owner(ob):
@@ -48,7 +48,7 @@ def baked(cls, context) -> bool:
 
 def ground(cls, context) -> bool:
     """An active mesh with faces to grow grass on."""
-    ob, why = active_mesh(context)
+    ob, why = active_mesh(context, "grow grass on")
     if why:
         return refuse(cls, why)
     if len(ob.data.polygons) == 0:

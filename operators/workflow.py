@@ -23,7 +23,7 @@ class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if not polls.mesh(cls, context):
+        if not polls.mesh(cls, context, "size"):
             return False
         ob = context.active_object
         return max(ob.dimensions) > 0.0 or polls.refuse(cls, f"'{ob.name}' has no extent")
@@ -126,7 +126,7 @@ class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return polls.mesh(cls, context)
+        return polls.mesh(cls, context, "save its material")
 
     def invoke(self, context, event):
         return context.window_manager.invoke_props_dialog(self)
@@ -157,7 +157,7 @@ class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if not polls.mesh(cls, context):
+        if not polls.mesh(cls, context, "remove its preset"):
             return False
         if not context.active_object.translucent.preset.startswith(presets.USER_PREFIX):
             return polls.refuse(cls, "the object's preset is not one of yours: only user presets can be removed")

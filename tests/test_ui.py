@@ -67,7 +67,7 @@ def test_every_operator_has_a_poll_that_says_why(tr, scene):
                  "remove_preset", "set_physical_size"):
         assert not _poll(name), f"translucent.{name} runs with no active object"
     assert not _poll("compare_cycles")  # no camera
-    with pytest.raises(RuntimeError, match="no active object: select the object to bake"):
+    with pytest.raises(RuntimeError, match="no active object: select a mesh object to bake"):
         bpy.ops.translucent.bake()  # the poll's message is the error's
     assert _poll("add_demo_scene") and _poll("apply_quality") and _poll("auto_quality")
     cube = add_cube(scene)
