@@ -154,7 +154,7 @@ def test_grass_bakes_its_btf_and_draws_the_field(tr, scene):
     add_camera(scene, (0.0, -0.45, 0.3), (0.0, 0.0, 0.0), lens=50.0)
     ground_only = _render(tr, scene)
     assert bpy.ops.translucent.add_grass_field() == {"FINISHED"}
-    assert s.grass and ext_module(tr, "translucent_addon.core.bake_store").read(ground, "GRASS") is not None
+    assert s.grass and ext_module(tr, "translucent_addon.blender.bake_files").read(ground, "GRASS") is not None
     field = _render(tr, scene)
     assert np.abs(field - ground_only)[..., :3].mean() > 0.01
 
