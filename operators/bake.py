@@ -86,7 +86,11 @@ class ModalJob:
         try:
             fraction, text = next(self._job)
         except StopIteration as done:
-            self._finish(self._object, self._inputs, done.value)
+            try:
+                self._finish(self._object, self._inputs, done.value)
+            except Exception as err:  # storing the result failed: the modal still ends, and says why
+                self._end(context, f"'{self._object.name}': {self._what} could not be stored: {err}", level="ERROR")
+                return {"CANCELLED"}
             self._end(context, None)
             return {"FINISHED"}
         except Exception as err:  # a failing stage must not leave the modal running
@@ -146,7 +150,9 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
     def _finish(self, ob, inputs, result):
         arrays, meta = result
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
-        bake_files.write(ob, inputs.method, inputs.hash(), arrays, meta, bpy.context.scene)
+        why = bake_files.write(ob, inputs.method, inputs.hash(), arrays, meta, bpy.context.scene)
+        if why:
+            self.report({"WARNING"}, why)
         bake_cache.forget(ob.name)
         self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
 

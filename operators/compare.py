@@ -50,7 +50,7 @@ class TRANSLUCENT_OT_compare_cycles(ModalJob, bpy.types.Operator):
         try:
             for kind, settings in (("QUICK", runner.CompareSettings.quick()), ("FULL", runner.CompareSettings())):
                 self._expected[kind] = (runner.expected_seconds(context.scene, settings), settings)
-        except RuntimeError:  # Cycles could not render the scene now: the dialog goes without times
+        except Exception:  # noqa: BLE001 - Cycles could not render the scene now: the dialog goes without times
             self._expected = {}
         self._from_dialog = True
         return context.window_manager.invoke_props_dialog(self, width=420)

@@ -56,7 +56,10 @@ class TRANSLUCENT_OT_bake_grass_btf(ModalJob, bpy.types.Operator):
     def _finish(self, ob, inputs, result):
         arrays, meta = result
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
-        bake_files.write(ob, grass_btf.BAKE_KEY, grass_btf.settings_hash(*inputs), arrays, meta, bpy.context.scene)
+        why = bake_files.write(ob, grass_btf.BAKE_KEY, grass_btf.settings_hash(*inputs), arrays, meta,
+                               bpy.context.scene)
+        if why:
+            self.report({"WARNING"}, why)
         ob.translucent.grass = True
         mb = meta["storage"]["total"] / 2**20
         if not meta["target_met"]:

@@ -1,6 +1,8 @@
 """translucent.bake / clear_bake in Blender: storage, save and reload, stale detection, bad input."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -286,6 +288,19 @@ def test_geometry_the_compiled_steps_cannot_take_is_refused_before_them(tr, scen
     assert "translucent_bake" not in cube.data
 
 
+def test_a_bake_folder_that_cannot_be_written_keeps_the_bake_inside_the_blend(tr, scene, tmp_path, capfd):
+    """A .blend in a folder where its bake folder cannot be made (here a file stands in its place; a read-only
+    folder or a full disk alike): the bake is packed into the .blend with a warning, not lost."""
+    ob = _spot(tr, scene)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "blocked.blend"))
+    (tmp_path / "blocked_translucent").write_text("not a folder")
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    group = ob.data["translucent_bake"]["TEXTURE_SPACE"]
+    assert "file" not in group and len(group["arrays"]) > 10 and _status(tr, ob) == "OK"
+    assert "the bake folder could not be written" in capfd.readouterr().out
+    bpy.ops.wm.read_homefile(use_empty=True)
+
+
 def _blend_mb(path) -> float:
     import os
 
@@ -327,6 +342,12 @@ def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(
     print(f"bake {bake_mb:.2f} MB: the .blend grew {grown:.3f} MB, the duplicate added {duplicated:.3f} MB")
     assert grown < 0.1 * bake_mb and duplicated < 0.05
     twin.hide_render = True
+    # Saving a copy elsewhere copies the file there, and leaves this session's bakes pointing where they were.
+    (tmp_path / "copies").mkdir()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "copies" / "copy.blend"), copy=True)
+    assert group["file"].startswith("//baked_translucent/") and bpy.data.filepath == str(path)
+    assert (tmp_path / "copies" / "copy_translucent" / Path(group["file"]).name).is_file()
+    assert _status(tr, ball) == "OK"
 
     other = tmp_path / "elsewhere" / "moved.blend"
     other.parent.mkdir()

@@ -28,7 +28,7 @@ def _footprint():
     draw_handler = __import__("sys").modules.get(f"{_PKG}.translucent_addon.blender.draw_handler")
     compat = [p.__name__ for p in T.Panel.__subclasses__()
               if "TRANSLUCENT_RT" in (getattr(p, "COMPAT_ENGINES", None) or set()) and p.is_registered]
-    handlers = [h for h in (*bpy.app.handlers.save_pre, *bpy.app.handlers.load_post)
+    handlers = [h for h in (*bpy.app.handlers.save_pre, *bpy.app.handlers.save_post, *bpy.app.handlers.load_post)
                 if getattr(h, "__module__", "").startswith(_PKG)]
     return {
         "classes": sorted(c.__name__ for c in _CLASSES if c.is_registered),
@@ -39,7 +39,7 @@ def _footprint():
         "operators": "bake" in dir(bpy.ops.translucent),
         "draw_handler": bool(draw_handler and draw_handler.is_registered()),
         "compat_panels": len(compat) > 0,
-        "handlers": len(handlers) == 2,
+        "handlers": len(handlers) == 4,  # bake files: save_pre, save_post, load_post; settings: load_post
     }
 
 

@@ -3,9 +3,14 @@ the .blend (``<name>_translucent/``, as Blender keeps its own simulation caches)
 the file. A bake of the demo bunny took the .blend from 2 MB to 98 MB, every Alt+D duplicate again as much, and
 rode the undo memory; now the file holds its hashes and metadata only.
 
+A bake's hash covers the object's scale, material and evaluated modifiers: duplicates sharing a mesh share its bake
+while those agree (one of two that differ shows its bake as stale). A mesh linked from a library cannot be written:
+its objects keep their bakes on themselves.
+
 An unsaved file bakes into Blender's temporary folder; saving (``relocate``, a ``save_pre`` handler) copies the
 files a bake refers to beside the .blend it is saved as and points the bakes there, also on Save As to another
-folder. Files of 0.1.x kept their bakes on the object: they are read from there until baked again.
+folder; saving a copy points them back afterwards (``restore``, ``save_post``). Files of 0.1.x kept their bakes on
+the object: they are read from there, per method, until baked again.
 """
 from __future__ import annotations
 
@@ -16,14 +21,28 @@ from pathlib import Path
 import bpy
 
 from ..core import bake_store as store
+from ..gpu import bake_cache
 
 
-def owner(ob):
-    """The ID holding an object's bakes: its mesh, or the object itself where a file of 0.1.x put them."""
+def _writable(ob):
+    """The ID a new bake of the object goes to: its mesh, unless that comes from a library."""
     data = ob.data
-    if data is not None and store.BAKE_KEY not in data and store.BAKE_KEY in ob:
+    return ob if data is None or getattr(data, "library", None) is not None else data
+
+
+def owner(ob, method: str | None = None):
+    """The ID holding an object's bake of ``method`` (any method when None): its mesh, or the object itself (a
+    0.1.x file, or a mesh linked from a library)."""
+    data = _writable(ob)
+    if data is not ob and not _holds(data, method) and _holds(ob, method):
         return ob
-    return data if data is not None else ob
+    return data
+
+
+def _holds(idblock, method: str | None) -> bool:
+    if store.BAKE_KEY not in idblock:
+        return False
+    return method is None or method in idblock[store.BAKE_KEY]
 
 
 def folder_for(filepath: str) -> Path:
@@ -61,61 +80,108 @@ def reader() -> store.Sidecar:
                          path_of=lambda r: _path(r, filepath))
 
 
-def write(ob, method: str, digest: str, arrays: dict, meta: dict, scene=None) -> None:
-    """Store a bake on the object's mesh, its arrays beside the .blend (or packed, as the scene says)."""
-    store.write(ob.data, method, digest, arrays, meta, sidecar=sidecar(scene))
-    if store.BAKE_KEY in ob:  # a 0.1.x bake on the object: the mesh's is the one now
+def write(ob, method: str, digest: str, arrays: dict, meta: dict, scene=None) -> str | None:
+    """Store a bake with the object's mesh, its arrays beside the .blend (or packed, as the scene says). Where the
+    folder cannot be written (a read-only folder, a full disk) the bake is packed instead: returns why, else None."""
+    holder, why = _writable(ob), None
+    try:
+        store.write(holder, method, digest, arrays, meta, sidecar=sidecar(scene))
+    except OSError as err:
+        store.write(holder, method, digest, arrays, meta)
+        why = f"'{ob.name}': the bake folder could not be written ({err}); the bake is kept inside the .blend"
+    if holder is not ob and _holds(ob, method):  # a 0.1.x bake on the object: the mesh's is the one now
         store.clear(ob, method)
+    return why
 
 
 def read(ob, method: str):
-    return store.read(owner(ob), method, reader())
+    return store.read(owner(ob, method), method, reader())
 
 
 def read_meta(ob, method: str) -> dict | None:
-    return store.read_meta(owner(ob), method)
+    return store.read_meta(owner(ob, method), method)
 
 
 def stored_hash(ob, method: str) -> str | None:
-    return store.stored_hash(owner(ob), method)
+    return store.stored_hash(owner(ob, method), method)
 
 
 def clear(ob, method: str | None = None) -> bool:
     """Remove an object's bake(s), from its mesh and from the object (0.1.x). The files stay: another bake (a
     duplicate, an undo step) may refer to them."""
-    removed = store.clear(ob.data, method) if ob.data is not None else False
+    data = _writable(ob)
+    removed = store.clear(data, method) if data is not ob else False
     return store.clear(ob, method) or removed
 
 
 def _holders():
+    """The IDs of this file (not linked from a library) that hold bakes."""
     for collection in (bpy.data.meshes, bpy.data.objects):
         for idblock in collection:
-            if store.BAKE_KEY in idblock:
+            if idblock.library is None and store.BAKE_KEY in idblock:
                 yield idblock
+
+
+_before_copy: list = []  # (ID name, collection, method, reference) as they were before saving a copy
+
+
+def _copy(source: Path, target: Path) -> None:
+    """Copy a bake file whole or not at all (an interrupted copy leaves no truncated target)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    partial = target.with_name(f"{target.stem}.{os.getpid()}.partial{target.suffix}")
+    shutil.copyfile(source, partial)
+    partial.replace(target)
 
 
 @bpy.app.handlers.persistent
 def relocate(filepath, *_args) -> None:
     """save_pre: copy every bake file beside the .blend being saved (``filepath``) and refer to it there."""
+    _before_copy.clear()
     if not filepath:
         return
     old, new_folder = bpy.data.filepath, folder_for(filepath)
     for idblock in _holders():
+        kind = "meshes" if isinstance(idblock, bpy.types.Mesh) else "objects"
         for method, ref in store.files(idblock).items():
+            _before_copy.append((idblock.name, kind, method, ref))
             source = _path(ref, old)
             target = new_folder / source.name
-            if source.resolve() != target.resolve() and source.is_file() and not target.is_file():
-                new_folder.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(source, target)
+            fresh = source.is_file() and (not target.is_file() or target.stat().st_size != source.stat().st_size)
+            if fresh and source.resolve() != target.resolve():
+                _copy(source, target)
             if target.is_file():
                 store.refer(idblock, method, _ref(target, filepath))
 
 
+@bpy.app.handlers.persistent
+def restore(filepath, *_args) -> None:
+    """save_post: after saving a copy (the session's file is still the old one), point the bakes back."""
+    if filepath and bpy.data.filepath != filepath:
+        for name, kind, method, ref in _before_copy:
+            idblock = getattr(bpy.data, kind).get(name)
+            if idblock is not None and method in store.files(idblock):
+                store.refer(idblock, method, ref)
+    _before_copy.clear()
+
+
+@bpy.app.handlers.persistent
+def forget_loaded(*_args) -> None:
+    """load_post: another file's bakes are not this one's, even under the same names and hashes."""
+    bake_cache.clear()
+
+
+_HANDLERS = (("save_pre", relocate), ("save_post", restore), ("load_post", forget_loaded))
+
+
 def register() -> None:
-    if relocate not in bpy.app.handlers.save_pre:
-        bpy.app.handlers.save_pre.append(relocate)
+    for kind, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, kind)
+        if handler not in handlers:
+            handlers.append(handler)
 
 
 def unregister() -> None:
-    if relocate in bpy.app.handlers.save_pre:
-        bpy.app.handlers.save_pre.remove(relocate)
+    for kind, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, kind)
+        if handler in handlers:
+            handlers.remove(handler)

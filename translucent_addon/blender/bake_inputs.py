@@ -16,6 +16,7 @@ from ..techniques.texture_space.proxy import surface_area, target_triangles
 from . import bake_files, mesh_read
 from .bvh_tracer import BVHTracer
 from .demo import mesh_from_arrays
+from .props import bounded
 
 
 def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: str = "VIEWPORT",
@@ -47,13 +48,13 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
         eta=float(props.eta),
         g=float(props.g),
         profile=homogeneous_profile(props.profile),
-        atlas_resolution=int(props.atlas_resolution),
+        atlas_resolution=bounded(props, "atlas_resolution"),
         proxy_spacing=float(props.proxy_spacing),
         blending=bool(props.texture_blending),
         stretch=stretch_of(np.array(ob_eval.matrix_world)[:3, :3]),
         quadgraph_K=float(props.quadgraph_K),
-        quadgraph_levels=int(props.quadgraph_levels),
-        geocube_resolution=int(props.geocube_resolution),
+        quadgraph_levels=bounded(props, "quadgraph_levels"),
+        geocube_resolution=bounded(props, "geocube_resolution"),
         tracer_factory=BVHTracer,  # GEOCUBE casts its rays through Blender's BVH
     )
     if for_bake and len(inputs.triangles):  # before Blender's decimation, xatlas or fTetWild see the geometry
@@ -201,7 +202,7 @@ def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read
     method = method or ob_eval.original.translucent.method
     if not needs_bake(method):
         return "NONE"
-    holder = bake_files.owner(ob_eval.original)
+    holder = bake_files.owner(ob_eval.original, method)
     if store.stored_hash(holder, method) is None:
         return "MISSING"
     return store.status(holder, method, inputs_hash(gather(ob_eval, method, mode=mode, read=read), mode))

@@ -95,24 +95,25 @@ class CompareSettings:
                 + 2 * len(self.texture_space_atlas) + len(self.quadgraph_K) + 2 * len(self.auto_targets))
 
 
+REFERENCE_SEEDS = (1001, 1002)
 _CYCLES_RATE: dict = {}  # (scene, width, height) -> (seconds per render, seconds per sample), measured
 
 
 def cycles_rate(scene) -> tuple[float, float]:
     """Cycles' cost on this scene and machine: (seconds a render costs whatever its samples, seconds per sample
-    at the scene's resolution), from two renders of a quarter of its pixels (1 and 5 samples, the random walk
-    as the scene stands; about a second), kept for the session."""
+    at the scene's resolution), from renders of a quarter of its pixels (1 and 5 samples after a first one, the
+    random walk as the scene stands; about a second), kept for the session."""
     scale = scene.render.resolution_percentage / 100
     width, height = max(1, int(scene.render.resolution_x * scale)), max(1, int(scene.render.resolution_y * scale))
     key = (scene.name, width, height)
     if key not in _CYCLES_RATE:
         small = (max(1, width // 2), max(1, height // 2))
         timed = []
-        for samples in (1, 5):
+        for samples in (1, 1, 5):  # the first loads the kernels and builds the BVH: not timed
             with engine_setup(scene, "CYCLES", **cycles_options(samples, 64)):
                 timed.append(render_pixels(scene, *small)[1])
-        per_sample = max(timed[1] - timed[0], 1e-4) / 4.0 * (width * height) / (small[0] * small[1])
-        _CYCLES_RATE[key] = (max(timed[0] - per_sample / 4.0, 0.0), per_sample)
+        per_sample = max(timed[2] - timed[1], 1e-4) / 4.0 * (width * height) / (small[0] * small[1])
+        _CYCLES_RATE[key] = (max(timed[1] - per_sample / 4.0, 0.0), per_sample)
     return _CYCLES_RATE[key]
 
 
@@ -403,11 +404,12 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     ref_kind, check_kind = ("brute_force", "random_walk") if exact else ("random_walk", "brute_force")
     ref_title = ref_kind.replace("_", " ")
     ref_name = f"Cycles {ref_title} {settings.reference_samples} spp"
-    # Two independent halves (seeds 1 and 2), averaged: the reference at its full samples, and from their
-    # difference its own noise, below which no error is resolved (report.reference_noise).
+    # Two independent halves, averaged: the reference at its full samples, and from their difference its own
+    # noise, below which no error is resolved (report.reference_noise). Their seeds are none a series render
+    # uses (seed 1): a 16-sample render would otherwise be the first 16 samples of a half, and its error low.
     half = max(1, settings.reference_samples // 2)
-    half_a, seconds_a, cached_a = yield from cached_cycles(ref_kind, half, seed=1)
-    half_b, seconds_b, cached_b = yield from cached_cycles(ref_kind, half, seed=2)
+    half_a, seconds_a, cached_a = yield from cached_cycles(ref_kind, half, seed=REFERENCE_SEEDS[0])
+    half_b, seconds_b, cached_b = yield from cached_cycles(ref_kind, half, seed=REFERENCE_SEEDS[1])
     ref_image, ref_seconds, ref_cached = 0.5 * (half_a + half_b), seconds_a + seconds_b, cached_a and cached_b
     noise = reference_noise(half_a, half_b, mask)
     add(f"Cycles {ref_title} (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,

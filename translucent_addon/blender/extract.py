@@ -212,7 +212,7 @@ def grass_status(ob) -> tuple[str, str | None]:
     except grass_btf.GrassSettingsError as err:
         return "INVALID", str(err)
     digest = grass_btf.settings_hash(params, int(s.grass_resolution), s.grass_target_error)
-    return bake_store.status(bake_files.owner(ob), grass_btf.BAKE_KEY, digest), digest
+    return bake_store.status(bake_files.owner(ob, grass_btf.BAKE_KEY), grass_btf.BAKE_KEY, digest), digest
 
 
 def grass_layer(original, frame_warnings) -> GrassLayer | None:
@@ -428,7 +428,7 @@ def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHa
         frame_warnings.append(
             f"'{original.name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake")
         return None
-    return BakeHandle(f"{original.name}#{bake_store.stored_hash(bake_files.owner(original), method)}",
+    return BakeHandle(f"{original.name}#{bake_files.stored_hash(original, method)}",
                       lambda o=original, m=method: bake_files.read(o, m).arrays)
 
 

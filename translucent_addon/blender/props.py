@@ -253,7 +253,7 @@ def _groups():
     for collection, label in ((bpy.data.objects, "object"), (bpy.data.scenes, "scene"), (bpy.data.lights, "light")):
         for idblock in collection:
             group = getattr(idblock, "translucent", None)
-            if group is not None:
+            if group is not None and idblock.library is None:  # linked data is the library's to fix
                 yield f"{label} '{idblock.name}'", group
 
 

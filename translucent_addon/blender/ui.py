@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import bpy
 
-from ..core import bake_store as store
 from ..techniques import METHOD_DESCRIPTIONS
 from ..techniques.grass import bake as grass_btf
 from . import bake_files
@@ -23,9 +22,9 @@ _STATUS_TEXT = {
 }
 
 
-def draw_object(layout, context) -> None:
-    """The active object's method, medium, quality and bake: the Object properties' panel and the sidebar's."""
-    ob = context.active_object
+def draw_object(layout, context, ob) -> None:
+    """An object's method, medium, quality and bake: the Object properties' panel (its object, pinned or not)
+    and the sidebar's (the active object)."""
     if ob is not None and ob.type == "LIGHT":
         layout.prop(ob.data.translucent, "caustics")
         return
@@ -163,7 +162,7 @@ def _grass_box(layout, ob) -> None:
         box.label(text=detail, icon="ERROR")
     else:
         box.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
-    meta = store.read_meta(bake_files.owner(ob), grass_btf.BAKE_KEY)
+    meta = bake_files.read_meta(ob, grass_btf.BAKE_KEY)
     if meta is not None:
         col = box.column(align=True)
         col.scale_y = 0.8
@@ -186,7 +185,7 @@ def _length(mm: float) -> str:
 def _bake_statistics(layout, ob, method) -> None:
     """What the bake holds, from its metadata (read without loading the arrays)."""
 
-    meta = store.read_meta(bake_files.owner(ob), method)
+    meta = bake_files.read_meta(ob, method)
     if meta is None:
         return
     col = layout.column(align=True)
@@ -288,7 +287,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
     bl_category = "Translucent"
 
     def draw(self, context):
-        draw_object(self.layout, context)
+        draw_object(self.layout, context, context.active_object)
 
 
 class VIEW3D_PT_translucent_scene(bpy.types.Panel):
@@ -356,7 +355,7 @@ class OBJECT_PT_translucent(_OursInProperties, bpy.types.Panel):
         return super().poll(context) and ob is not None and ob.type in {"MESH", "LIGHT"}
 
     def draw(self, context):
-        draw_object(self.layout, context)
+        draw_object(self.layout, context, context.object)
 
 
 classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene, RENDER_PT_translucent,

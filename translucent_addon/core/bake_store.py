@@ -8,7 +8,8 @@ Layout: ``id["translucent_bake"][method] = {"inputs_hash", "format", "meta" (JSO
 "arrays": {name: flat array}, "shapes": {name: [dims]}, "dtypes": {name: str}}``. A bake of at least
 ``SIDECAR_MIN_BYTES`` written with a ``Sidecar`` keeps its arrays in a file instead (``"file"``: where, as the
 sidecar names it; ``"arrays"`` empty): a TEXTURE_SPACE bake of the demo bunny is 125 MB, which the .blend, every
-linked duplicate and the undo memory carried. The file is named by the data hash, so equal bakes share one.
+linked duplicate and the undo memory carried. The file is named by the data hash (which covers the meta, bake
+time included): a file never holds other data than its name says, and copies of one bake share it.
 """
 from __future__ import annotations
 

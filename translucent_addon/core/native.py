@@ -53,8 +53,10 @@ def run(function: Callable, arrays: dict[str, np.ndarray], params: dict, *, what
         with open(job / "log.txt", "wb") as log:
             # -I: no user site, no PYTHON* variables, no working folder on the path; the worker is given
             # this interpreter's path instead. Its working folder is the scratch one (fTetWild writes files).
+            # Its standard input stays open while this process lives: the child ends itself when it closes
+            # (Blender crashed or was killed), rather than meshing on for up to its time limit.
             child = subprocess.Popen([sys.executable, "-I", str(WORKER), str(job)], cwd=scratch,
-                                     stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT)
+                                     stdin=subprocess.PIPE, stdout=log, stderr=subprocess.STDOUT)
         t0 = time.perf_counter()
         try:
             while True:
@@ -71,10 +73,15 @@ def run(function: Callable, arrays: dict[str, np.ndarray], params: dict, *, what
             if child.poll() is None:  # stopped: Esc (the generator closed), the time limit, or an error here
                 child.kill()
                 child.wait()
+            child.stdin.close()
         error = job / "error.json"
         if error.exists():  # the step raised: a refusal (ValueError) keeps its own words
-            reason = json.loads(error.read_text())
-            raise NativeStepError(reason["text"] if reason["refusal"] else f"{what} {reason['text']}")
+            try:
+                reason = json.loads(error.read_text())
+                text = reason["text"] if reason["refusal"] else f"{what} {reason['text']}"
+            except (ValueError, KeyError, TypeError):
+                text = f"{what} failed and its reason cannot be read"
+            raise NativeStepError(text)
         if code != 0:
             raise NativeStepError(f"{what} {_failure(code, job)}")
         with np.load(job / "out.npz") as out:

@@ -8,7 +8,9 @@ registers GPU passes, which need Blender): only pure modules are run here.
 """
 import importlib
 import json
+import os
 import sys
+import threading
 import types
 from pathlib import Path
 
@@ -29,7 +31,18 @@ def _bare_parents(module: str, roots: list[str]) -> None:
             return  # not a project package on these roots: import it the usual way
 
 
+def _exit_with_parent() -> None:
+    """End this process when the parent's end of standard input closes (the parent is gone)."""
+    def watch():
+        while os.read(0, 1):  # the raw descriptor: a buffered read would hold a lock the shutdown needs
+            pass
+        os._exit(4)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
 def main(job: Path) -> int:
+    _exit_with_parent()
     request = json.loads((job / "request.json").read_text())
     sys.path[:] = request["sys_path"]
     import numpy as np
