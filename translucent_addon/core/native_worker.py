@@ -33,7 +33,7 @@ def _bare_parents(module: str, roots: list[str]) -> None:
 
 def _exit_with_parent() -> None:
     """End this process when the parent's end of standard input closes (the parent is gone)."""
-    def watch():
+    def watch() -> None:
         while os.read(0, 1):  # the raw descriptor: a buffered read would hold a lock the shutdown needs
             pass
         os._exit(4)
