@@ -21,39 +21,33 @@ def refuse(cls, why: str) -> bool:
     return False
 
 
-def mesh(cls, context, what: str) -> bool:
-    _, why = active_mesh(context, what)
+def _mesh_that(cls, context, what: str, why_not=lambda ob: None) -> bool:
+    """An active mesh (else why not, for ``what``) of which ``why_not(ob)`` finds nothing to say."""
+    ob, why = active_mesh(context, what)
+    why = why or why_not(ob)
     return refuse(cls, why) if why else True
+
+
+def mesh(cls, context, what: str) -> bool:
+    return _mesh_that(cls, context, what)
 
 
 def bakeable(cls, context) -> bool:
     """An active mesh whose method bakes something."""
-    ob, why = active_mesh(context)
-    if why:
-        return refuse(cls, why)
-    if not registry.needs_bake(ob.translucent.method):
-        return refuse(cls, f"'{ob.name}': nothing to bake, {registry.no_bake_reason(ob.translucent.method)}")
-    return True
+    return _mesh_that(cls, context, "bake", lambda ob: None if registry.needs_bake(ob.translucent.method) else
+                      f"'{ob.name}': nothing to bake, {registry.no_bake_reason(ob.translucent.method)}")
 
 
 def baked(cls, context) -> bool:
     """An active mesh holding a bake."""
-    ob, why = active_mesh(context, "clear its bake")
-    if why:
-        return refuse(cls, why)
-    if store.BAKE_KEY not in bake_files.owner(ob):
-        return refuse(cls, f"'{ob.name}' holds no bake")
-    return True
+    return _mesh_that(cls, context, "clear its bake", lambda ob: None if store.BAKE_KEY in bake_files.owner(ob)
+                      else f"'{ob.name}' holds no bake")
 
 
 def ground(cls, context) -> bool:
     """An active mesh with faces to grow grass on."""
-    ob, why = active_mesh(context, "grow grass on")
-    if why:
-        return refuse(cls, why)
-    if len(ob.data.polygons) == 0:
-        return refuse(cls, f"'{ob.name}' has no faces to grow grass on")
-    return True
+    return _mesh_that(cls, context, "grow grass on", lambda ob: None if len(ob.data.polygons)
+                      else f"'{ob.name}' has no faces to grow grass on")
 
 
 def camera(cls, context) -> bool:

@@ -368,10 +368,7 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     description = scene_description(depsgraph, frame, objects)
     images: dict[str, np.ndarray] = {}
     entries: list[Entry] = []
-    total = (2 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
-             + len(settings.cycles_brute_force_samples) + len(settings.eevee_samples) + len(settings.our_quality)
-             + 2 * len(settings.texture_space_atlas) + len(settings.quadgraph_K) + 2 * len(settings.auto_targets)
-             + bool(settings.model_reference_samples) + 1)
+    total = settings.renders() + bool(settings.model_reference_samples) + 1  # and the report
     steps = [0]
 
     def step(text):
