@@ -16,6 +16,7 @@ from .translucent_addon.blender import extract as _extract
 from .translucent_addon.blender import preferences as _preferences
 from .translucent_addon.blender import props as _props
 from .translucent_addon.blender import ui as _ui
+from .translucent_addon.blender import versioning as _versioning
 from .translucent_addon.gpu import bake_cache as _bake_cache
 from .translucent_addon.gpu import environment as _environment
 from .translucent_addon.gpu import shaders as _shaders
@@ -43,11 +44,13 @@ def register():
     _ui.register_compat_panels()
     _draw_handler.register()
     _bake_files.register()
+    _versioning.register()
 
 
 def unregister():
     import bpy
 
+    _versioning.unregister()
     _bake_files.unregister()
     _draw_handler.unregister()
     _techniques.clear_caches()

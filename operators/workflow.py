@@ -2,7 +2,7 @@
 quality tiers and AUTO quality."""
 import bpy
 
-from ..translucent_addon.blender import preferences, props
+from ..translucent_addon.blender import medium_source, preferences, props
 from ..translucent_addon.blender.quality_apply import apply_auto
 from ..translucent_addon.core import quality
 from ..translucent_addon.core.physics import presets
@@ -115,9 +115,26 @@ class TRANSLUCENT_OT_auto_quality(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _medium_group(context):
+    """(the property group whose preset the button acts on, None) or (None, why not): the group the panel
+    drew the button for (``translucent_medium`` in the layout's context: a material's or an object's), else the
+    active object's medium where it is edited (``medium_source.editable``)."""
+    group = getattr(context, "translucent_medium", None)
+    if group is not None:
+        return group, None
+    ob, why = polls.active_mesh(context, "save its medium")
+    if ob is None:
+        return None, why
+    group = medium_source.editable(ob)
+    if group is None:
+        return None, (f"'{ob.name}': its medium is converted from the Principled BSDF of "
+                      f"'{medium_source.medium_material(ob).name}'; set it there, or choose Coefficients")
+    return group, None
+
+
 class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
-    """Save the active object's coefficients as your own preset (kept in Blender's user configuration,
-    listed under Preset in every file)"""
+    """Save the medium's coefficients as your own preset (kept in Blender's user configuration, listed under
+    Preset in every file)"""
 
     bl_idname = "translucent.save_preset"
     bl_label = "Save Preset"
@@ -126,17 +143,17 @@ class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return polls.mesh(cls, context, "save its material")
+        group, why = _medium_group(context)
+        return True if group is not None else polls.refuse(cls, why)
 
     def invoke(self, context, event):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
-        ob = context.active_object
-        if ob is None or ob.type != "MESH":
-            self.report({"ERROR"}, "no active mesh: select the object whose material to save")
+        s, why = _medium_group(context)
+        if s is None:
+            self.report({"ERROR"}, why)
             return {"CANCELLED"}
-        s = ob.translucent
         mat = presets.Material(self.name.strip(), tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g))
         try:
             presets.save_user_preset(props.user_presets_path(), mat)
@@ -149,32 +166,37 @@ class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _user_preset(context):
+    """(the group whose preset is a user preset, None) or (None, why not)."""
+    group, why = _medium_group(context)
+    if group is not None and not group.preset.startswith(presets.USER_PREFIX):
+        return None, "the medium's preset is not one of yours: only user presets can be removed"
+    return group, why
+
+
 class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
-    """Remove the active object's user preset from the list (its coefficients stay on the object)"""
+    """Remove the medium's user preset from the list (its coefficients stay where they are set)"""
 
     bl_idname = "translucent.remove_preset"
     bl_label = "Remove Preset"
 
     @classmethod
     def poll(cls, context):
-        if not polls.mesh(cls, context, "remove its preset"):
-            return False
-        if not context.active_object.translucent.preset.startswith(presets.USER_PREFIX):
-            return polls.refuse(cls, "the object's preset is not one of yours: only user presets can be removed")
-        return True
+        group, why = _user_preset(context)
+        return True if group is not None else polls.refuse(cls, why)
 
     def execute(self, context):
-        ob = context.active_object
-        name = ob.translucent.preset if ob is not None and ob.type == "MESH" else ""
-        if not name.startswith(presets.USER_PREFIX):
-            self.report({"ERROR"}, "the object's preset is not one of yours: only user presets can be removed")
+        group, why = _user_preset(context)
+        if group is None:
+            self.report({"ERROR"}, why)
             return {"CANCELLED"}
+        name = group.preset
         try:
             presets.remove_user_preset(props.user_presets_path(), name[len(presets.USER_PREFIX):])
         except presets.PresetFileError as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
-        ob.translucent.preset = "CUSTOM"  # before the list changes under it
+        group.preset = "CUSTOM"  # before the list changes under it
         props.refresh_preset_items()
         self.report({"INFO"}, f"preset '{name[len(presets.USER_PREFIX):]}' removed")
         return {"FINISHED"}

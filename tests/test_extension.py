@@ -15,6 +15,7 @@ OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT
                "TRANSLUCENT_OT_apply_quality", "TRANSLUCENT_OT_auto_quality", "TRANSLUCENT_OT_save_preset",
                "TRANSLUCENT_OT_remove_preset", "TranslucentPreferences", "VIEW3D_PT_translucent_object",
                "VIEW3D_PT_translucent_scene", "TranslucentObjectSettings", "TranslucentSceneSettings",
+               "TranslucentMaterialSettings", "MATERIAL_PT_translucent",
                "TranslucentLightSettings", "RENDER_PT_translucent", "RENDER_PT_translucent_image_space",
                "RENDER_PT_translucent_texture_space", "RENDER_PT_translucent_quadgraph_solver",
                "RENDER_PT_translucent_caustics", "RENDER_PT_translucent_last_frame", "OBJECT_PT_translucent")
@@ -34,12 +35,14 @@ def _footprint():
         "classes": sorted(c.__name__ for c in _CLASSES if c.is_registered),
         "engine": _engine_selectable(),
         "object_prop": hasattr(T.Object, "translucent"),
+        "material_prop": hasattr(T.Material, "translucent"),
         "scene_prop": hasattr(T.Scene, "translucent"),
         "light_prop": hasattr(T.Light, "translucent"),
         "operators": "bake" in dir(bpy.ops.translucent),
         "draw_handler": bool(draw_handler and draw_handler.is_registered()),
         "compat_panels": len(compat) > 0,
-        "handlers": len(handlers) == 4,  # bake files: save_pre, save_post, load_post; settings: load_post
+        # bake files: save_pre, save_post, load_post; settings: load_post; versioning: save_pre, load_post
+        "handlers": len(handlers) == 6,
     }
 
 
@@ -67,7 +70,8 @@ def test_enable_disable_three_times_leaves_nothing(installed):
     for _ in range(3):
         bpy.ops.preferences.addon_disable(module=installed)
         off = _footprint()
-        assert off == {"classes": [], "engine": False, "object_prop": False, "scene_prop": False,
+        assert off == {"classes": [], "engine": False, "object_prop": False, "material_prop": False,
+                       "scene_prop": False,
                        "light_prop": False, "operators": False, "draw_handler": False, "compat_panels": False,
                        "handlers": False}, off
         bpy.ops.preferences.addon_enable(module=installed)

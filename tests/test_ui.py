@@ -46,6 +46,7 @@ def test_object_light_world_and_material_tabs_keep_what_the_engine_reads(tr, sce
     material = _panels("material")
     assert {"EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface"} <= material
     assert "EEVEE_MATERIAL_PT_settings" not in material
+    assert "MATERIAL_PT_translucent" in material  # the medium its objects share (issue 38, point 2)
     # Our panels show only while our engine renders the scene.
     scene.render.engine = ENGINE
     ctx = bpy.context
@@ -86,7 +87,7 @@ def _visible(rna):
 
 def test_every_setting_says_what_it_does_in_one_short_sentence(tr, scene):
     """12 had no description, 4 ran past 200 characters of citations (those are in the docs now)."""
-    groups = [getattr(bpy.types, t).bl_rna.properties["translucent"].fixed_type for t in ("Object", "Scene", "Light")]
+    groups = [getattr(bpy.types, t).bl_rna.properties["translucent"].fixed_type for t in ("Object", "Material", "Scene", "Light")]
     operators = [getattr(bpy.ops.translucent, n).get_rna_type() for n in dir(bpy.ops.translucent)]
     for rna in groups + operators:
         for p in _visible(rna):

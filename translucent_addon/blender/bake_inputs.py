@@ -13,7 +13,7 @@ from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, check_physical_size, needs_bake, refuse_size
 from ..techniques.texture_space.proxy import surface_area, target_triangles
-from . import bake_files, mesh_read
+from . import bake_files, medium_source, mesh_read
 from .bvh_tracer import BVHTracer
 from .demo import mesh_from_arrays
 from .props import bounded
@@ -35,6 +35,7 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
     vertices, triangles, corner_normals, read_triangles = mesh_arrays(
         ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", mode=mode, read=read)
     props = original.translucent
+    medium = medium_source.resolve(original)
     inputs = BakeInputs(
         name=original.name,
         method=method or props.method,
@@ -42,12 +43,12 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
         triangles=triangles,
         read_triangles=read_triangles,
         corner_normals=corner_normals,
-        mm_per_unit=float(props.mm_per_unit),
-        sigma_a=tuple(props.sigma_a),
-        sigma_s_prime=tuple(props.sigma_s_prime),
-        eta=float(props.eta),
-        g=float(props.g),
-        profile=homogeneous_profile(props.profile),
+        mm_per_unit=medium.mm_per_unit,
+        sigma_a=medium.sigma_a,
+        sigma_s_prime=medium.sigma_s_prime,
+        eta=medium.eta,
+        g=medium.g,
+        profile=homogeneous_profile(medium.profile),
         atlas_resolution=bounded(props, "atlas_resolution"),
         proxy_spacing=float(props.proxy_spacing),
         blending=bool(props.texture_blending),
@@ -119,15 +120,15 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT"
 def object_view(ob_eval):
     """What AUTO quality needs of an object (``quality_auto.ObjectView``): its size in mm with its scale,
     its area, its material and its bounding-box diagonal on the camera's image."""
-    props = ob_eval.original.translucent
+    medium = medium_source.resolve(ob_eval.original)
     vertices, triangles, _, _ = mesh_arrays(ob_eval)
     if not len(triangles):
         raise BakeInputError(f"'{ob_eval.original.name}' has no faces: nothing to choose resolutions for")
-    v_mm = vertices.astype(np.float64) @ stretch_of(np.array(ob_eval.matrix_world)[:3, :3]).T * props.mm_per_unit
+    v_mm = vertices.astype(np.float64) @ stretch_of(np.array(ob_eval.matrix_world)[:3, :3]).T * medium.mm_per_unit
     return ObjectView(diagonal_mm=float(np.linalg.norm(np.ptp(v_mm, axis=0))),
                       area_mm2=surface_area(v_mm, triangles), screen_pixels=screen_pixels(ob_eval),
-                      sigma_a=tuple(props.sigma_a), sigma_s_prime=tuple(props.sigma_s_prime), eta=float(props.eta),
-                      triangles=len(triangles), profile=homogeneous_profile(props.profile))
+                      sigma_a=medium.sigma_a, sigma_s_prime=medium.sigma_s_prime, eta=medium.eta,
+                      triangles=len(triangles), profile=homogeneous_profile(medium.profile))
 
 
 def screen_pixels(ob_eval) -> float | None:

@@ -38,7 +38,7 @@ from ..core.report.report import (
 )
 from ..techniques import registry
 from ..techniques.texture_space.proxy import SPACING_TEXELS
-from . import bake_files, extract, twin_materials
+from . import bake_files, extract, medium_source, twin_materials
 from . import engine as engine_mod
 from .bake_inputs import gather
 from .bvh_tracer import BVHTracer
@@ -135,7 +135,7 @@ def exact_reference_converges(scene, objects) -> tuple[bool, str]:
     refracting boundary lit only by area lights and the world. Point, spot and sun lights behind a refracting
     boundary are reached only by chance, and the random walk (a diffusion-like peer that keeps 20-30 % of
     the light through thin back-lit parts) is then the reference."""
-    if all(ob.translucent.eta <= twin_materials.INDEX_MATCHED for ob in objects):
+    if all(medium_source.resolve(ob).eta <= twin_materials.INDEX_MATCHED for ob in objects):
         return True, "exact transport: Cycles brute force, the media index-matched"
     small = sorted({ob.data.type.lower() for ob in scene.objects
                     if ob.type == "LIGHT" and ob.visible_get() and ob.data.type != "AREA"})
@@ -214,19 +214,20 @@ def _materials_swapped(objects, kind: str, options: dict):
     saved = []
     made = []
     try:
-        for ob in objects:
-            s = ob.translucent
-            mat = getattr(twin_materials, kind)(f"{ob.name} ({kind})", tuple(s.sigma_a), tuple(s.sigma_s_prime),
-                                                s.eta, s.g, s.mm_per_unit, **options)
+        # Media and slots read before any slot changes: linked duplicates share their mesh's slots.
+        media = [medium_source.resolve(ob) for ob in objects]
+        saved = [(ob, [slot.material for slot in ob.material_slots]) for ob in objects]
+        for ob, m in zip(objects, media):
+            mat = getattr(twin_materials, kind)(f"{ob.name} ({kind})", m.sigma_a, m.sigma_s_prime, m.eta, m.g,
+                                                m.mm_per_unit, **options)
             made.append(mat)
-            saved.append((ob, [slot.material for slot in ob.material_slots]))
             if not ob.material_slots:
                 ob.data.materials.append(None)
             for slot in ob.material_slots:
                 slot.material = mat
         yield
     finally:
-        for ob, mats in saved:
+        for ob, mats in reversed(saved):  # the first object's slots last: its mesh as it was
             if not mats:
                 ob.data.materials.clear()
             for slot, mat in zip(ob.material_slots, mats):
@@ -302,8 +303,8 @@ def scene_description(depsgraph, frame, objects) -> dict:
     for e in frame.emitters:
         h.update(repr(e).encode())
     h.update(np.asarray(frame.camera.view_proj).tobytes())
-    media = {ob.name: [list(ob.translucent.sigma_a), list(ob.translucent.sigma_s_prime), ob.translucent.eta,
-                       ob.translucent.g, ob.translucent.mm_per_unit] for ob in objects}
+    media = {ob.name: [list(m.sigma_a), list(m.sigma_s_prime), m.eta, m.g, m.mm_per_unit]
+             for ob in objects for m in (medium_source.resolve(ob),)}
     return {"geometry_lights_camera": h.hexdigest(), "world": list(map(float, frame.world_color)), "media": media,
             "size": [frame.camera.width, frame.camera.height], "blender": bpy.app.version_string}
 
@@ -617,8 +618,8 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     if hit is not None:
         progress("dipole model reference: from the cache")
         return hit[0], hit[1], True
-    media = {ob.name: Medium(tuple(ob.translucent.sigma_a), tuple(ob.translucent.sigma_s_prime), ob.translucent.eta,
-                             ob.translucent.mm_per_unit) for ob in objects}
+    media = {ob.name: Medium(m.sigma_a, m.sigma_s_prime, m.eta, m.mm_per_unit)
+             for ob in objects for m in (medium_source.resolve(ob),)}
     progress(f"dipole model reference (CPU, {samples} samples) ...")
     t0 = time.perf_counter()
     image = render_dipole(frame, media, samples=samples, tracer=tracer)

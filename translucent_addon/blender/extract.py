@@ -34,7 +34,7 @@ from ..core.physics.lut import BLUR_MIN
 from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
-from . import bake_files, mesh_read
+from . import bake_files, medium_source, mesh_read
 from .bake_inputs import bake_status, homogeneous_profile
 from .bake_inputs import clear_caches as clear_bake_inputs
 from .props import bounded
@@ -396,28 +396,31 @@ def recoloured(ob, drawn: DrawnMesh, cache_key) -> DrawnMesh:
 
 
 def medium_of(original, method: str, frame_warnings) -> tuple[str, Medium | None]:
-    """(method, Medium) of an object's settings; a medium its file holds out of range (eta 0.5, NaN) is never
-    drawn: ('OFF', None) and the frame says why."""
+    """(method, Medium) of an object: its medium as ``medium.resolve`` finds it (its material's or its own); a
+    medium its file holds out of range (eta 0.5, NaN) is never drawn: ('OFF', None) and the frame says why."""
     if method == "OFF":
         return method, None
     s = original.translucent
     name = original.name
+    m = medium_source.resolve(original)
+    for note in m.notes:
+        frame_warnings.append(f"'{name}': material '{m.material}': {note}")
     try:
-        validate_coefficients(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g), name=f"'{name}'")
+        validate_coefficients(m.sigma_a, m.sigma_s_prime, m.eta, m.g, name=f"'{name}'")
     except CoefficientError as err:
         frame_warnings.append(Lost(f"{err}; drawn with its base colour"))
         return "OFF", None
     layer = {}
-    if s.profile == "MULTIPOLE":
-        layer = dict(layer_thickness_mm=float(s.layer_thickness), base_sigma_a=tuple(s.base_sigma_a),
-                     base_sigma_s_prime=tuple(s.base_sigma_s_prime))
+    if m.profile == "MULTIPOLE":
+        layer = dict(layer_thickness_mm=m.layer_thickness, base_sigma_a=m.base_sigma_a,
+                     base_sigma_s_prime=m.base_sigma_s_prime)
     if method == "QUADGRAPH":
         layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
                      single_scattering=bool(s.single_scattering))
     if method == "GEOCUBE":
         layer = dict(max_steps=bounded(s, "geocube_steps"))
-    return method, Medium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.mm_per_unit), float(s.g),
-                          profile=homogeneous_profile(s.profile), **layer)
+    return method, Medium(m.sigma_a, m.sigma_s_prime, m.eta, m.mm_per_unit, m.g,
+                          profile=homogeneous_profile(m.profile), **layer)
 
 
 def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHandle | None:

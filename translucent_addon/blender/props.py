@@ -1,4 +1,5 @@
-"""Properties: ``Object.translucent`` (material and method) and ``Scene.translucent``."""
+"""Properties: ``Object.translucent`` (method, quality, its own medium), ``Material.translucent`` (the medium its
+objects share), ``Scene.translucent`` and ``Light.translucent``."""
 
 import bpy
 
@@ -102,54 +103,65 @@ def refresh_methods() -> None:
     TranslucentObjectSettings.method = _method_property()
 
 
+def _medium_properties() -> dict:
+    """The medium's settings, on the Material (shared by its objects) and on the Object (its own, when it has
+    no material or its material leaves the medium to it): ``blender/medium.py`` says which holds."""
+    return dict(
+        preset=bpy.props.EnumProperty(name="Preset", description="Measured material coefficients (Jensen et al. "
+                                      "2001), or your own", items=_preset_items, update=_on_preset),
+        sigma_a=bpy.props.FloatVectorProperty(
+            name="Absorption (mm⁻¹)", description="Absorption coefficient sigma_a per RGB channel, in 1/mm",
+            size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071), update=_on_coefficients),
+        sigma_s_prime=bpy.props.FloatVectorProperty(
+            name="Reduced scattering (mm⁻¹)",
+            description="Reduced scattering coefficient sigma_s' = (1 - g) sigma_s per RGB channel, in 1/mm",
+            size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00), update=_on_coefficients),
+        eta=bpy.props.FloatProperty(name="IOR", description="Relative index of refraction eta", min=1.0, max=3.0,
+                                    default=1.3, update=_on_coefficients),
+        g=bpy.props.FloatProperty(name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99,
+                                  max=0.99, default=0.0, update=_on_coefficients),
+        profile=bpy.props.EnumProperty(
+            name="Profile", description="Radial profile of the light that scatters under the surface",
+            # Numbered: files store the number, and EXACT came after the other two.
+            items=[("EXACT", "Exact", "Homogeneous medium, profile of exact transport (half-space Monte Carlo)", 2),
+                   ("DIPOLE", "Dipole", "Homogeneous medium, the papers' dipole diffusion (Jensen 2001)", 0),
+                   ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium: multipole, "
+                                                    "Donner & Jensen 2005 (IMAGE_SPACE)", 1)],
+            default="EXACT"),
+        layer_thickness=bpy.props.FloatProperty(
+            name="Layer (mm)", description="Thickness of the layer over the base, in mm (at least one mean free "
+                                           "path)", min=0.01, soft_max=20.0, default=1.0),
+        base_sigma_a=bpy.props.FloatVectorProperty(
+            name="Base absorption (mm⁻¹)", size=3, min=0.0, soft_max=2.0, precision=4,
+            default=(0.0021, 0.0041, 0.0071),
+            description="Absorption coefficient of the medium under the layer, per RGB channel"),
+        base_sigma_s_prime=bpy.props.FloatVectorProperty(
+            name="Base reduced scattering (mm⁻¹)", size=3, min=1e-6, soft_max=20.0, precision=3,
+            default=(2.19, 2.62, 3.0),
+            description="Reduced scattering coefficient of the medium under the layer, per RGB channel"),
+    )
+
+
+MEDIUM_SOURCES = (
+    ("PRINCIPLED", "From Principled BSDF", "Converted from the Principled BSDF's subsurface inputs as Cycles "
+                                           "renders them: nothing to set for a Cycles material", 0),
+    ("MATERIAL", "Coefficients", "A measured preset or coefficients set here, shared by every object with this "
+                                 "material", 1),
+    ("OBJECT", "Per object", "Each object's own coefficients (Object properties); how files from 0.1 keep "
+                             "their media", 2),
+)
+
+
+class TranslucentMaterialSettings(bpy.types.PropertyGroup):
+    """A material's medium: where it comes from and, for Coefficients, the coefficients."""
+
+    source: bpy.props.EnumProperty(name="Medium", description="Where the medium of objects with this material "
+                                                              "comes from", items=MEDIUM_SOURCES,
+                                   default="PRINCIPLED")
+
+
 class TranslucentObjectSettings(bpy.types.PropertyGroup):
     method: _method_property()
-    preset: bpy.props.EnumProperty(
-        name="Preset",
-        description="Measured material coefficients (Jensen et al. 2001)",
-        items=_preset_items,
-        update=_on_preset,
-    )
-    sigma_a: bpy.props.FloatVectorProperty(
-        name="Absorption (mm⁻¹)",
-        description="Absorption coefficient sigma_a per RGB channel, in 1/mm",
-        size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071), update=_on_coefficients,
-    )
-    sigma_s_prime: bpy.props.FloatVectorProperty(
-        name="Reduced scattering (mm⁻¹)",
-        description="Reduced scattering coefficient sigma_s' = (1 - g) sigma_s per RGB channel, in 1/mm",
-        size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00), update=_on_coefficients,
-    )
-    eta: bpy.props.FloatProperty(
-        name="IOR", description="Relative index of refraction eta", min=1.0, max=3.0, default=1.3,
-        update=_on_coefficients,
-    )
-    g: bpy.props.FloatProperty(
-        name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99, max=0.99, default=0.0,
-        update=_on_coefficients,
-    )
-    profile: bpy.props.EnumProperty(
-        name="Profile",
-        description="Radial profile of the light that scatters under the surface",
-        # Numbered: files store the number, and EXACT came after the other two.
-        items=[("EXACT", "Exact", "Homogeneous medium, profile of exact transport (half-space Monte Carlo)", 2),
-               ("DIPOLE", "Dipole", "Homogeneous medium, the papers' dipole diffusion (Jensen 2001)", 0),
-               ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium: multipole, "
-                                                "Donner & Jensen 2005 (IMAGE_SPACE)", 1)],
-        default="EXACT",
-    )
-    layer_thickness: bpy.props.FloatProperty(
-        name="Layer (mm)", description="Thickness of the layer over the base, in mm (at least one mean free path)",
-        min=0.01, soft_max=20.0, default=1.0,
-    )
-    base_sigma_a: bpy.props.FloatVectorProperty(
-        name="Base absorption (mm⁻¹)", size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071),
-        description="Absorption coefficient of the medium under the layer, per RGB channel",
-    )
-    base_sigma_s_prime: bpy.props.FloatVectorProperty(
-        name="Base reduced scattering (mm⁻¹)", size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.0),
-        description="Reduced scattering coefficient of the medium under the layer, per RGB channel",
-    )
     mm_per_unit: bpy.props.FloatProperty(
         name="mm per unit",
         description="Millimetres per Blender unit for this object (1 m = 1000 mm); sets the scale of scattering",
@@ -189,6 +201,10 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         name="Area light samples", description="Area lights are drawn as n x n point emitters", min=1, max=8,
         default=2,
     )
+    file_version: bpy.props.IntProperty(
+        name="File version", description="The extension's file layout this file was saved with (set on save)",
+        default=0, options={"HIDDEN"},
+    )
     capture_passes: bpy.props.BoolProperty(
         name="Capture passes", description="Keep read-backs of intermediate passes (tests, debugging)",
         default=False, options={"HIDDEN"},
@@ -215,7 +231,11 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     )
 
 
-classes = (TranslucentObjectSettings, TranslucentLightSettings, TranslucentSceneSettings)
+for _group in (TranslucentObjectSettings, TranslucentMaterialSettings):
+    _group.__annotations__.update(_medium_properties())
+
+classes = (TranslucentObjectSettings, TranslucentMaterialSettings, TranslucentLightSettings,
+           TranslucentSceneSettings)
 
 
 def _bpy_property(p: Prop):
@@ -250,7 +270,8 @@ def bounded(group, name: str):
 
 
 def _groups():
-    for collection, label in ((bpy.data.objects, "object"), (bpy.data.scenes, "scene"), (bpy.data.lights, "light")):
+    for collection, label in ((bpy.data.objects, "object"), (bpy.data.materials, "material"),
+                              (bpy.data.scenes, "scene"), (bpy.data.lights, "light")):
         for idblock in collection:
             group = getattr(idblock, "translucent", None)
             if group is not None and idblock.library is None:  # linked data is the library's to fix
@@ -275,6 +296,7 @@ def clamp_loaded_settings(*_args) -> None:
 def register_pointers() -> None:
     techniques._listeners.append(refresh_methods)
     bpy.types.Object.translucent = bpy.props.PointerProperty(type=TranslucentObjectSettings)
+    bpy.types.Material.translucent = bpy.props.PointerProperty(type=TranslucentMaterialSettings)
     bpy.types.Scene.translucent = bpy.props.PointerProperty(type=TranslucentSceneSettings)
     bpy.types.Light.translucent = bpy.props.PointerProperty(type=TranslucentLightSettings)
     if clamp_loaded_settings not in bpy.app.handlers.load_post:
@@ -288,4 +310,5 @@ def unregister_pointers() -> None:
         bpy.app.handlers.load_post.remove(clamp_loaded_settings)
     del bpy.types.Light.translucent
     del bpy.types.Scene.translucent
+    del bpy.types.Material.translucent
     del bpy.types.Object.translucent

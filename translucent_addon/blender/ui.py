@@ -5,7 +5,7 @@ import bpy
 
 from ..techniques import METHOD_DESCRIPTIONS
 from ..techniques.grass import bake as grass_btf
-from . import bake_files
+from . import bake_files, medium_source
 from .bake_inputs import bake_status
 from .draw_handler import timing_lines
 from .engine import LAST_AUTO_OVERLAP, LAST_TIMINGS
@@ -39,17 +39,7 @@ def draw_object(layout, context, ob) -> None:
         parts = "the mesh is" if turned == 1 else f"{turned} closed parts are"
         layout.label(text=f"{parts.capitalize()} wound inward: drawn turned outward", icon="ERROR")
         layout.label(text="Mesh > Normals > Recalculate Outside fixes the mesh")
-    col = layout.column(align=True)
-    row = col.row(align=True)
-    row.prop(s, "preset")
-    row.operator("translucent.save_preset", text="", icon="ADD")
-    row.operator("translucent.remove_preset", text="", icon="REMOVE")
-    for line in PRESET_PROBLEMS[:2]:  # the user presets file's entries that were skipped, and why
-        col.label(text=line, icon="ERROR")
-    col.prop(s, "sigma_a")
-    col.prop(s, "sigma_s_prime")
-    col.prop(s, "eta")
-    col.prop(s, "g")
+    _medium(layout, ob)
     layout.prop(s, "mm_per_unit")
     longest = max(ob.dimensions)
     if longest > 0:  # the size helper: scattering depends on the real size
@@ -73,13 +63,6 @@ def draw_object(layout, context, ob) -> None:
                 if k is not None:
                     box.label(text=f"Last frame: splat overlap {k:g} for this object, "
                                    f"{LAST_AUTO_OVERLAP['overlap']:g} in the scene", icon="CAMERA_DATA")
-    if s.method == "IMAGE_SPACE":
-        layout.prop(s, "profile")
-        if s.profile == "MULTIPOLE":
-            col = layout.column(align=True)
-            col.prop(s, "layer_thickness")
-            col.prop(s, "base_sigma_a")
-            col.prop(s, "base_sigma_s_prime")
     if s.method == "TEXTURE_SPACE":
         col = layout.column(align=True)
         col.prop(s, "atlas_resolution")
@@ -135,6 +118,75 @@ def draw_object(layout, context, ob) -> None:
                              ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
             op = grid.operator("translucent.add_paint_layer", text=label)
             op.layer = layer
+
+
+def _coefficients(layout, group, multipole: bool = True) -> None:
+    """A property group's medium: preset (with the user preset buttons), coefficients, profile and layer."""
+    col = layout.column(align=True)
+    row = col.row(align=True)
+    row.context_pointer_set("translucent_medium", group)  # the preset buttons act on this group
+    row.prop(group, "preset")
+    row.operator("translucent.save_preset", text="", icon="ADD")
+    row.operator("translucent.remove_preset", text="", icon="REMOVE")
+    for line in PRESET_PROBLEMS[:2]:  # the user presets file's entries that were skipped, and why
+        col.label(text=line, icon="ERROR")
+    for name in ("sigma_a", "sigma_s_prime", "eta", "g"):
+        col.prop(group, name)
+    layout.prop(group, "profile")
+    if multipole and group.profile == "MULTIPOLE":
+        col = layout.column(align=True)
+        for name in ("layer_thickness", "base_sigma_a", "base_sigma_s_prime"):
+            col.prop(group, name)
+
+
+def _converted(layout, m) -> None:
+    """A medium converted from a Principled BSDF, read-only: the coefficients the engine draws."""
+    col = layout.column(align=True)
+    col.scale_y = 0.8
+    col.label(text="Absorption: " + " ".join(f"{v:.4g}" for v in m.sigma_a) + " /mm")
+    col.label(text="Reduced scattering: " + " ".join(f"{v:.4g}" for v in m.sigma_s_prime) + " /mm")
+    col.label(text=f"IOR {m.eta:.3g}, anisotropy {m.g:.2g}; exact profile")
+    for note in m.notes:
+        col.label(text=note, icon="ERROR")
+
+
+def _medium(layout, ob) -> None:
+    """Where the object's medium comes from, and its settings where they are edited."""
+    m = medium_source.resolve(ob)
+    box = layout.box()
+    box.label(text=m.reason, icon="MATERIAL" if m.source != "OBJECT" else "OBJECT_DATA")
+    if m.source == "PRINCIPLED":
+        _converted(box, m)
+    elif m.source == "MATERIAL":
+        _coefficients(box, medium_source.medium_material(ob).translucent)
+    else:
+        _coefficients(box, ob.translucent)
+
+
+def draw_material(layout, context, mat) -> None:
+    """A material's medium: where it comes from and its coefficients (the Material properties' panel)."""
+    s = mat.translucent
+    layout.prop(s, "source", expand=True)
+    if s.source == "MATERIAL":
+        _coefficients(layout, s)
+    elif s.source == "OBJECT":
+        layout.label(text="Each object's own coefficients, in its Object properties", icon="OBJECT_DATA")
+    else:
+        node = medium_source.principled_bsdf(mat)
+        if node is None:
+            layout.label(text="No Principled BSDF: each object keeps its own coefficients", icon="INFO")
+            return
+        p = medium_source.principled_inputs(node)
+        if p.weight <= 0.0:
+            layout.label(text="Subsurface Weight 0: each object keeps its own coefficients", icon="INFO")
+            layout.label(text="Raise Subsurface Weight to convert the material's subsurface")
+            return
+        ob = context.object
+        if ob is not None and ob.type == "MESH" and medium_source.medium_material(ob) == mat:
+            _converted(layout, medium_source.resolve(ob))
+        else:
+            for note in p.notes:
+                layout.label(text=note, icon="ERROR")
 
 
 def _wrap(text: str, width: int) -> list[str]:
@@ -345,6 +397,18 @@ def _section_panel(label: str, draw) -> type:
                 {"bl_label": label, "section": staticmethod(draw)})
 
 
+class MATERIAL_PT_translucent(_OursInProperties, bpy.types.Panel):
+    bl_label = "Translucent Medium"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and getattr(context, "material", None) is not None
+
+    def draw(self, context):
+        draw_material(self.layout, context, context.material)
+
+
 class OBJECT_PT_translucent(_OursInProperties, bpy.types.Panel):
     bl_label = "Translucent"
     bl_context = "object"
@@ -359,7 +423,8 @@ class OBJECT_PT_translucent(_OursInProperties, bpy.types.Panel):
 
 
 classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene, RENDER_PT_translucent,
-           *(_section_panel(label, draw) for label, draw in SCENE_SECTIONS), OBJECT_PT_translucent)
+           *(_section_panel(label, draw) for label, draw in SCENE_SECTIONS), OBJECT_PT_translucent,
+           MATERIAL_PT_translucent)
 
 # Blender's own panels show only for the engines in their COMPAT_ENGINES. Ours is added beside EEVEE's where the
 # panel acts for it: everything generic (output, object data, physics, particles, textures) and, of the render-

@@ -94,7 +94,7 @@ def random_walk_base_color(rho: ArrayLike, eta: float) -> np.ndarray | float:
     t = (eta - etas[lo]) / (etas[hi] - etas[lo])
 
     def invert(e: float) -> np.ndarray | float:
-        A, r = table[float(e)]
+        A, r = (np.concatenate([[0.0], x]) for x in table[float(e)])  # a black medium reflects nothing
         # np.interp needs rising x: break the plateau ties at the top by keeping the first A.
         keep = np.concatenate([[True], np.diff(r) > 0])
         return np.interp(rho, r[keep], A[keep])
@@ -157,3 +157,61 @@ def volume_inputs(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, g: f
         anisotropy=float(g),
         ior=float(eta),
     )
+
+
+def random_walk_albedo(base_color: ArrayLike, eta: float) -> np.ndarray | float:
+    """rho_eff(A, eta): the diffuse albedo Cycles' random walk renders for Base Color A (the calibration,
+    linear in A between its samples and in eta between its tables; the inverse of ``random_walk_base_color``
+    where rho_eff rises)."""
+    table = random_walk_calibration()
+    etas = np.array(sorted(table))
+    eta = float(np.clip(eta, etas[0], etas[-1]))
+    hi = int(np.clip(np.searchsorted(etas, eta), 1, len(etas) - 1))
+    lo = hi - 1
+    t = (eta - etas[lo]) / (etas[hi] - etas[lo])
+    A = np.asarray(base_color, dtype=np.float64)
+
+    def at(e: float) -> np.ndarray:
+        samples, rho = table[float(e)]
+        # Below the first sample rho_eff goes to 0 with A (a black medium reflects nothing).
+        return np.interp(A, np.concatenate([[0.0], samples]), np.concatenate([[0.0], rho]))
+
+    return (1 - t) * at(etas[lo]) + t * at(etas[hi])
+
+
+def reduced_albedo_for(rho: ArrayLike, eta: float, iterations: int = 60) -> np.ndarray:
+    """alpha' whose diffuse albedo with the boundary, R_d(alpha', eta) (1 - F_dr,in(eta)) (Jensen 2001 Eq. 6
+    times the hemispherical transmittance), is rho: the inverse of the albedo ``random_walk_inputs`` matches,
+    by bisection (R_d rises with alpha'). rho beyond the albedo of alpha' = 1 gives alpha' = 1."""
+    rho = np.asarray(rho, dtype=np.float64)
+    T = hemispherical_transmittance(eta)
+    lo, hi = np.zeros_like(rho), np.ones_like(rho)
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        low = total_diffuse_reflectance(1.0 - mid, mid, eta) * T < rho  # sigma_a + sigma_s' = 1: alpha' = mid
+        lo, hi = np.where(low, mid, lo), np.where(low, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+SHORTEST_RADIUS_MM = 1e-4  # a radius of 0 (Cycles: that channel does not scatter) is taken as this
+MAX_REDUCED_ALBEDO = 1.0 - 1e-9  # alpha' = 1 has sigma_tr = 0: no finite coefficients give it
+
+
+def medium_from_random_walk(base_color: ArrayLike, radius: ArrayLike, ior: float, anisotropy: float,
+                            mm_per_unit: float) -> tuple[np.ndarray, np.ndarray]:
+    """(sigma_a, sigma_s') in mm^-1 of a Principled BSDF's random-walk subsurface: the inverse of
+    ``random_walk_inputs``. ``radius``: Subsurface Radius x Subsurface Scale, in Blender units.
+
+    The medium keeps what a viewer sees of Cycles' material: its diffuse albedo rho = rho_eff(A, eta) (as
+    Cycles renders Base Color A, measured) and its diffusion length d = sqrt(3 (1 - alpha_c)) / sigma_tr with
+    Cycles' single-scattering albedo alpha_c = f(A, g). Our alpha' follows from rho (``reduced_albedo_for``),
+    then sigma_t' = sigma_tr / sqrt(3 (1 - alpha')) (sigma_tr = sqrt(3 sigma_a sigma_t'), Jensen 2001),
+    sigma_s' = alpha' sigma_t' and sigma_a = sigma_t' - sigma_s'."""
+    A = np.clip(np.asarray(base_color, dtype=np.float64), 0.0, 1.0)
+    d_mm = np.maximum(np.asarray(radius, dtype=np.float64) * float(mm_per_unit), SHORTEST_RADIUS_MM)
+    alpha_c = cycles_single_scattering_albedo(A, anisotropy)
+    sigma_tr = np.sqrt(3.0 * (1.0 - alpha_c)) / d_mm
+    alpha_prime = np.minimum(reduced_albedo_for(random_walk_albedo(A, ior), ior), MAX_REDUCED_ALBEDO)
+    sigma_t_prime = sigma_tr / np.sqrt(3.0 * (1.0 - alpha_prime))
+    sigma_s_prime = alpha_prime * sigma_t_prime
+    return sigma_t_prime - sigma_s_prime, sigma_s_prime

@@ -1,0 +1,155 @@
+"""Where an object's medium comes from (bpy-facing, thin; the conversion is ``core.physics.cycles_conversion``'s).
+
+A material's look lives on the Material, shared by every object that uses it: the object's medium is that of
+its first material (``Material.translucent.source``):
+
+* ``PRINCIPLED`` (the default): converted from the Principled BSDF's subsurface inputs, as Cycles' random walk
+  renders them (``medium_from_random_walk``), so a Cycles material previews with nothing to set;
+* ``MATERIAL``: a preset or coefficients set on the material;
+* ``OBJECT``: each object's own coefficients (``Object.translucent``), how files from 0.1 keep their media.
+
+An object with no material, or whose Principled BSDF has no subsurface (Subsurface Weight 0), or that has no
+Principled BSDF at all, keeps its own coefficients: the panel says which holds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+
+from ..core.physics.cycles_conversion import medium_from_random_walk
+
+ETA_RANGE = (1.0, 3.0)  # the medium settings' IOR range
+G_RANGE = (-0.99, 0.99)
+
+
+@dataclasses.dataclass(frozen=True)
+class ObjectMedium:
+    """An object's medium as the frame and the bake use it."""
+
+    sigma_a: tuple  # mm^-1, RGB
+    sigma_s_prime: tuple  # mm^-1, RGB
+    eta: float
+    g: float
+    profile: str  # the Profile setting: EXACT, DIPOLE or MULTIPOLE (a layer over a base)
+    layer_thickness: float  # mm, MULTIPOLE
+    base_sigma_a: tuple
+    base_sigma_s_prime: tuple
+    mm_per_unit: float  # the object's
+    source: str  # PRINCIPLED, MATERIAL or OBJECT
+    material: str  # the material's name ("": none)
+    reason: str  # where the medium comes from, in one line for the panel
+    notes: tuple = ()  # what of the material is not drawn as Cycles would (a texture on an input, ...)
+
+
+def medium_material(ob):
+    """The material that holds the object's medium: its first slot with a material (None: no material)."""
+    for slot in ob.material_slots:
+        if slot.material is not None:
+            return slot.material
+    return None
+
+
+def principled_bsdf(mat):
+    """The material's Principled BSDF: the one feeding the active output's Surface, else the first in its
+    tree (None: no node tree or no Principled BSDF)."""
+    tree = getattr(mat, "node_tree", None)
+    if tree is None:
+        return None
+    out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
+    if out is not None and out.inputs["Surface"].is_linked:
+        node = out.inputs["Surface"].links[0].from_node
+        if node.type == "BSDF_PRINCIPLED":
+            return node
+    return next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+
+
+def _value(node, name: str, notes: list):
+    sock = node.inputs[name]
+    if sock.is_linked:
+        notes.append(f"{name} is linked to other nodes: its own value is used")
+    value = sock.default_value
+    return tuple(float(v) for v in value) if hasattr(value, "__len__") else float(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class PrincipledInputs:
+    """The Principled BSDF inputs that make its subsurface medium."""
+
+    base_color: tuple
+    radius: tuple  # Subsurface Radius x Subsurface Scale, Blender units
+    ior: float
+    anisotropy: float
+    weight: float
+    notes: tuple
+
+
+def principled_inputs(node) -> PrincipledInputs:
+    notes: list = []
+    weight = _value(node, "Subsurface Weight", notes)
+    base = _value(node, "Base Color", notes)[:3]
+    radius = np.asarray(_value(node, "Subsurface Radius", notes), np.float64) * _value(node, "Subsurface Scale",
+                                                                                          notes)
+    ior = _value(node, "IOR", notes)
+    anisotropy = _value(node, "Subsurface Anisotropy", notes)
+    if 0.0 < weight < 1.0:
+        notes.append(f"Subsurface Weight {weight:g} is drawn as 1: the engine does not mix in a diffuse part")
+    if getattr(node, "subsurface_method", "RANDOM_WALK") != "RANDOM_WALK":
+        notes.append(f"subsurface method {node.subsurface_method.replace('_', ' ').title()} is converted as "
+                     f"Random Walk")
+    if not ETA_RANGE[0] <= ior <= ETA_RANGE[1]:
+        notes.append(f"IOR {ior:g} is drawn as {min(max(ior, ETA_RANGE[0]), ETA_RANGE[1]):g}")
+    return PrincipledInputs(tuple(base), tuple(float(r) for r in radius), min(max(ior, ETA_RANGE[0]), ETA_RANGE[1]),
+                            min(max(anisotropy, G_RANGE[0]), G_RANGE[1]), float(weight), tuple(notes))
+
+
+@functools.lru_cache(maxsize=256)
+def _converted(base_color: tuple, radius: tuple, ior: float, anisotropy: float, mm_per_unit: float):
+    sigma_a, sigma_s_prime = medium_from_random_walk(base_color, radius, ior, anisotropy, mm_per_unit)
+    return tuple(map(float, sigma_a)), tuple(map(float, sigma_s_prime))
+
+
+def _own(ob, s, reason: str, source: str = "OBJECT", material: str = "", notes: tuple = ()) -> ObjectMedium:
+    """The medium of a property group that holds coefficients (the object's or the material's)."""
+    return ObjectMedium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g), s.profile,
+                        float(s.layer_thickness), tuple(s.base_sigma_a), tuple(s.base_sigma_s_prime),
+                        float(ob.translucent.mm_per_unit), source, material, reason, notes)
+
+
+def resolve(ob) -> ObjectMedium:
+    """The object's medium: from its material (converted from the Principled BSDF, or the material's
+    coefficients) or its own, with the reason in one line."""
+    mat = medium_material(ob)
+    if mat is None:
+        return _own(ob, ob.translucent, "The object's own: it has no material")
+    m = mat.translucent
+    if m.source == "MATERIAL":
+        return _own(ob, m, f"Material '{mat.name}': its coefficients", "MATERIAL", mat.name)
+    if m.source == "OBJECT":
+        return _own(ob, ob.translucent, f"The object's own: material '{mat.name}' leaves it to each object",
+                    material=mat.name)
+    node = principled_bsdf(mat)
+    if node is None:
+        return _own(ob, ob.translucent, f"The object's own: material '{mat.name}' has no Principled BSDF",
+                    material=mat.name)
+    p = principled_inputs(node)
+    if p.weight <= 0.0:
+        return _own(ob, ob.translucent, f"The object's own: material '{mat.name}' has Subsurface Weight 0",
+                    material=mat.name)
+    mm = float(ob.translucent.mm_per_unit)
+    sigma_a, sigma_s_prime = _converted(p.base_color, p.radius, p.ior, p.anisotropy, mm)
+    return ObjectMedium(sigma_a, sigma_s_prime, p.ior, p.anisotropy, "EXACT", 1.0, sigma_a, sigma_s_prime, mm,
+                        "PRINCIPLED", mat.name, f"Material '{mat.name}': from its Principled BSDF", p.notes)
+
+
+def editable(ob):
+    """The property group whose coefficients the panel and the preset operators edit for this object: the
+    material's (source MATERIAL), the object's (its own medium), or None (converted from a Principled BSDF:
+    edited there)."""
+    medium = resolve(ob)
+    if medium.source == "MATERIAL":
+        return medium_material(ob).translucent
+    if medium.source == "OBJECT":
+        return ob.translucent
+    return None
