@@ -95,3 +95,89 @@ def test_every_setting_says_what_it_does_in_one_short_sentence(tr, scene):
             assert text, f"{rna.identifier}.{p.identifier} has no description"
             assert len(text) <= 200, f"{rna.identifier}.{p.identifier}: {len(text)} characters"
     assert all(op.description for op in operators)
+
+
+class _Layout:
+    """A stand-in for ``UILayout`` that records what a panel draws and refuses what Blender would: a property
+    the data does not have, an operator that does not exist (panels cannot draw without a window)."""
+
+    def __init__(self, record=None):
+        self.record = record if record is not None else []
+        self.scale_y = 1.0
+        self.use_property_split = self.enabled = self.active = True
+
+    def _child(self, *args, **kwargs):
+        return _Layout(self.record)
+
+    row = column = box = grid_flow = split = _child
+
+    def prop(self, data, name, **kwargs):
+        assert name in data.bl_rna.properties, f"{data.bl_rna.identifier} has no property {name}"
+        self.record.append(("prop", data.bl_rna.identifier, name, data))
+
+    def label(self, text="", icon="NONE", **kwargs):
+        self.record.append(("label", text))
+
+    def operator(self, idname, **kwargs):
+        group, name = idname.split(".")
+        assert hasattr(getattr(bpy.ops, group), name), idname
+        self.record.append(("operator", idname))
+        return type("Properties", (), {})()
+
+    def operator_menu_enum(self, idname, prop, **kwargs):
+        self.operator(idname)
+
+    def context_pointer_set(self, name, data):
+        self.record.append(("context", name, data))
+
+    def template_ID(self, data, name, **kwargs):
+        self.prop(data, name)
+
+    def labels(self):
+        return [r[1] for r in self.record if r[0] == "label"]
+
+    def props(self):
+        return [(r[1], r[2]) for r in self.record if r[0] == "prop"]
+
+
+def test_the_panels_draw_the_medium_where_it_is_set(tr, scene):
+    """The Object panel says where the object's medium comes from and edits it there (the material's group or
+    the object's); the Material panel shows each source; every property and operator drawn exists."""
+    from conftest import ext_module
+
+    ui = ext_module(tr, "translucent_addon.blender.ui")
+    ctx = bpy.context
+    ob = add_cube(scene, color=None)
+    ob.translucent.method = "TEXTURE_SPACE"
+    bpy.context.view_layer.objects.active = ob
+
+    def drawn(draw, *args):
+        layout = _Layout()
+        draw(layout, ctx, *args)
+        return layout
+
+    layout = drawn(ui.draw_object, ob)
+    assert "The object's own: it has no material" in layout.labels()
+    assert ("TranslucentObjectSettings", "sigma_a") in layout.props()
+    mat = bpy.data.materials.new("Wax")
+    ob.data.materials.append(mat)
+    mat.translucent.source = "MATERIAL"
+    layout = drawn(ui.draw_object, ob)
+    assert "Material 'Wax': its coefficients" in layout.labels()
+    edited = [r[3] for r in layout.record if r[0] == "prop" and r[2] == "sigma_a"]
+    assert edited == [mat.translucent]  # the material's coefficients, not the object's
+    assert ("context", "translucent_medium", mat.translucent) in layout.record
+    for source in ("MATERIAL", "OBJECT", "PRINCIPLED"):
+        mat.translucent.source = source
+        layout = drawn(ui.draw_material, mat)
+        assert ("TranslucentMaterialSettings", "source") in layout.props()
+    bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    assert "Subsurface Weight 0: each object keeps its own coefficients" in drawn(ui.draw_material, mat).labels()
+    bsdf.inputs["Subsurface Weight"].default_value = 1.0
+    labels = drawn(ui.draw_material, mat).labels()
+    assert any(t.startswith("Absorption: ") for t in labels) and any(t.startswith("IOR 1.5") for t in labels)
+    layout = drawn(ui.draw_object, ob)
+    assert "Material 'Wax': from its Principled BSDF" in layout.labels()
+    assert not [p for p in layout.props() if p[1] == "sigma_a"]  # set on the Principled BSDF, not here
+    for draw in (ui._scene_general, *(draw for _, draw in ui.SCENE_SECTIONS)):
+        drawn(draw)
