@@ -87,7 +87,8 @@ def _visible(rna):
 
 def test_every_setting_says_what_it_does_in_one_short_sentence(tr, scene):
     """12 had no description, 4 ran past 200 characters of citations (those are in the docs now)."""
-    groups = [getattr(bpy.types, t).bl_rna.properties["translucent"].fixed_type for t in ("Object", "Material", "Scene", "Light")]
+    groups = [getattr(bpy.types, t).bl_rna.properties["translucent"].fixed_type
+              for t in ("Object", "Material", "Scene", "Light")]
     operators = [getattr(bpy.ops.translucent, n).get_rna_type() for n in dir(bpy.ops.translucent)]
     for rna in groups + operators:
         for p in _visible(rna):
