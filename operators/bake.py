@@ -12,7 +12,7 @@ import time
 import bpy
 
 from ..translucent_addon.blender import bake_files
-from ..translucent_addon.blender.bake_inputs import gather
+from ..translucent_addon.blender.bake_inputs import gather, serves_others
 from ..translucent_addon.blender.quality_apply import apply_auto
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
@@ -150,7 +150,12 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
     def _finish(self, ob, inputs, result):
         arrays, meta = result
         meta["seconds"] = round(time.perf_counter() - self._t0, 3)
-        why = bake_files.write(ob, inputs.method, inputs.hash(), arrays, meta, bpy.context.scene)
+        digest = inputs.hash()
+        own = serves_others(ob, inputs.method, digest)
+        why = bake_files.write(ob, inputs.method, digest, arrays, meta, bpy.context.scene, own=own)
+        if own:
+            self.report({"INFO"}, f"'{ob.name}': differs from the linked duplicates sharing its mesh (scale, "
+                                  f"material or modifiers): its bake is kept on the object")
         if why:
             self.report({"WARNING"}, why)
         bake_cache.forget(ob.name)

@@ -11,15 +11,15 @@ from . import polls
 
 
 class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
-    """Say how big the active object really is: sets millimetres per scene unit so that its longest side
-    measures this size (scattering depends on real size: a 5 cm bunny is not a 5 m one)"""
+    """Say how big the active object really is: sets its scattering scale so that light scatters in it as in
+    an object of this size (a 5 cm bunny is not a 5 m one)"""
 
     bl_idname = "translucent.set_physical_size"
     bl_label = "Set Real Size"
     bl_options = {"REGISTER", "UNDO"}
 
-    size_mm: bpy.props.FloatProperty(name="Longest side (mm)", min=1e-3, soft_max=10000.0, default=50.0,
-                                     description="How long the object's longest side is in reality")
+    size: bpy.props.FloatProperty(name="Longest side", min=1e-6, soft_max=10.0, default=0.05, subtype="DISTANCE",
+                                  unit="LENGTH", description="How long the object's longest side is in reality")
 
     @classmethod
     def poll(cls, context):
@@ -31,7 +31,7 @@ class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
     def invoke(self, context, event):
         ob = context.active_object
         if ob is not None and max(ob.dimensions) > 0:
-            self.size_mm = max(ob.dimensions) * ob.translucent.mm_per_unit
+            self.size = max(ob.dimensions) / ob.translucent.scattering_scale
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
@@ -43,9 +43,11 @@ class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
         if longest <= 0.0:
             self.report({"ERROR"}, f"'{ob.name}' has no extent (all its vertices are in one point)")
             return {"CANCELLED"}
-        ob.translucent.mm_per_unit = self.size_mm / longest
-        self.report({"INFO"}, f"'{ob.name}': {ob.translucent.mm_per_unit:.4g} mm per unit, longest side "
-                              f"{self.size_mm:g} mm")
+        # Light scatters in the model as in the real object: lengths in the medium scale by longest / size.
+        ob.translucent.scattering_scale = longest / self.size
+        size_mm = self.size * medium_source.unit_mm(context.scene)
+        self.report({"INFO"}, f"'{ob.name}': scattering scale {ob.translucent.scattering_scale:.4g}, longest side "
+                              f"{size_mm:g} mm")
         return {"FINISHED"}
 
 

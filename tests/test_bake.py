@@ -270,10 +270,10 @@ def test_geometry_the_compiled_steps_cannot_take_is_refused_before_them(tr, scen
     cube.translucent.atlas_resolution = 96
     _select(cube)
     if case == "mm_per_unit_inf":
-        cube.translucent["mm_per_unit"] = float("inf")  # a file or a script: the property's range is not asked
-        expected = "'Cube': mm per unit is inf, must be a positive number"
+        cube.translucent["scattering_scale"] = 0.0  # a file or a script: the property's range is not asked
+        expected = "'Cube': mm per unit is inf (the scene's unit over the scattering scale), must be a positive"
     elif case == "mm_per_unit_1e11":
-        cube.translucent["mm_per_unit"] = 1e11
+        cube.translucent["scattering_scale"] = 1e-8
         expected = "'Cube': it is 1.73e+11 mm across (scale times mm per unit); a bake takes 0.001 mm to 10 km"
     elif case == "coordinates_1e30":
         cube.data.vertices.foreach_set("co", np.array([v.co for v in cube.data.vertices]).ravel() * 1e30)
@@ -414,3 +414,38 @@ def test_a_tampered_bake_file_is_refused(tr, scene, tmp_path):
     idblock["translucent_bake"]["TEXTURE_SPACE"]["file"] = str(tmp_path / "x.npz")
     with pytest.raises(store.DamagedBakeError, match="cannot be read"):
         store.read(idblock, "TEXTURE_SPACE", sidecar)
+
+
+def test_linked_duplicates_that_differ_keep_their_own_bakes(tr, scene):
+    """Two linked duplicates at different scales need different bakes (the scattering depends on the real size).
+    Both were stored on the shared mesh, so baking one made the other stale. Now the second keeps its own on the
+    object, both are up to date, and clearing it leaves the first's."""
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, radius=0.5, location=(0, 0, 0.5))
+    small = bpy.context.object
+    small.translucent.method = "TEXTURE_SPACE"
+    small.translucent.atlas_resolution = 96
+    _select(small)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    bpy.ops.object.duplicate(linked=True)
+    big = bpy.context.object
+    big.scale = (2.0, 2.0, 2.0)
+    big.translucent.method = "TEXTURE_SPACE"
+    assert big.data == small.data and _status(tr, big) == "STALE" and _status(tr, small) == "OK"
+    _select(big)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    assert "translucent_bake" in big and _status(tr, big) == "OK" and _status(tr, small) == "OK"
+    # A third, at the first one's scale, shares the mesh's bake.
+    _select(small)
+    bpy.ops.object.duplicate(linked=True)
+    third = bpy.context.object
+    third.scale = (1.0, 1.0, 1.0)
+    assert "translucent_bake" not in third and _status(tr, third) == "OK"
+    _select(big)
+    assert bpy.ops.translucent.clear_bake() == {"FINISHED"}
+    assert "translucent_bake" not in big or not big["translucent_bake"].keys()
+    assert _status(tr, big) == "STALE" and _status(tr, small) == "OK"
+    # Baking the first again at its own scale keeps the mesh's: the others are untouched.
+    _select(small)
+    small.scale = (1.5, 1.5, 1.5)
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    assert _status(tr, small) == "OK" and _status(tr, third) == "OK"

@@ -285,7 +285,7 @@ def test_multipole_layer_renders_and_differs_from_the_dipole(tr, scene):
     ob.translucent.preset = "skin1"
     skin = render(scene, 64, 48)
     ob.translucent.profile = "MULTIPOLE"
-    ob.translucent.layer_thickness = 2.0
+    ob.translucent.layer_thickness = 0.002  # 2 mm
     marble = ext_module(tr, "translucent_addon.core.physics.presets").load_presets()["marble"]
     ob.translucent.base_sigma_a = marble.sigma_a
     ob.translucent.base_sigma_s_prime = marble.sigma_s_prime
@@ -300,7 +300,7 @@ def test_multipole_layer_renders_and_differs_from_the_dipole(tr, scene):
 def test_too_thin_multipole_layer_falls_back_to_the_dipole_with_a_warning(tr, scene):
     ob = _back_lit_ball(scene)
     ob.translucent.profile = "MULTIPOLE"
-    ob.translucent.layer_thickness = 0.05  # skin1's mean free path is 1.3 mm in red
+    ob.translucent.layer_thickness = 0.00005  # 0.05 mm; skin1's mean free path is 1.3 mm in red
     img = render(scene, 32, 24)
     assert np.isfinite(img).all()
     warnings = _capture(tr)["frame"].warnings

@@ -183,3 +183,14 @@ def test_the_preset_buttons_act_on_the_material_that_holds_the_medium(tr, scene,
     ob.data.materials[0] = principled
     assert not bpy.ops.translucent.save_preset.poll()  # converted: edited on the Principled BSDF
     props.refresh_preset_items()
+
+
+def test_a_scattering_scale_a_file_holds_at_zero_is_not_drawn(tr, scene):
+    """A file or a script can store 0 (or NaN) where the property's range forbids it: millimetres per unit
+    would be infinite. The frame refuses the medium (the object drawn with its base colour) and says so."""
+    ob = add_cube(scene, "Scaled", color=None)
+    ob.translucent["scattering_scale"] = 0.0
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    warnings = []
+    assert extract.medium_of(ob, "IMAGE_SPACE", warnings) == ("OFF", None)
+    assert any("'Scaled': scattering scale 0.0, must be a positive number" in w for w in warnings), warnings

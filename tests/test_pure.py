@@ -358,7 +358,7 @@ def test_surface_samples_conserve_area_and_scale_to_mm():
         (dict(sigma_a=(-1.0, 0.0, 0.0)), r"sigma_a\.R = -1\.0"),
         (dict(mm_per_unit=0.0), "mm per unit is 0.0"),
         # Issue 37: what hung xatlas (1e30, mm per unit inf or 1e11) or crashed fTetWild (scale 0) is refused first.
-        (dict(mm_per_unit=np.inf), "mm per unit is inf, must be a positive number"),
+        (dict(mm_per_unit=np.inf), "mm per unit is inf"),
         (dict(mm_per_unit=1e11), r"mm across \(scale times mm per unit\); a bake takes 0.001 mm to 10 km"),
         (dict(vertices=np.array([[0, 0, 0], [1e30, 0, 0], [0, 1e30, 0]], np.float64),
               triangles=np.array([[0, 1, 2]], np.int32)), r"it is 1\.41e\+32 mm across"),

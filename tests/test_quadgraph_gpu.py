@@ -125,7 +125,7 @@ def test_veins_darken_streaks_inside_the_volume(tr, scene):
     ob = _baked_ball(scene, levels=1, preset="marble")
     plain = render(scene, 64, 48)
     ob.translucent.veins = 1.0
-    ob.translucent.veins_scale = 8.0
+    ob.translucent.veins_scale = 0.008  # 8 mm
     veined = render(scene, 64, 48)
     ball = np.abs(plain[..., :3] - np.array([0.02, 0.02, 0.025])).max(axis=2) > 1e-3
     ratio = veined[..., 1][ball] / np.maximum(plain[..., 1][ball], 1e-6)

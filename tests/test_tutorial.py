@@ -23,7 +23,7 @@ def test_five_minute_tutorial(tr, scene, tmp_path):
     # 2. Material and size: the Skin1 preset, a 5 cm bunny.
     bunny.translucent.preset = "skin1"
     assert tuple(bunny.translucent.sigma_s_prime) == pytest.approx(presets.load_presets()["skin1"].sigma_s_prime)
-    assert bpy.ops.translucent.set_physical_size(size_mm=50.0) == {"FINISHED"}
+    assert bpy.ops.translucent.set_physical_size(size=0.05) == {"FINISHED"}
     assert max(bunny.dimensions) * bunny.translucent.mm_per_unit == pytest.approx(50.0, rel=1e-5)
     # 3. Bake TEXTURE_SPACE (draft quality keeps the test short).
     assert bpy.ops.translucent.apply_quality(tier="DRAFT") == {"FINISHED"}

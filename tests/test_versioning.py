@@ -1,7 +1,8 @@
 """A file saved before the move to layers (the 0.1.0 layout: one flat property group, methods in
 ``render/methods``) opens with every setting as it was saved: the property names and the method numbers
-are kept, so no versioning handler is needed. ``data/translucent_0_1_0.blend`` was saved by that code
-(commit cade8a3) with settings away from their defaults."""
+are kept; its millimetres become the scattering scale and scene units on opening (``versioning``).
+``data/translucent_0_1_0.blend`` was saved by that code (commit cade8a3) with settings away from their
+defaults."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,6 +20,8 @@ def test_a_file_saved_by_0_1_0_keeps_every_setting(installed):
     s = ob.translucent
     assert s.method == "QUADGRAPH" and s.preset == "skin1"
     assert s.mm_per_unit == pytest.approx(2.0) and s.quadgraph_K == pytest.approx(0.5)
+    assert s.scattering_scale == pytest.approx(500.0)  # 2 mm per unit: scatters 500 times as far as in metres
+    assert s.veins_scale * s.mm_per_unit == pytest.approx(20.0)  # 20 mm (0.1's default), now in scene units
     assert s.veins == pytest.approx(0.3) and s.atlas_resolution == 384 and s.geocube_steps == 20
     assert s.caustics_caster == "REFRACTIVE" and s.caustics_ior == pytest.approx(1.45)
     assert s.grass_blades == 321 and s.grass_resolution == "64"

@@ -18,12 +18,20 @@ def _select(ob):
 def test_size_helper_sets_millimetres_per_unit(tr, scene):
     cube = add_cube(scene, size=2.0)
     _select(cube)
-    assert bpy.ops.translucent.set_physical_size(size_mm=50.0) == {"FINISHED"}
+    assert bpy.ops.translucent.set_physical_size(size=0.05) == {"FINISHED"}
     assert cube.translucent.mm_per_unit == pytest.approx(25.0)
+    assert cube.translucent.scattering_scale == pytest.approx(40.0)  # 2 m scatters as 5 cm
+    # In a scene measured in centimetres the same real size gives the same millimetres per unit of the medium.
+    scene.unit_settings.scale_length = 0.01
+    assert cube.translucent.mm_per_unit == pytest.approx(0.25)
+    assert bpy.ops.translucent.set_physical_size(size=5.0) == {"FINISHED"}  # 5 units: 5 cm
+    assert cube.translucent.scattering_scale == pytest.approx(0.4)
+    assert cube.translucent.mm_per_unit == pytest.approx(25.0)
+    scene.unit_settings.scale_length = 1.0
     point = add_mesh(scene, "Point", [(0, 0, 0), (0, 0, 0), (0, 0, 0)], [(0, 1, 2)])
     _select(point)
     with pytest.raises(RuntimeError, match="'Point' has no extent"):
-        bpy.ops.translucent.set_physical_size(size_mm=10.0)
+        bpy.ops.translucent.set_physical_size(size=0.01)
 
 
 def test_quality_tiers_and_the_preferences_default(tr, scene):

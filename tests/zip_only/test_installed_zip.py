@@ -90,7 +90,7 @@ def test_presets_size_and_quality_operators(tr, scene):
     assert len(presets) == 12
     ball.translucent.preset = "marble"
     assert tuple(ball.translucent.sigma_s_prime) == pytest.approx(presets["marble"].sigma_s_prime)
-    assert bpy.ops.translucent.set_physical_size(size_mm=40.0) == {"FINISHED"}
+    assert bpy.ops.translucent.set_physical_size(size=0.04) == {"FINISHED"}
     assert max(ball.dimensions) * ball.translucent.mm_per_unit == pytest.approx(40.0, rel=1e-5)
     assert bpy.ops.translucent.apply_quality(tier="DRAFT") == {"FINISHED"}
     assert bpy.ops.translucent.auto_quality() == {"FINISHED"}

@@ -4,8 +4,10 @@ the file. A bake of the demo bunny took the .blend from 2 MB to 98 MB, every Alt
 rode the undo memory; now the file holds its hashes and metadata only.
 
 A bake's hash covers the object's scale, material and evaluated modifiers: duplicates sharing a mesh share its bake
-while those agree (one of two that differ shows its bake as stale). A mesh linked from a library cannot be written:
-its objects keep their bakes on themselves.
+while those agree. A duplicate that differs (another scale, another material) and is baked while the mesh's bake
+serves the others keeps its own bake on itself (``write(own=True)``), so neither makes the other's stale; an object's
+own bake is the one it reads. A mesh linked from a library cannot be written: its objects keep their bakes on
+themselves.
 
 An unsaved file bakes into Blender's temporary folder; saving (``relocate``, a ``save_pre`` handler) copies the
 files a bake refers to beside the .blend it is saved as and points the bakes there, also on Save As to another
@@ -31,12 +33,12 @@ def _writable(ob):
 
 
 def owner(ob, method: str | None = None):
-    """The ID holding an object's bake of ``method`` (any method when None): its mesh, or the object itself (a
-    0.1.x file, or a mesh linked from a library)."""
-    data = _writable(ob)
-    if data is not ob and not _holds(data, method) and _holds(ob, method):
+    """The ID holding an object's bake of ``method`` (any method when None): the object when it holds its own (a
+    duplicate that differs from those sharing its mesh, a mesh linked from a library, a 0.1.x file), else its
+    mesh."""
+    if _holds(ob, method):
         return ob
-    return data
+    return _writable(ob)
 
 
 def _holds(idblock, method: str | None) -> bool:
@@ -80,16 +82,17 @@ def reader() -> store.Sidecar:
                          path_of=lambda r: _path(r, filepath))
 
 
-def write(ob, method: str, digest: str, arrays: dict, meta: dict, scene=None) -> str | None:
-    """Store a bake with the object's mesh, its arrays beside the .blend (or packed, as the scene says). Where the
-    folder cannot be written (a read-only folder, a full disk) the bake is packed instead: returns why, else None."""
-    holder, why = _writable(ob), None
+def write(ob, method: str, digest: str, arrays: dict, meta: dict, scene=None, own: bool = False) -> str | None:
+    """Store a bake with the object's mesh (``own``: on the object, the mesh's serving other objects), its arrays
+    beside the .blend (or packed, as the scene says). Where the folder cannot be written (a read-only folder, a
+    full disk) the bake is packed instead: returns why, else None."""
+    holder, why = (ob if own else _writable(ob)), None
     try:
         store.write(holder, method, digest, arrays, meta, sidecar=sidecar(scene))
     except OSError as err:
         store.write(holder, method, digest, arrays, meta)
         why = f"'{ob.name}': the bake folder could not be written ({err}); the bake is kept inside the .blend"
-    if holder is not ob and _holds(ob, method):  # a 0.1.x bake on the object: the mesh's is the one now
+    if holder is not ob and _holds(ob, method):  # the object's own bake (or a 0.1.x one): the mesh's is it now
         store.clear(ob, method)
     return why
 
@@ -106,12 +109,19 @@ def stored_hash(ob, method: str) -> str | None:
     return store.stored_hash(owner(ob, method), method)
 
 
+def _methods(idblock) -> set:
+    return set(idblock[store.BAKE_KEY].keys()) if store.BAKE_KEY in idblock else set()
+
+
 def clear(ob, method: str | None = None) -> bool:
-    """Remove an object's bake(s), from its mesh and from the object (0.1.x). The files stay: another bake (a
-    duplicate, an undo step) may refer to them."""
-    data = _writable(ob)
-    removed = store.clear(data, method) if data is not ob else False
-    return store.clear(ob, method) or removed
+    """Remove an object's bake of ``method`` (every method when None): its own where it holds one, else its
+    mesh's (which linked duplicates share). The files stay: another bake (a duplicate, an undo step) may refer
+    to them."""
+    methods = {method} if method else _methods(ob) | _methods(_writable(ob))
+    removed = False
+    for m in sorted(methods):
+        removed = store.clear(owner(ob, m), m) or removed
+    return removed
 
 
 def _holders():

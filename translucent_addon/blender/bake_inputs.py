@@ -209,6 +209,30 @@ def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read
     return store.status(holder, method, inputs_hash(gather(ob_eval, method, mode=mode, read=read), mode))
 
 
+def serves_others(ob, method: str, digest: str) -> bool:
+    """Whether the mesh's bake of ``method`` is up to date for another object sharing the mesh (a linked duplicate
+    without its own bake) while this object's new bake (``digest``) differs: then the new bake goes on the object,
+    so that neither makes the other's stale."""
+    mesh = ob.data
+    if mesh is None or mesh.users < 2 or mesh.library is not None:
+        return False
+    stored = store.stored_hash(mesh, method)
+    if stored is None or stored == digest:
+        return False
+    import bpy
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for other in bpy.data.objects:
+        if other == ob or other.data != mesh or bake_files.owner(other, method) != mesh:  # IDs compare by ==
+            continue
+        try:
+            if inputs_hash(gather(other.evaluated_get(depsgraph), method)) == stored:
+                return True
+        except BakeInputError:
+            continue
+    return False
+
+
 def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT") -> str:
     """``inputs.hash()``, hashed again only when the mesh or a parameter changed: a frame and a panel redraw ask
     for it every time. The geometry is compared by identity: ``mesh_arrays`` hands out the same arrays while the

@@ -110,7 +110,7 @@ def build_scene(name: str, scene: bpy.types.Scene | None = None) -> bpy.types.Sc
     settings = ob.translucent
     settings.preset = spec["preset"]
     apply_preset(settings, spec["preset"])
-    settings.mm_per_unit = 1000.0  # metres
+    settings.scattering_scale = 1.0  # as measured, in the scene's metres
     settings.method = "IMAGE_SPACE"
     # Stand it on z = 0, centred on the origin.
     corners = np.array([ob.matrix_basis @ Vector(c) for c in ob.bound_box])
@@ -207,7 +207,7 @@ def build_caustics_scene(scene: bpy.types.Scene | None = None, caster: str = "sp
     ob.data.materials.append(glass_material("Caustic glass", ior))
     coll.objects.link(ob)
     t = ob.translucent
-    t.mm_per_unit = 1000.0
+    t.scattering_scale = 1.0
     t.caustics_caster = "REFRACTIVE"
     t.caustics_ior = ior
     ob.cycles.is_caustics_caster = True

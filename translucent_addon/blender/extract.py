@@ -198,8 +198,8 @@ def caster_settings(s) -> Caster | None:
     color = np.clip(np.asarray(s.caustics_color, np.float64), 1e-6, 1.0)
     if s.caustics_caster == "REFLECTIVE":
         return Caster("REFLECTIVE", float(s.caustics_ior), 0, (0.0, 0.0, 0.0), 0.0, tuple(color))
-    # Absorption K_a per scene unit from the colour reached after caustics_distance mm (Eq. 5.7).
-    sigma_a = -np.log(color) / float(s.caustics_distance) * float(s.mm_per_unit)
+    # Absorption K_a per scene unit from the colour reached after caustics_distance (scene units, Eq. 5.7).
+    sigma_a = -np.log(color) / float(s.caustics_distance)
     return Caster("REFRACTIVE", float(s.caustics_ior), 1 if s.caustics_surfaces == "ONE" else 2,
                   tuple(float(x) for x in sigma_a), float(s.caustics_dispersion))
 
@@ -395,27 +395,30 @@ def recoloured(ob, drawn: DrawnMesh, cache_key) -> DrawnMesh:
     return new
 
 
-def medium_of(original, method: str, frame_warnings) -> tuple[str, Medium | None]:
-    """(method, Medium) of an object: its medium as ``medium.resolve`` finds it (its material's or its own); a
-    medium its file holds out of range (eta 0.5, NaN) is never drawn: ('OFF', None) and the frame says why."""
+def medium_of(original, method: str, frame_warnings, scene=None) -> tuple[str, Medium | None]:
+    """(method, Medium) of an object: its medium as ``medium_source.resolve`` finds it (its material's or its
+    own, measured in ``scene``'s units); a medium its file holds out of range (eta 0.5, NaN) is never drawn:
+    ('OFF', None) and the frame says why."""
     if method == "OFF":
         return method, None
     s = original.translucent
     name = original.name
-    m = medium_source.resolve(original)
+    m = medium_source.resolve(original, scene)
     for note in m.notes:
         frame_warnings.append(f"'{name}': material '{m.material}': {note}")
     try:
         validate_coefficients(m.sigma_a, m.sigma_s_prime, m.eta, m.g, name=f"'{name}'")
+        if not 0.0 < m.mm_per_unit < float("inf"):
+            raise CoefficientError(f"'{name}': scattering scale {s.scattering_scale}, must be a positive number")
     except CoefficientError as err:
         frame_warnings.append(Lost(f"{err}; drawn with its base colour"))
         return "OFF", None
     layer = {}
     if m.profile == "MULTIPOLE":
-        layer = dict(layer_thickness_mm=m.layer_thickness, base_sigma_a=m.base_sigma_a,
+        layer = dict(layer_thickness_mm=m.layer_thickness * m.mm_per_unit, base_sigma_a=m.base_sigma_a,
                      base_sigma_s_prime=m.base_sigma_s_prime)
     if method == "QUADGRAPH":
-        layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale),
+        layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale) * m.mm_per_unit,
                      single_scattering=bool(s.single_scattering))
     if method == "GEOCUBE":
         layer = dict(max_steps=bounded(s, "geocube_steps"))
@@ -435,7 +438,7 @@ def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHa
                       lambda o=original, m=method: bake_files.read(o, m).arrays)
 
 
-def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict | None:
+def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False, scene=None) -> dict | None:
     """What every instance of an evaluated object shares in a frame (MeshInstance fields but the matrix), or
     None when it has no faces. ``trusted``: the caller knows the object's geometry and paint unchanged since
     its last frame (the viewport's depsgraph updates said so): its mesh is not read again."""
@@ -468,7 +471,7 @@ def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False) -> dict 
     method = s.method
     baked = method != "OFF" and bake_registry.needs_bake(method)
     handle = bake_handle(ob, method, mode, frame_warnings, drawn.read) if baked else None  # the mesh as read here
-    method, medium = medium_of(original, method, frame_warnings)
+    method, medium = medium_of(original, method, frame_warnings, scene)
     return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
                 method=method, medium=medium, paint=drawn.paint, tint=drawn.tint,
                 bake=handle if method != "OFF" else None, caster=caster_settings(s),
@@ -510,7 +513,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
             if identity not in shared:  # instances of one object read it once
                 shared[identity] = _object_parts(ob, mode, warnings,
                                                  trusted is not None and not inst.is_instance
-                                                 and trusted(ob.original.name))
+                                                 and trusted(ob.original.name), scene)
             parts = shared[identity]
             if parts is not None:
                 meshes.append(MeshInstance(model=np.array(inst.matrix_world, dtype=np.float64), **parts))

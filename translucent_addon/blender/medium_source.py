@@ -33,7 +33,7 @@ class ObjectMedium:
     eta: float
     g: float
     profile: str  # the Profile setting: EXACT, DIPOLE or MULTIPOLE (a layer over a base)
-    layer_thickness: float  # mm, MULTIPOLE
+    layer_thickness: float  # Blender units, MULTIPOLE
     base_sigma_a: tuple
     base_sigma_s_prime: tuple
     mm_per_unit: float  # the object's
@@ -41,6 +41,22 @@ class ObjectMedium:
     material: str  # the material's name ("": none)
     reason: str  # where the medium comes from, in one line for the panel
     notes: tuple = ()  # what of the material is not drawn as Cycles would (a texture on an input, ...)
+
+
+def unit_mm(scene) -> float:
+    """Millimetres per Blender unit in the scene's unit system (Unit Scale: 1 = metres)."""
+    return 1000.0 * float(scene.unit_settings.scale_length)
+
+
+def mm_per_unit(settings, scene=None) -> float:
+    """Millimetres of the medium per Blender unit for an object's settings: the scene's unit over the object's
+    scattering scale (2: light scatters twice as far, as Cycles' Subsurface Scale makes it)."""
+    if scene is None:
+        import bpy
+
+        scene = bpy.context.scene
+    scale = float(settings.scattering_scale)  # a file or a script can store 0 or NaN: inf, refused by its users
+    return unit_mm(scene) / scale if scale > 0.0 else float("inf")
 
 
 def medium_material(ob):
@@ -110,36 +126,38 @@ def _converted(base_color: tuple, radius: tuple, ior: float, anisotropy: float, 
     return tuple(map(float, sigma_a)), tuple(map(float, sigma_s_prime))
 
 
-def _own(ob, s, reason: str, source: str = "OBJECT", material: str = "", notes: tuple = ()) -> ObjectMedium:
+def _own(ob, s, mm: float, reason: str, source: str = "OBJECT", material: str = "",
+         notes: tuple = ()) -> ObjectMedium:
     """The medium of a property group that holds coefficients (the object's or the material's)."""
     return ObjectMedium(tuple(s.sigma_a), tuple(s.sigma_s_prime), float(s.eta), float(s.g), s.profile,
-                        float(s.layer_thickness), tuple(s.base_sigma_a), tuple(s.base_sigma_s_prime),
-                        float(ob.translucent.mm_per_unit), source, material, reason, notes)
+                        float(s.layer_thickness), tuple(s.base_sigma_a), tuple(s.base_sigma_s_prime), mm, source,
+                        material, reason, notes)
 
 
-def resolve(ob) -> ObjectMedium:
+def resolve(ob, scene=None) -> ObjectMedium:
     """The object's medium: from its material (converted from the Principled BSDF, or the material's
-    coefficients) or its own, with the reason in one line."""
+    coefficients) or its own, with the reason in one line. ``scene``: whose unit system measures it (None: the
+    context's)."""
+    mm = mm_per_unit(ob.translucent, scene)
     mat = medium_material(ob)
     if mat is None:
-        return _own(ob, ob.translucent, "The object's own: it has no material")
+        return _own(ob, ob.translucent, mm, "The object's own: it has no material")
     m = mat.translucent
     if m.source == "MATERIAL":
-        return _own(ob, m, f"Material '{mat.name}': its coefficients", "MATERIAL", mat.name)
+        return _own(ob, m, mm, f"Material '{mat.name}': its coefficients", "MATERIAL", mat.name)
     if m.source == "OBJECT":
-        return _own(ob, ob.translucent, f"The object's own: material '{mat.name}' leaves it to each object",
+        return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' leaves it to each object",
                     material=mat.name)
     node = principled_bsdf(mat)
     if node is None:
-        return _own(ob, ob.translucent, f"The object's own: material '{mat.name}' has no Principled BSDF",
+        return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' has no Principled BSDF",
                     material=mat.name)
     p = principled_inputs(node)
     if p.weight <= 0.0:
-        return _own(ob, ob.translucent, f"The object's own: material '{mat.name}' has Subsurface Weight 0",
+        return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' has Subsurface Weight 0",
                     material=mat.name)
-    mm = float(ob.translucent.mm_per_unit)
     sigma_a, sigma_s_prime = _converted(p.base_color, p.radius, p.ior, p.anisotropy, mm)
-    return ObjectMedium(sigma_a, sigma_s_prime, p.ior, p.anisotropy, "EXACT", 1.0, sigma_a, sigma_s_prime, mm,
+    return ObjectMedium(sigma_a, sigma_s_prime, p.ior, p.anisotropy, "EXACT", 0.001, sigma_a, sigma_s_prime, mm,
                         "PRINCIPLED", mat.name, f"Material '{mat.name}': from its Principled BSDF", p.notes)
 
 

@@ -7,7 +7,7 @@ from .. import techniques
 from ..core import quality
 from ..core.physics.presets import USER_PREFIX, load_presets, load_user_presets
 from ..core.properties import Prop
-from . import preferences
+from . import medium_source, preferences
 
 _PRESET_ITEMS: list = []
 PRESET_PROBLEMS: list[str] = []  # what the user presets file's last reading skipped (the object panel shows it)
@@ -103,6 +103,14 @@ def refresh_methods() -> None:
     TranslucentObjectSettings.method = _method_property()
 
 
+def _get_mm_per_unit(self) -> float:
+    return medium_source.mm_per_unit(self)
+
+
+def _set_mm_per_unit(self, value: float) -> None:
+    self.scattering_scale = medium_source.unit_mm(bpy.context.scene) / value
+
+
 def _medium_properties() -> dict:
     """The medium's settings, on the Material (shared by its objects) and on the Object (its own, when it has
     no material or its material leaves the medium to it): ``blender/medium.py`` says which holds."""
@@ -129,8 +137,8 @@ def _medium_properties() -> dict:
                                                     "Donner & Jensen 2005 (IMAGE_SPACE)", 1)],
             default="EXACT"),
         layer_thickness=bpy.props.FloatProperty(
-            name="Layer (mm)", description="Thickness of the layer over the base, in mm (at least one mean free "
-                                           "path)", min=0.01, soft_max=20.0, default=1.0),
+            name="Layer", description="Thickness of the layer over the base (at least one mean free path)",
+            subtype="DISTANCE", unit="LENGTH", min=1e-5, soft_max=0.02, default=0.001, precision=4),
         base_sigma_a=bpy.props.FloatVectorProperty(
             name="Base absorption (mm⁻¹)", size=3, min=0.0, soft_max=2.0, precision=4,
             default=(0.0021, 0.0041, 0.0071),
@@ -162,10 +170,16 @@ class TranslucentMaterialSettings(bpy.types.PropertyGroup):
 
 class TranslucentObjectSettings(bpy.types.PropertyGroup):
     method: _method_property()
+    scattering_scale: bpy.props.FloatProperty(
+        name="Scattering scale",
+        description="Multiplies how far light scatters in this object, as Cycles' Subsurface Scale does: 2 scatters "
+                    "as an object of half the size",
+        min=1e-6, soft_min=0.01, soft_max=100.0, default=1.0,
+    )
     mm_per_unit: bpy.props.FloatProperty(
-        name="mm per unit",
-        description="Millimetres per Blender unit for this object (1 m = 1000 mm); sets the scale of scattering",
-        min=1e-6, soft_max=1e5, default=1000.0,
+        name="mm per unit", description="Millimetres of the medium per Blender unit: the scene's unit over the "
+                                        "scattering scale (for scripts; the scale is what is stored)",
+        min=1e-9, get=_get_mm_per_unit, set=_set_mm_per_unit, options={"HIDDEN"},
     )
     quality: bpy.props.EnumProperty(
         name="Quality",

@@ -40,12 +40,13 @@ def draw_object(layout, context, ob) -> None:
         layout.label(text=f"{parts.capitalize()} wound inward: drawn turned outward", icon="ERROR")
         layout.label(text="Mesh > Normals > Recalculate Outside fixes the mesh")
     _medium(layout, ob)
-    layout.prop(s, "mm_per_unit")
+    layout.prop(s, "scattering_scale")
     longest = max(ob.dimensions)
     if longest > 0:  # the size helper: scattering depends on the real size
         row = layout.row(align=True)
-        size_mm = [d * s.mm_per_unit for d in ob.dimensions]
-        row.label(text="Size: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
+        mm = medium_source.mm_per_unit(s, context.scene)
+        size_mm = [d * mm for d in ob.dimensions]
+        row.label(text="Scatters as: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
         row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
     if s.method != "OFF" or s.grass:
         box = layout.box()

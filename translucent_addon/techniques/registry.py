@@ -148,7 +148,8 @@ def check_physical_size(inputs: BakeInputs) -> None:
     SciPy sees it."""
     name, mm = inputs.name, inputs.mm_per_unit
     if not (0.0 < mm < np.inf):
-        raise BakeInputError(f"'{name}': mm per unit is {mm}, must be a positive number")
+        raise BakeInputError(f"'{name}': mm per unit is {mm} (the scene's unit over the scattering scale), must be "
+                             f"a positive number")
     S = inputs.stretch_matrix()
     scale = np.linalg.svd(S, compute_uv=False) if np.isfinite(S).all() else np.array([np.nan])
     if not np.isfinite(scale).all() or scale.min() <= 1e-9 * scale.max():
@@ -162,7 +163,7 @@ def check_physical_size(inputs: BakeInputs) -> None:
     lo, hi = PHYSICAL_SIZE_MM
     if not np.isfinite(size) or not (lo <= size <= hi):
         raise BakeInputError(f"'{name}': it is {size:.3g} mm across (scale times mm per unit); a bake takes "
-                             f"{lo:g} mm to {hi / 1e6:g} km: check its scale, its vertices and mm per unit")
+                             f"{lo:g} mm to {hi / 1e6:g} km: check its scale, its vertices and its scattering scale")
 
 
 def validate(inputs: BakeInputs) -> list[str]:

@@ -319,11 +319,13 @@ class Caustics(Technique):
             "default": (1.0, 1.0, 1.0),
         }),
         Prop("caustics_distance", "FloatProperty", {
-            "name": "Colour distance (mm)",
-            "description": "Distance through the medium at which light has the caustics colour, in mm",
-            "min": 0.001,
-            "soft_max": 1000.0,
-            "default": 50.0,
+            "name": "Colour distance",
+            "description": "Distance through the medium at which light has the caustics colour",
+            "subtype": "DISTANCE",
+            "unit": "LENGTH",
+            "min": 1e-6,
+            "soft_max": 1.0,
+            "default": 0.05,
         }),
         Prop("caustics_dispersion", "FloatProperty", {
             "name": "Dispersion",

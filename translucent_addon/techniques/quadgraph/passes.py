@@ -597,11 +597,13 @@ class Quadgraph(Technique):
             "default": True,
         }),
         Prop("veins_scale", "FloatProperty", {
-            "name": "Vein spacing (mm)",
-            "description": "QUADGRAPH: distance between veins, in mm",
-            "min": 0.1,
-            "default": 20.0,
-            "unit": "NONE",
+            "name": "Vein spacing",
+            "description": "QUADGRAPH: distance between veins",
+            "subtype": "DISTANCE",
+            "unit": "LENGTH",
+            "min": 1e-4,
+            "soft_max": 0.2,
+            "default": 0.02,
         }),
     )
     scene_props = (
