@@ -63,6 +63,38 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
+float one_minus_exp(float x)
+{
+  return (x < 1e-3) ? x * (1.0 - 0.5 * x) : 1.0 - exp(-x);
+}
+
+/* Light through thin parts (physics/slab_through.py): a slab's diffusion transmission over the half-space
+ * dipole's at depth d below x_o's tangent plane, ramped in from 2 to 4 mean free paths. */
+vec3 through_factor(int slot, float d)
+{
+  vec4 c0 = materials.slab[2 * slot];
+  vec3 z_r = materials.slab[2 * slot + 1].xyz;
+  vec3 result;
+  for (int k = 0; k < 3; k++) {
+    float s = c0[k];
+    float zr = z_r[k];
+    if (d <= 2.0 * zr) {
+      result[k] = 1.0; /* under 2 mean free paths (or a layer over a base): the half-space profile */
+      continue;
+    }
+    float zb = 2.0 * c0.w * zr / 3.0;
+    float zv = zr + 2.0 * zb;
+    float cr = sqrt(d * d + zr * zr);
+    float cv = sqrt(d * d + zv * zv);
+    float T = 2.0 * exp(s * (zr - zb + cr - d)) * one_minus_exp(2.0 * s * (zr + zb)) /
+              one_minus_exp(2.0 * s * (d + 2.0 * zb));
+    float K = zr / cr + zv * exp(-s * (cv - cr)) / cv;
+    float ramp = smoothstep(2.0 * zr, 4.0 * zr, d);
+    result[k] = 1.0 + (T / K - 1.0) * ramp;
+  }
+  return result;
+}
+
 vec3 far_profile(int row, float u)
 {
   int n = textureSize(far_lut, 0).x;
@@ -98,7 +130,8 @@ void main()
   }
   float rho = (world_pass == 1) ? materials.params[2 * slot + 1].w : mat.z; /* world samples: their rho */
   vec3 n_o = texelFetch(gbuffer_normal, ivec2(gl_FragCoord.xy), 0).xyz;
-  float w = partition_weight_off_plane(r_mm, rho, abs(dot(n_o, xo.xyz - v_xi)) * mat.x);
-  out_color = vec4(R * (M * M * w) * v_flux.rgb, 1.0);
+  float h_mm = dot(n_o, xo.xyz - v_xi) * mat.x; /* x_i below x_o's tangent plane: > 0 */
+  float w = partition_weight_off_plane(r_mm, rho, abs(h_mm));
+  out_color = vec4(R * through_factor(slot, max(h_mm, 0.0)) * (M * M * w) * v_flux.rgb, 1.0);
 }
 #endif

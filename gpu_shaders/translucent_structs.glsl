@@ -32,6 +32,9 @@ struct MaterialsData {
   /* per subsurface slot k: [2k] (mm per unit, r_max mm, rho mm, eta),
    *   [2k + 1] (A_0, A_1, A_2 of the world's kernel F_t (n . w) (Funk-Hecke), the world splats' rho mm) */
   vec4 params[64];
+  /* per slot k, light through thin parts (physics/slab_through.py): [2k] (sigma_tr rgb per mm, A(eta)),
+   *   [2k + 1] (z_r rgb mm, 0) */
+  vec4 slab[64];
 };
 
 struct TemporalData {

@@ -2,7 +2,9 @@
 
 For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, Jensen 2001):
 
-    L_o(x_o) = F_t(eta, w_o) / pi * int_A R_d(|x_i - x_o|) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
+    L_o(x_o) = F_t(eta, w_o) / pi * int_A R_d(|x_i - x_o|) C(h) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
+
+with C(h) the thin-part factor of x_i lying h below x_o's tangent plane (``physics.slab_through``).
     E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
                (an environment image: its irradiance E_sh(n) in spherical harmonics, Shah Eq. 6.19)
 
@@ -29,6 +31,7 @@ from ..frame import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-
 from ..geometry.camera import pixel_rays
 from ..geometry.mesh_measures import facing_side, subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
+from ..physics import slab_through
 from ..physics.fresnel import fresnel_dielectric
 from ..physics.lut import near_integral, partition_off_plane, profile_model
 from ..physics.sh_irradiance import irradiance, transmittance_kernel
@@ -149,6 +152,9 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             near_share = area_mm2[cols] - weight
             contrib = model.R_d(r_mm[:, None], sa, ss, medium.eta) * (
                 E_i[cols] * area_mm2[cols, None] - E_o[start + rows] * near_share[:, None])
+            if medium.layer_thickness_mm is None:  # light through thin parts, as the methods draw it
+                depth_mm = np.einsum("ij,ij->i", x_o[start + rows] - x_i[cols], n_o[start + rows]) * mm
+                contrib *= slab_through.through_factor(depth_mm, sa, ss, medium.eta)
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]

@@ -24,6 +24,7 @@ import numpy as np
 
 from ...core.frame import FrameInputs, MeshInstance, box_of
 from ...core.lights import DIRECTIONAL, Emitter
+from ...core.physics import slab_through
 from ...core.physics.dipole import r_max
 from ...core.physics.lut import (
     BLUR_MIN,
@@ -120,15 +121,32 @@ class ImageSpacePlan:
         return out
 
 
+NO_SLAB_MM = 1e30  # z_r that keeps the thin-part factor at 1 (its ramp starts at 2 z_r)
+
+
+def slab_constants(med) -> tuple[np.ndarray, np.ndarray, float]:
+    """``slab_through.constants`` of a medium; a layer over a base (multipole) keeps its own profile through
+    thin parts (factor 1)."""
+    sigma_tr, z_r, A_eta = slab_through.constants(med.sigma_a, med.sigma_s_prime, med.eta)
+    if med.layer_thickness_mm is not None:
+        z_r = np.full(3, NO_SLAB_MM)
+    return sigma_tr, z_r, A_eta
+
+
 def materials_block(p: "ImageSpacePlan | None") -> bytes:
-    """The MaterialsData block (translucent_structs.glsl), 2 vec4 per slot: (mm_per_unit, r_max_mm, rho_mm,
-    eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm). Zeros for None."""
+    """The MaterialsData block (translucent_structs.glsl). params, 2 vec4 per slot: (mm_per_unit, r_max_mm,
+    rho_mm, eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm); slab, 2 vec4
+    per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``. Zeros for None."""
     data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
+    slab = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     for k, (t, m) in enumerate(zip(p.tables, p.media) if p is not None else ()):
         data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
         data[k, 1, :3] = transmittance_kernel(m.eta)
         data[k, 1, 3] = p.world.rho_mm[k] if p.world is not None else 0.0
-    return data.tobytes()
+        sigma_tr, z_r, A_eta = slab_constants(m)
+        slab[k, 0] = (*sigma_tr, A_eta)
+        slab[k, 1, :3] = z_r
+    return data.tobytes() + slab.tobytes()
 
 
 def world_sampling(meshes: list[MeshInstance], media, tables, settings: SamplingSettings) -> WorldSampling | None:
@@ -329,5 +347,8 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         t = crossover(r_mm * M, table.r_max)
         share = np.ones_like(t) if world else (t if tail else 1.0 - t)
         value = far_lookup(table, r_mm * M, tail) * (M * M * share * partition_off_plane(r_mm, rho, h_mm))[:, None]
+        # Light through thin parts: x_i below x_o's tangent plane by h (slab_through).
+        depth_mm = ((x_o[p] - pos[same]) @ n_o[p]) * med.mm_per_unit
+        value = value * slab_through.factor(depth_mm, *slab_constants(med))
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out

@@ -6,7 +6,8 @@ discretised twice (Sec. 4):
 
 * global, on the proxy's vertices (Sec. 5.2): hat functions psi_v, their duals
   psi~_v = 3 / A_v (4 beta_v - 1) (A_v the area of the triangles around v), the vertex irradiance
-  E^g_v = sum_texels psi~_v A E (Eq. 10) and throughput F_ij = A_i / 3 R_d(v_i, v_j) (entries below
+  E^g_v = sum_texels psi~_v A E (Eq. 10) and throughput F_ij = A_i / 3 R_d(v_i, v_j) C(h_ij) (C: light
+  through thin parts, ``physics.slab_through``, h_ij the depth of v_i below v_j's tangent plane; entries below
   ``THRESHOLD`` dropped); the diagonal is set to zero (F^0, Sec. 5.4);
 * local, on texels (Sec. 5.3): a 7x7 kernel per surface texel, K_o(i) = A_i R_d(x_o, x_i). R_d
   peaks within one texel, so the centre tap takes the closed-form integral of R_d over a disk of
@@ -29,6 +30,7 @@ import numpy as np
 
 from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import subtriangle_centroids, vertex_areas, vertex_normals
+from ...core.physics import slab_through
 from ...core.physics.lut import profile_model
 from .atlas import TexelAtlas
 
@@ -203,6 +205,8 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]])
     data = np.empty((len(src), 3), np.float32)
     n = vertex_normals(v, np.asarray(triangles, np.int64)) if triangles is not None else None
+    slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
+    through = np.ones((len(src), 3), np.float32)
     across = []
     for a in range(0, len(src), _CHUNK):
         b = min(a + _CHUNK, len(src))
@@ -210,9 +214,13 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
         data[a:b] = A_v[src[a:b], None] / 3.0 * material.R_d(r)
         if n is not None:
             across.append(a + np.flatnonzero(_across(n[src[a:b]], n[dst[a:b]], r, A_v[src[a:b]])))
+            # Light through thin parts: v_i lies h below v_j's tangent plane (physics.slab_through).
+            depth = np.einsum("ij,ij->i", v[dst[a:b]] - v[src[a:b]], n[dst[a:b]])
+            through[a:b] = slab_through.factor(depth, *slab)
     if across:
         across = np.concatenate(across)
         data[across] = hat_integrals(v, triangles, src[across], dst[across], material)
+    data *= through
     keep = data.max(axis=1) >= threshold
     src, dst, data = src[keep], dst[keep], data[keep]
     order = np.lexsort((src, dst))
@@ -256,6 +264,7 @@ class _GlobalResponse:
         self.V = len(self.v)
         self.A_v = A_v
         self.normals = vertex_normals(self.v, self.t)
+        self.slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
         indptr, F_indices, self.F_data = throughput_csr
         rows = np.repeat(np.arange(self.V, dtype=np.int64), np.diff(indptr))
         # Sorted keys receiver * V + source of the stored entries (rows by receiver, columns ascending).
@@ -285,6 +294,8 @@ class _GlobalResponse:
         Vs, Vo = self.t[us], self.t[uo]  # (U, 3)
         r = np.linalg.norm(self.v[Vs][:, :, None, :] - self.v[Vo][:, None, :, :], axis=3)  # (U, 3, 3)
         F = (self.A_v[Vs][:, :, None, None] / 3.0) * self.material.R_d(r.ravel()).reshape(len(unique), 3, 3, 3)
+        depth = np.einsum("uabk,ubk->uab", self.v[Vo][:, None, :, :] - self.v[Vs][:, :, None, :], self.normals[Vo])
+        F *= slab_through.factor(depth, *self.slab)  # as ``throughput`` stores it
         F[F.max(axis=3) < self.threshold] = 0.0
         same = Vs[:, :, None] == Vo[:, None, :]  # F^0 has no diagonal: no vertex sends to itself
         F[same] = 0.0
@@ -547,7 +558,11 @@ def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, 
     # Near pairs on the same side: the hat integral instead of the point rule.
     r = np.linalg.norm(v[bake.F_indices] - v[rows], axis=1)
     near = np.flatnonzero(r < ACROSS_REACH * np.sqrt(A_v[bake.F_indices]))
-    delta = hat_integrals(v, t, bake.F_indices[near], rows[near], material) - bake.F_data[near]
+    normals = vertex_normals(v, t)
+    depth = np.einsum("ij,ij->i", v[rows[near]] - v[bake.F_indices[near]], normals[rows[near]])
+    through = slab_through.factor(depth, *slab_through.constants(material.sigma_a, material.sigma_s_prime,
+                                                                   material.eta))
+    delta = hat_integrals(v, t, bake.F_indices[near], rows[near], material) * through - bake.F_data[near]
     for c in range(3):
         exact[:, c] += np.bincount(rows[near], weights=delta[:, c], minlength=V)
     own = np.arange(V)
