@@ -84,8 +84,9 @@ def random_walk_calibration() -> dict[float, tuple[np.ndarray, np.ndarray]]:
     return table
 
 
-def random_walk_base_color(rho: ArrayLike, eta: float) -> np.ndarray | float:
-    """Base Color A for which Cycles' random walk renders diffuse albedo rho (clamped to its range)."""
+def _across_eta(eta: float, curve) -> np.ndarray | float:
+    """``curve(A, rho_eff)`` on the calibration tables either side of eta, linear in eta between them (clamped
+    to the tabulated range). Each table starts at A = 0, rho_eff = 0: a black medium reflects nothing."""
     table = random_walk_calibration()
     etas = np.array(sorted(table))
     eta = float(np.clip(eta, etas[0], etas[-1]))
@@ -93,13 +94,21 @@ def random_walk_base_color(rho: ArrayLike, eta: float) -> np.ndarray | float:
     lo = hi - 1
     t = (eta - etas[lo]) / (etas[hi] - etas[lo])
 
-    def invert(e: float) -> np.ndarray | float:
-        A, r = (np.concatenate([[0.0], x]) for x in table[float(e)])  # a black medium reflects nothing
+    def on(e: float) -> np.ndarray | float:
+        return curve(*(np.concatenate([[0.0], x]) for x in table[float(e)]))
+
+    return (1 - t) * on(etas[lo]) + t * on(etas[hi])
+
+
+def random_walk_base_color(rho: ArrayLike, eta: float) -> np.ndarray | float:
+    """Base Color A for which Cycles' random walk renders diffuse albedo rho (clamped to its range)."""
+
+    def invert(A: np.ndarray, r: np.ndarray) -> np.ndarray | float:
         # np.interp needs rising x: break the plateau ties at the top by keeping the first A.
         keep = np.concatenate([[True], np.diff(r) > 0])
         return np.interp(rho, r[keep], A[keep])
 
-    return (1 - t) * invert(etas[lo]) + t * invert(etas[hi])
+    return _across_eta(eta, invert)
 
 
 def random_walk_max_albedo(eta: float) -> float:
@@ -163,20 +172,8 @@ def random_walk_albedo(base_color: ArrayLike, eta: float) -> np.ndarray | float:
     """rho_eff(A, eta): the diffuse albedo Cycles' random walk renders for Base Color A (the calibration,
     linear in A between its samples and in eta between its tables; the inverse of ``random_walk_base_color``
     where rho_eff rises)."""
-    table = random_walk_calibration()
-    etas = np.array(sorted(table))
-    eta = float(np.clip(eta, etas[0], etas[-1]))
-    hi = int(np.clip(np.searchsorted(etas, eta), 1, len(etas) - 1))
-    lo = hi - 1
-    t = (eta - etas[lo]) / (etas[hi] - etas[lo])
     A = np.asarray(base_color, dtype=np.float64)
-
-    def at(e: float) -> np.ndarray:
-        samples, rho = table[float(e)]
-        # Below the first sample rho_eff goes to 0 with A (a black medium reflects nothing).
-        return np.interp(A, np.concatenate([[0.0], samples]), np.concatenate([[0.0], rho]))
-
-    return (1 - t) * at(etas[lo]) + t * at(etas[hi])
+    return _across_eta(eta, lambda samples, rho: np.interp(A, samples, rho))
 
 
 def reduced_albedo_for(rho: ArrayLike, eta: float, iterations: int = 60) -> np.ndarray:
