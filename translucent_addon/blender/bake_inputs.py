@@ -226,7 +226,7 @@ def serves_others(ob, method: str, digest: str) -> bool:
         if other == ob or other.data != mesh or bake_files.owner(other, method) != mesh:  # IDs compare by ==
             continue
         try:
-            if inputs_hash(gather(other.evaluated_get(depsgraph), method)) == stored:
+            if bake_status(other.evaluated_get(depsgraph), method) == "OK":  # the mesh's bake is its
                 return True
         except BakeInputError:
             continue

@@ -53,15 +53,12 @@ def material_base_color(mat) -> tuple[float, float, float]:
     """Linear base colour: the Principled/Diffuse node feeding the output, else the viewport colour."""
     if mat is None:
         return DEFAULT_COLOR
-    tree = getattr(mat, "node_tree", None)
-    if tree is not None:
-        out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
-        if out is not None and out.inputs["Surface"].is_linked:
-            node = out.inputs["Surface"].links[0].from_node
-            for name in ("Base Color", "Color"):
-                sock = node.inputs.get(name)
-                if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
-                    return tuple(float(c) for c in sock.default_value[:3])
+    node = medium_source.surface_node(mat)
+    if node is not None:
+        for name in ("Base Color", "Color"):
+            sock = node.inputs.get(name)
+            if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
+                return tuple(float(c) for c in sock.default_value[:3])
     return tuple(float(c) for c in mat.diffuse_color[:3])
 
 

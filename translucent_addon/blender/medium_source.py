@@ -20,8 +20,8 @@ import numpy as np
 
 from ..core.physics.cycles_conversion import medium_from_random_walk
 
-ETA_RANGE = (1.0, 3.0)  # the medium settings' IOR range
-G_RANGE = (-0.99, 0.99)
+ETA_RANGE = (1.0, 3.0)  # the medium settings' IOR range (``props`` takes it from here)
+G_RANGE = (-0.99, 0.99)  # and their anisotropy's
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,18 +67,25 @@ def medium_material(ob):
     return None
 
 
-def principled_bsdf(mat):
-    """The material's Principled BSDF: the one feeding the active output's Surface, else the first in its
-    tree (None: no node tree or no Principled BSDF)."""
+def surface_node(mat):
+    """The node feeding the material's active output's Surface (None: no node tree, or nothing linked)."""
     tree = getattr(mat, "node_tree", None)
     if tree is None:
         return None
     out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
-    if out is not None and out.inputs["Surface"].is_linked:
-        node = out.inputs["Surface"].links[0].from_node
-        if node.type == "BSDF_PRINCIPLED":
-            return node
-    return next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    return out.inputs["Surface"].links[0].from_node
+
+
+def principled_bsdf(mat):
+    """The material's Principled BSDF: the one feeding the active output's Surface, else the first in its
+    tree (None: no node tree or no Principled BSDF)."""
+    node = surface_node(mat)
+    if node is not None and node.type == "BSDF_PRINCIPLED":
+        return node
+    tree = getattr(mat, "node_tree", None)
+    return None if tree is None else next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
 
 
 def _value(node, name: str, notes: list):
@@ -114,10 +121,21 @@ def principled_inputs(node) -> PrincipledInputs:
     if getattr(node, "subsurface_method", "RANDOM_WALK") != "RANDOM_WALK":
         notes.append(f"subsurface method {node.subsurface_method.replace('_', ' ').title()} is converted as "
                      f"Random Walk")
-    if not ETA_RANGE[0] <= ior <= ETA_RANGE[1]:
-        notes.append(f"IOR {ior:g} is drawn as {min(max(ior, ETA_RANGE[0]), ETA_RANGE[1]):g}")
-    return PrincipledInputs(tuple(base), tuple(float(r) for r in radius), min(max(ior, ETA_RANGE[0]), ETA_RANGE[1]),
+    eta = min(max(ior, ETA_RANGE[0]), ETA_RANGE[1])
+    if eta != ior:
+        notes.append(f"IOR {ior:g} is drawn as {eta:g}")
+    return PrincipledInputs(tuple(base), tuple(float(r) for r in radius), eta,
                             min(max(anisotropy, G_RANGE[0]), G_RANGE[1]), float(weight), tuple(notes))
+
+
+def principled_of(mat) -> tuple[PrincipledInputs | None, str]:
+    """(the subsurface inputs of the material's Principled BSDF, "") or (None, why it has none to convert:
+    "no Principled BSDF", "Subsurface Weight 0")."""
+    node = principled_bsdf(mat)
+    if node is None:
+        return None, "no Principled BSDF"
+    p = principled_inputs(node)
+    return (p, "") if p.weight > 0.0 else (None, "Subsurface Weight 0")
 
 
 @functools.lru_cache(maxsize=256)
@@ -148,14 +166,9 @@ def resolve(ob, scene=None) -> ObjectMedium:
     if m.source == "OBJECT":
         return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' leaves it to each object",
                     material=mat.name)
-    node = principled_bsdf(mat)
-    if node is None:
-        return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' has no Principled BSDF",
-                    material=mat.name)
-    p = principled_inputs(node)
-    if p.weight <= 0.0:
-        return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' has Subsurface Weight 0",
-                    material=mat.name)
+    p, why = principled_of(mat)
+    if p is None:
+        return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' has {why}", material=mat.name)
     sigma_a, sigma_s_prime = _converted(p.base_color, p.radius, p.ior, p.anisotropy, mm)
     return ObjectMedium(sigma_a, sigma_s_prime, p.ior, p.anisotropy, "EXACT", 0.001, sigma_a, sigma_s_prime, mm,
                         "PRINCIPLED", mat.name, f"Material '{mat.name}': from its Principled BSDF", p.notes)

@@ -113,7 +113,7 @@ def _set_mm_per_unit(self, value: float) -> None:
 
 def _medium_properties() -> dict:
     """The medium's settings, on the Material (shared by its objects) and on the Object (its own, when it has
-    no material or its material leaves the medium to it): ``blender/medium.py`` says which holds."""
+    no material or its material leaves the medium to it): ``medium_source`` says which holds."""
     return dict(
         preset=bpy.props.EnumProperty(name="Preset", description="Measured material coefficients (Jensen et al. "
                                       "2001), or your own", items=_preset_items, update=_on_preset),
@@ -124,10 +124,12 @@ def _medium_properties() -> dict:
             name="Reduced scattering (mm⁻¹)",
             description="Reduced scattering coefficient sigma_s' = (1 - g) sigma_s per RGB channel, in 1/mm",
             size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00), update=_on_coefficients),
-        eta=bpy.props.FloatProperty(name="IOR", description="Relative index of refraction eta", min=1.0, max=3.0,
-                                    default=1.3, update=_on_coefficients),
-        g=bpy.props.FloatProperty(name="Anisotropy g", description="Mean cosine of the phase function", min=-0.99,
-                                  max=0.99, default=0.0, update=_on_coefficients),
+        eta=bpy.props.FloatProperty(name="IOR", description="Relative index of refraction eta",
+                                    min=medium_source.ETA_RANGE[0], max=medium_source.ETA_RANGE[1], default=1.3,
+                                    update=_on_coefficients),
+        g=bpy.props.FloatProperty(name="Anisotropy g", description="Mean cosine of the phase function",
+                                  min=medium_source.G_RANGE[0], max=medium_source.G_RANGE[1], default=0.0,
+                                  update=_on_coefficients),
         profile=bpy.props.EnumProperty(
             name="Profile", description="Radial profile of the light that scatters under the surface",
             # Numbered: files store the number, and EXACT came after the other two.

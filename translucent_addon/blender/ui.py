@@ -173,14 +173,11 @@ def draw_material(layout, context, mat) -> None:
     elif s.source == "OBJECT":
         layout.label(text="Each object's own coefficients, in its Object properties", icon="OBJECT_DATA")
     else:
-        node = medium_source.principled_bsdf(mat)
-        if node is None:
-            layout.label(text="No Principled BSDF: each object keeps its own coefficients", icon="INFO")
-            return
-        p = medium_source.principled_inputs(node)
-        if p.weight <= 0.0:
-            layout.label(text="Subsurface Weight 0: each object keeps its own coefficients", icon="INFO")
-            layout.label(text="Raise Subsurface Weight to convert the material's subsurface")
+        p, why = medium_source.principled_of(mat)
+        if p is None:
+            layout.label(text=f"{why[0].upper()}{why[1:]}: each object keeps its own coefficients", icon="INFO")
+            if why == "Subsurface Weight 0":
+                layout.label(text="Raise Subsurface Weight to convert the material's subsurface")
             return
         ob = context.object
         if ob is not None and ob.type == "MESH" and medium_source.medium_material(ob) == mat:
