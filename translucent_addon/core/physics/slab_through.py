@@ -35,14 +35,19 @@ from .dipole import A
 
 RAMP_MFP = (2.0, 4.0)  # the factor ramps in over these depths, in mean free paths 1 / sigma_t'
 SIGMA_TR_MIN = 1e-9  # per mm: a medium that does not absorb, as the limit sigma_tr -> 0
+NO_SLAB_MM = 1e30  # z_r that keeps the factor at 1 at every depth (its ramp starts at 2 z_r)
 
 
-def constants(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(sigma_tr, z_r) per channel in mm^-1 and mm, and A(eta): what ``through_factor`` needs (the GPU's too)."""
+def constants(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float,
+              layered: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
+    """(sigma_tr, z_r) per channel in mm^-1 and mm, and A(eta): what ``factor`` needs (the GPU's too).
+    ``layered``: the medium is a layer over a base (multipole), which keeps its own profile through thin
+    parts: z_r out of reach, factor 1."""
     sigma_a = np.asarray(sigma_a, np.float64)
     sigma_t_prime = sigma_a + np.asarray(sigma_s_prime, np.float64)
     sigma_tr = np.maximum(np.sqrt(3.0 * sigma_a * sigma_t_prime), SIGMA_TR_MIN)
-    return sigma_tr, 1.0 / sigma_t_prime, float(A(eta))
+    z_r = np.full(3, NO_SLAB_MM) if layered else 1.0 / sigma_t_prime
+    return sigma_tr, z_r, float(A(eta))
 
 
 def _one_minus_exp(x: np.ndarray) -> np.ndarray:

@@ -135,6 +135,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         model = profile_model(medium.profile)  # the medium's own profile: this is the discretisation check
         reach = max(float(np.max(model.r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
         total = E_o * near_integral(sa, ss, medium.eta, rho, profile=medium.profile)
+        slab = slab_through.constants(sa, ss, medium.eta, layered=medium.layer_thickness_mm is not None)
         tree_i = cKDTree(x_i)
         # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
         neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))
@@ -152,9 +153,9 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             near_share = area_mm2[cols] - weight
             contrib = model.R_d(r_mm[:, None], sa, ss, medium.eta) * (
                 E_i[cols] * area_mm2[cols, None] - E_o[start + rows] * near_share[:, None])
-            if medium.layer_thickness_mm is None:  # light through thin parts, as the methods draw it
-                depth_mm = np.einsum("ij,ij->i", x_o[start + rows] - x_i[cols], n_o[start + rows]) * mm
-                contrib *= slab_through.through_factor(depth_mm, sa, ss, medium.eta)
+            # Light through thin parts, as the methods draw it.
+            depth_mm = np.einsum("ij,ij->i", x_o[start + rows] - x_i[cols], n_o[start + rows]) * mm
+            contrib *= slab_through.factor(depth_mm, *slab)
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]

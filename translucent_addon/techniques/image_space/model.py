@@ -121,16 +121,9 @@ class ImageSpacePlan:
         return out
 
 
-NO_SLAB_MM = 1e30  # z_r that keeps the thin-part factor at 1 (its ramp starts at 2 z_r)
-
-
 def slab_constants(med) -> tuple[np.ndarray, np.ndarray, float]:
-    """``slab_through.constants`` of a medium; a layer over a base (multipole) keeps its own profile through
-    thin parts (factor 1)."""
-    sigma_tr, z_r, A_eta = slab_through.constants(med.sigma_a, med.sigma_s_prime, med.eta)
-    if med.layer_thickness_mm is not None:
-        z_r = np.full(3, NO_SLAB_MM)
-    return sigma_tr, z_r, A_eta
+    """``slab_through.constants`` of a medium (a layer over a base keeps its own profile: factor 1)."""
+    return slab_through.constants(med.sigma_a, med.sigma_s_prime, med.eta, layered=med.layer_thickness_mm is not None)
 
 
 def materials_block(p: "ImageSpacePlan | None") -> bytes:
