@@ -4,7 +4,9 @@
  * splats' near field (or the whole profile R_d when the world is not peeled: a locally flat
  * surface), and per emitter the near field of the
  * profile F_t(w_o) / pi * E F_t(w_i) V * near(M_d) * M_i (the far field is splatted by
- * IMAGE_SPACE). The painted mask m blends subsurface (m = 1) and Lambert (m = 0). */
+ * IMAGE_SPACE). Subsurface light leaves weighed by the angular law's a(cos_o), and an emitter's enters
+ * weighed by a(cos_i) (translucent_angular.glsl; the world's light is diffuse, over which a averages 1).
+ * The painted mask m blends subsurface (m = 1) and Lambert (m = 0). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -52,7 +54,8 @@ void main()
       int slots = textureSize(near_lut, 0).y / 2;
       float M = clamp(v_paint.y, 0.25, 1.0);
       sss = frame.world_color.rgb * F_r +
-            (1.0 - F_r) / PI * world_irradiance(n, materials.params[2 * slot + 1].xyz) * near_field(slots + slot, M) * modulation;
+            (1.0 - F_r) / PI * world_irradiance(n, materials.params[2 * slot + 1].xyz) * near_field(slots + slot, M) *
+            angular_weight(slot, cos_o) * modulation;
     }
     out_color = vec4(mix(lambert, sss, m), 1.0);
     return;
@@ -76,7 +79,7 @@ void main()
     float eta = materials.params[2 * slot].w;
     float M = clamp(v_paint.y, 0.25, 1.0);
     sss = (1.0 - fresnel_dielectric(cos_o, eta)) / PI * E * (1.0 - fresnel_dielectric(cos_i, eta)) *
-          near_field(slot, M) * modulation;
+          near_field(slot, M) * angular_weight(slot, cos_i) * angular_weight(slot, cos_o) * modulation;
   }
   out_color = vec4(mix(lambert, sss, m), 0.0);
 }

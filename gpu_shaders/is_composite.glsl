@@ -1,4 +1,5 @@
-/* IMAGE_SPACE final pass: adds F_t(w_o) / pi * S(x_o) * m, the splatted far field, to the
+/* IMAGE_SPACE final pass: adds F_t(w_o) / pi * a(cos_o) * S(x_o) * m, the splatted far field with the angular
+ * law's weight of the light leaving (translucent_angular.glsl), to the
  * subsurface objects' pixels (additive over the base pass, depth-tested against it). */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -22,6 +23,7 @@ void main()
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float eta = materials.params[2 * slot].w;
   vec3 S = texelFetch(scatter, ivec2(gl_FragCoord.xy), 0).rgb;
-  out_color = vec4((1.0 - fresnel_dielectric(max(dot(n, to_eye), 0.0), eta)) / PI * S * v_paint.x, 0.0);
+  float cos_o = max(dot(n, to_eye), 0.0);
+  out_color = vec4((1.0 - fresnel_dielectric(cos_o, eta)) / PI * angular_weight(slot, cos_o) * S * v_paint.x, 0.0);
 }
 #endif

@@ -1,7 +1,8 @@
 /* IMAGE_SPACE pass 1 (Shah 6.4.1): light-view samples x_i. Every surface is drawn (other
  * objects occlude: shadows); subsurface surfaces store their position and slot + 1, and the
  * power entering through their texel, Phi = E F_t(w_i) dA (point: I F_t dw_texel; directional:
- * E F_t texel area), times mm per unit^2 (dA in mm^2), the mask and M_i; alpha holds M_d. */
+ * E F_t texel area), times mm per unit^2 (dA in mm^2), the mask, M_i and the angular law's a(cos_i)
+ * (translucent_angular.glsl); alpha holds M_d. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -51,7 +52,7 @@ void main()
     radiance *= dot(d, d);
   }
   vec3 phi = radiance * (1.0 - fresnel_dielectric(cos_i, mat.w)) * shading * measure * mat.x * mat.x;
-  phi *= v_paint.x * v_paint.z * v_tint;
+  phi *= v_paint.x * v_paint.z * v_tint * angular_weight(slot, cos_i); /* the angular law, entering */
   out_pos_id = vec4(v_world, object.shading.x);
   out_flux = vec4(phi, clamp(v_paint.y, 0.25, 1.0));
 }

@@ -68,6 +68,17 @@ vec3 table_lerp(sampler2D table, float u)
              x - float(k));
 }
 
+/* An n x 1 table of cosines' rgb at mu (texel k at mu = (k + 0.5) / n), read linearly and clamped to its end
+ * texels (physics/angular_law.lookup); one texel: its value. */
+vec3 cosine_lerp(sampler2D table, float mu)
+{
+  int n = textureSize(table, 0).x;
+  float u = clamp(mu * float(n) - 0.5, 0.0, float(n - 1));
+  int k = int(floor(u));
+  return mix(texelFetch(table, ivec2(k, 0), 0).rgb, texelFetch(table, ivec2(min(k + 1, n - 1), 0), 0).rgb,
+             u - float(k));
+}
+
 #ifdef GPU_FRAGMENT_SHADER
 /* Whether this fragment sees the outside of its triangle: gl_FrontFacing under the object's own winding.
  * A mirrored object (a negative scale, a negative determinant: the object block's shading.y = 1) turns

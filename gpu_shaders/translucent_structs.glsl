@@ -35,6 +35,8 @@ struct MaterialsData {
   /* per slot k, light through thin parts (physics/slab_through.py): [2k] (sigma_tr rgb per mm, A(eta)),
    *   [2k + 1] (z_r rgb mm, 0) */
   vec4 slab[64];
+  /* per slot k, the angular law a(mu) (physics/angular_law.py) at mu = (j + 0.5) / 16: [16 k + j] rgb */
+  vec4 angular[512];
 };
 
 struct TemporalData {

@@ -1,6 +1,7 @@
 /* TEXTURE_SPACE display (Lensch Eq. 1, 14): the displayed mesh with its atlas coordinates reads
  * the local and the global radiosity (bilinear, weighted by texel coverage) and leaves
- * L = F_t(w_o) / pi (B^l + T_p B^g) + F_r(w_o) L_world. */
+ * L = F_t(w_o) / pi a(cos_o) (B^l + T_p B^g) + F_r(w_o) L_world, a the angular law of the light leaving
+ * (physics/angular_law.py; its emitters' light entered weighed by a(cos_i) in ts_illumination). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -38,13 +39,14 @@ void main()
     n = -n;
   }
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
-  float F_r = fresnel_dielectric(max(dot(n, to_eye), 0.0), eta);
+  float cos_o = max(dot(n, to_eye), 0.0);
+  float F_r = fresnel_dielectric(cos_o, eta);
   vec4 l = bilinear(local_map, v_uv);
   vec4 g = bilinear(global_map, v_uv);
   vec3 B = (l.a > 0.0 ? l.rgb / l.a : vec3(0.0)) + v_color * (g.a > 0.0 ? g.rgb / g.a : vec3(0.0));
   /* The corrected kernels are negative where the vertex response overshoots; at a terminator the sum
    * can dip below zero in a short channel. Radiosity cannot. */
   B = max(B, vec3(0.0));
-  out_color = vec4((1.0 - F_r) / PI * B + F_r * frame.world_color.rgb, 1.0);
+  out_color = vec4((1.0 - F_r) / PI * cosine_lerp(angular_table, cos_o) * B + F_r * frame.world_color.rgb, 1.0);
 }
 #endif

@@ -5,8 +5,9 @@
  * emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
  * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's E is
- * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation, the world's by its last
- * texel (one texel of 1 leaves E; QUADGRAPH's exitance loss pass: physics/single_scattering.exitance_loss). */
+ * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation (``cosine_lerp``), the world's by
+ * its last texel (one texel of 1 leaves E; TEXTURE_SPACE's emitters: the angular law, physics/angular_law.py;
+ * QUADGRAPH's exitance loss pass: physics/single_scattering.exitance_loss). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -36,10 +37,6 @@ void main()
     discard;
   }
   vec3 E = radiance * cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);
-  float u = clamp(cos_i * float(n) - 0.5, 0.0, float(n - 1));
-  int k = int(floor(u));
-  E *= mix(texelFetch(cosine_table, ivec2(k, 0), 0).rgb,
-           texelFetch(cosine_table, ivec2(min(k + 1, n - 1), 0), 0).rgb, u - float(k));
-  out_irradiance = vec4(E, 0.0);
+  out_irradiance = vec4(E * cosine_lerp(cosine_table, cos_i), 0.0);
 }
 #endif

@@ -46,7 +46,7 @@ SPECS = {  # the pipeline's own passes; each technique joins its own (techniques
     ),
     "base_lighting": ShaderSpec(
         source="base_lighting.glsl",
-        libraries=SHADOW_LIBS + ("translucent_world_sh.glsl",),
+        libraries=SHADOW_LIBS + ("translucent_world_sh.glsl", "translucent_angular.glsl"),
         vertex_in=SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
                   ("smooth", "VEC4", "v_paint"), ("smooth", "VEC3", "v_tint")),

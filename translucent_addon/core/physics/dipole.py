@@ -116,3 +116,9 @@ def splat_grid(frustum_width: float, sigma_a: ArrayLike, sigma_s_prime: ArrayLik
     radius = r_max(sigma_a, sigma_s_prime, eta, epsilon)
     n_o = overlap_count(sigma_a, sigma_s_prime, eta, epsilon, radius)
     return np.ceil(0.5 * n_o * frustum_width / radius)
+
+
+def angular_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: int = 16) -> np.ndarray:
+    """The angular weights of the papers' model, (n, 3) ones: Jensen 2001 Eq. 4 sends R_d out Lambertian under
+    light from any angle (``angular_law`` is the exact profile's; n is its SAMPLES)."""
+    return np.ones((n, 3))

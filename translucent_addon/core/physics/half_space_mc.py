@@ -55,14 +55,15 @@ def _isotropic(rng: np.random.Generator, k: int) -> tuple[np.ndarray, np.ndarray
 
 
 def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed: int = 0,
-          max_scatterings: int = 400_000, batch: int = 400_000) -> Escapes:
+          max_scatterings: int = 400_000, batch: int = 400_000, incidence: float | None = None) -> Escapes:
     """Trace ``photons`` into the half-space z > 0 (sigma_t' = 1, isotropic scattering).
 
     albedo None: no absorption, every photon is followed until it leaves or has scattered max_scatterings
     times (``profile`` weighs it alpha'^n afterwards). albedo a scalar or one value per photon: absorbed as
     it goes (survival alpha' per scattering, Russian roulette below weight 1e-3), for an independent check.
     Photons refused at the entrance by Fresnel reflection are launched but never enter (the external
-    specular reflection is not subsurface light).
+    specular reflection is not subsurface light). ``incidence``: every photon arrives at that cosine (a
+    beam) instead of cosine-weighted.
     """
     rng = np.random.default_rng(seed)
     per_photon = None if albedo is None else np.broadcast_to(np.asarray(albedo, np.float64), (photons,))
@@ -71,8 +72,8 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
     truncated = 0
     for start in range(0, photons, batch):
         k = min(batch, photons - start)
-        # Cosine-weighted incidence (Malley), refracted in; Fresnel decides whether it enters.
-        mu_i = np.sqrt(rng.random(k))
+        # Cosine-weighted incidence (Malley) or a beam, refracted in; Fresnel decides whether it enters.
+        mu_i = np.sqrt(rng.random(k)) if incidence is None else np.full(k, float(incidence))
         enters = rng.random(k) >= fresnel_dielectric(mu_i, eta)
         idx = np.flatnonzero(enters)
         launched_entered += len(idx)

@@ -2,10 +2,11 @@
 
 For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, Jensen 2001):
 
-    L_o(x_o) = F_t(eta, w_o) / pi * int_A R_d(|x_i - x_o|) C(h) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
+    L_o(x_o) = F_t(eta, w_o) / pi * a(n . w_o) * int_A R_d(|x_i - x_o|) C(h) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
 
-with C(h) the thin-part factor of x_i lying h below x_o's tangent plane (``physics.slab_through``).
-    E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
+with C(h) the thin-part factor of x_i lying h below x_o's tangent plane (``physics.slab_through``) and a the
+profile's angular law (``physics.angular_law``; 1 for the papers' dipole).
+    E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) a(n . w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
                (an environment image: its irradiance E_sh(n) in spherical harmonics, Shah Eq. 6.19)
 
 The integral is split by a smooth partition of unity w(r) (0 below rho, 1 above 2 rho): the near
@@ -31,7 +32,7 @@ from ..frame import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-
 from ..geometry.camera import pixel_rays
 from ..geometry.mesh_measures import facing_side, subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
-from ..physics import slab_through
+from ..physics import angular_law, slab_through
 from ..physics.fresnel import fresnel_dielectric
 from ..physics.lut import near_integral, partition_off_plane, profile_model
 from ..physics.sh_irradiance import irradiance, transmittance_kernel
@@ -67,8 +68,10 @@ def sample_surface(mesh: MeshInstance, count: int) -> tuple[np.ndarray, np.ndarr
 
 
 def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.ndarray, medium: Medium, tracer: Any,
-                           scale: float, facet_normals: np.ndarray) -> np.ndarray:
+                           scale: float, facet_normals: np.ndarray, angular: np.ndarray | None = None) -> np.ndarray:
     """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world.
+    ``angular``: the angular law's table, weighing each light's power by a(cos_i) (the world's light is diffuse:
+    a averages 1 over it).
 
     The cosine is the interpolated normal's; visibility is the facet's, as a light's view (IMAGE_SPACE
     samples, shadow maps) and Cycles' shadow rays (offset along the facet normal) see it: a facet that
@@ -80,7 +83,8 @@ def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.n
     for E_e, to_light in shadowed_irradiance(frame.emitters, p_off, normals, tracer):
         cos_i = np.einsum("ij,ij->i", normals, to_light)
         facing = np.einsum("ij,ij->i", facet_normals, to_light) > 0
-        E += E_e * ((1.0 - fresnel_dielectric(cos_i, medium.eta)) * facing)[:, None]
+        transmitted = E_e * ((1.0 - fresnel_dielectric(cos_i, medium.eta)) * facing)[:, None]
+        E += transmitted if angular is None else transmitted * angular_law.lookup(angular, cos_i)
     # The world's irradiance through the boundary, unoccluded, to SH order 2 (Shah Eq. 6.19); for a
     # uniform world exactly pi L (1 - F_dr).
     E += irradiance(frame.world_sh(), transmittance_kernel(medium.eta), normals)
@@ -126,13 +130,14 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         g_o = facing_side(np.cross(tri_o[:, 1] - tri_o[:, 0], tri_o[:, 2] - tri_o[:, 0]), n_o)
         g_o /= np.maximum(np.linalg.norm(g_o, axis=1, keepdims=True), 1e-30)
         x_i, n_i, area, g_i = sample_surface(mesh, samples)
-        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale, g_i)
-        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale, g_o)
         mm = medium.mm_per_unit
         sa, ss = np.asarray(medium.sigma_a, float), np.asarray(medium.sigma_s_prime, float)
+        model = profile_model(medium.profile)  # the medium's own profile: this is the discretisation check
+        angular = model.angular_table(sa, ss, medium.eta)
+        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale, g_i, angular)
+        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale, g_o, angular)
         area_mm2 = area * mm * mm
         rho = 2.0 * math.sqrt(float(area_mm2.max()))  # two sample spacings
-        model = profile_model(medium.profile)  # the medium's own profile: this is the discretisation check
         reach = max(float(np.max(model.r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
         total = E_o * near_integral(sa, ss, medium.eta, rho, profile=medium.profile)
         slab = slab_through.constants(sa, ss, medium.eta, layered=medium.layer_thickness_mm is not None)
@@ -160,6 +165,6 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]
         # Subsurface light, plus the smooth boundary's reflection of the uniform world (unoccluded).
-        L = (1.0 - F_r) / math.pi * total + F_r * np.asarray(frame.world_color)
+        L = (1.0 - F_r) / math.pi * angular_law.lookup(angular, cos_o) * total + F_r * np.asarray(frame.world_color)
         flat[np.flatnonzero(mine), :3] = L
     return image

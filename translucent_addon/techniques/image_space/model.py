@@ -24,7 +24,7 @@ import numpy as np
 
 from ...core.frame import FrameInputs, MeshInstance, box_of
 from ...core.lights import DIRECTIONAL, Emitter
-from ...core.physics import slab_through
+from ...core.physics import angular_law, slab_through
 from ...core.physics.dipole import r_max
 from ...core.physics.lut import (
     BLUR_MIN,
@@ -35,6 +35,7 @@ from ...core.physics.lut import (
     image_space_tables,
     multipole_profile,
     partition_off_plane,
+    profile_model,
     profile_tables,
 )
 from ...core.physics.sh_irradiance import transmittance_kernel
@@ -129,9 +130,11 @@ def slab_constants(med) -> tuple[np.ndarray, np.ndarray, float]:
 def materials_block(p: "ImageSpacePlan | None") -> bytes:
     """The MaterialsData block (translucent_structs.glsl). params, 2 vec4 per slot: (mm_per_unit, r_max_mm,
     rho_mm, eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm); slab, 2 vec4
-    per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``. Zeros for None."""
+    per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``; angular, ``angular_law.SAMPLES`` vec4
+    per slot: the medium's profile's angular law. Zeros for None."""
     data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     slab = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
+    angular = np.zeros((MAX_MATERIALS, angular_law.SAMPLES, 4), np.float32)
     for k, (t, m) in enumerate(zip(p.tables, p.media) if p is not None else ()):
         data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
         data[k, 1, :3] = transmittance_kernel(m.eta)
@@ -139,7 +142,13 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
         sigma_tr, z_r, A_eta = slab_constants(m)
         slab[k, 0] = (*sigma_tr, A_eta)
         slab[k, 1, :3] = z_r
-    return data.tobytes() + slab.tobytes()
+        angular[k, :, :3] = angular_table(m)
+    return data.tobytes() + slab.tobytes() + angular.tobytes()
+
+
+def angular_table(med) -> np.ndarray:
+    """The angular law's a(mu) (``angular_law.SAMPLES``, 3) of a medium under its profile (ones for DIPOLE)."""
+    return profile_model(med.profile).angular_table(med.sigma_a, med.sigma_s_prime, med.eta)
 
 
 def world_sampling(meshes: list[MeshInstance], media, tables, settings: SamplingSettings) -> WorldSampling | None:

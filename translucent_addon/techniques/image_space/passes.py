@@ -47,7 +47,7 @@ SHADER_SPECS = {
     ),
     "is_samples": shaders.ShaderSpec(
         source="is_samples.glsl",
-        libraries=shaders.LIGHT_LIBS,
+        libraries=shaders.LIGHT_LIBS + ("translucent_angular.glsl",),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
                   ("smooth", "VEC3", "v_tint")),
@@ -77,6 +77,7 @@ SHADER_SPECS = {
     ),
     "is_composite": shaders.ShaderSpec(
         source="is_composite.glsl",
+        libraries=("translucent_common.glsl", "translucent_angular.glsl"),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),

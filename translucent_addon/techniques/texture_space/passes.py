@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 
+from ...core.physics.lut import profile_model
 from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
@@ -67,7 +68,7 @@ SHADER_SPECS = {
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
                   ("smooth", "VEC2", "v_uv")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
-        samplers=((0, "FLOAT_2D", "local_map"), (1, "FLOAT_2D", "global_map")),
+        samplers=((0, "FLOAT_2D", "local_map"), (1, "FLOAT_2D", "global_map"), (2, "FLOAT_2D", "angular_table")),
         push_constants=(("FLOAT", "eta"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
@@ -132,11 +133,25 @@ def prepare(frame) -> list[Active]:
 
 
 def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline) -> None:
-    """Add one emitter's (mode 1) or the world's (mode 0, clears first) irradiance to each map."""
+    """Add one emitter's (mode 1, weighed by the angular law at its cosine) or the world's (mode 0, clears first;
+    diffuse, over which the law averages 1) irradiance to each map."""
     for a in actives:
         draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
                           objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta,
-                          unit_texture(pipeline))
+                          angular_texture(pipeline, a.mesh.medium) if mode == 1 else unit_texture(pipeline))
+
+
+def angular_texture(pipeline, medium):
+    """The medium's angular law a(mu) (``angular_law``; ones for the DIPOLE profile) as an n x 1 RGBA32F table,
+    built once per medium and pipeline."""
+    key = ("angular", medium.profile, tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
+    tex = pipeline.targets.get(key)
+    if tex is None:
+        table = profile_model(medium.profile).angular_table(medium.sigma_a, medium.sigma_s_prime, medium.eta)
+        image = np.ones((1, len(table), 4), np.float32)
+        image[0, :, :3] = table
+        tex = pipeline.targets[key] = texture_from_array(image)
+    return tex
 
 
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
@@ -225,6 +240,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("local_map", local_map)
             shader.uniform_sampler("global_map", global_map)
             shader.uniform_float("eta", float(a.mesh.medium.eta))
+            shader.uniform_sampler("angular_table", angular_texture(pipeline, a.mesh.medium))
             res.display_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
         t4 = time.perf_counter()
