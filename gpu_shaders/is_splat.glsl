@@ -5,7 +5,8 @@
  * Light samples hand the profile over to their tail from tail_start r_max to r_max (weights 1 - t and t,
  * physics/lut.py crossover): with tail_pass set, one quad per tail_block x tail_block block of samples (those
  * of the block's first object: summed power at the power-weighted mean position and blur) carries
- * R_d t out to tail_reach r_max from the tail rows of far_lut (image_space_data.tail_samples is its twin). */
+ * R_d t out to tail_reach r_max from the tail rows of far_lut (image_space_data.tail_samples is its twin).
+ * Pairs across a thin part take the thin-part factor and leave by the diffusion mode's law (translucent_angular.glsl). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -95,6 +96,17 @@ vec3 through_factor(int slot, float d)
   return result;
 }
 
+/* The thin-part factor's ramp per channel, smoothstep from 2 to 4 mean free paths (0 for a layer over a base). */
+vec3 through_ramp(int slot, float d)
+{
+  vec3 z_r = materials.slab[2 * slot + 1].xyz;
+  vec3 result;
+  for (int k = 0; k < 3; k++) {
+    result[k] = (d <= 2.0 * z_r[k]) ? 0.0 : smoothstep(2.0 * z_r[k], 4.0 * z_r[k], d);
+  }
+  return result;
+}
+
 vec3 far_profile(int row, float u)
 {
   int n = textureSize(far_lut, 0).x;
@@ -132,6 +144,10 @@ void main()
   vec3 n_o = texelFetch(gbuffer_normal, ivec2(gl_FragCoord.xy), 0).xyz;
   float h_mm = dot(n_o, xo.xyz - v_xi) * mat.x; /* x_i below x_o's tangent plane: > 0 */
   float w = partition_weight_off_plane(r_mm, rho, abs(h_mm));
-  out_color = vec4(R * through_factor(slot, max(h_mm, 0.0)) * (M * M * w) * v_flux.rgb, 1.0);
+  /* Light that crossed a thin part leaves by the diffusion mode's law, not the angular law the composite
+   * applies: over the same ramp as the thin-part factor. */
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, xo.xyz);
+  vec3 exit_law = mix(vec3(1.0), through_exit_ratio(slot, dot(n_o, to_eye)), through_ramp(slot, max(h_mm, 0.0)));
+  out_color = vec4(R * through_factor(slot, max(h_mm, 0.0)) * exit_law * (M * M * w) * v_flux.rgb, 1.0);
 }
 #endif

@@ -37,6 +37,9 @@ struct MaterialsData {
   vec4 slab[64];
   /* per slot k, the angular law a(mu) (physics/angular_law.py) at mu = (j + 0.5) / 16: [16 k + j] rgb */
   vec4 angular[512];
+  /* per slot k, how light that crossed a thin part leaves (physics/angular_law.through_constants):
+   *   [3k] (gamma rgb, 1: on; 0: the Lambertian law), [3k + 1] (k = 1 / nu_0 rgb, 0), [3k + 2] (1 / <M> rgb, 0) */
+  vec4 through_exit[96];
 };
 
 struct TemporalData {

@@ -37,6 +37,12 @@ def _capture(tr):
     return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
 
 
+def _to_eye(scene, x_o):
+    """Unit directions from world points to the scene's (perspective) camera."""
+    d = np.asarray(scene.camera.matrix_world.translation)[None, :] - x_o
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
 def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
     """The scatter texture equals splat_cpu over the captured samples and their tail splats (4x4 blocks,
     tail_samples) to 1e-4 relative (float32); the tail carries a visible share of it."""
@@ -50,7 +56,8 @@ def test_gpu_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
     pixels = np.argwhere(g[..., 3] > 0.5)
     pixels = pixels[np.linspace(0, len(pixels) - 1, 40).astype(int)]
     n_o = cap["gbuffer_normal"][pixels[:, 0], pixels[:, 1], :3]
-    receivers = (g[pixels[:, 0], pixels[:, 1], :3], g[pixels[:, 0], pixels[:, 1], 3], n_o)
+    x_o = g[pixels[:, 0], pixels[:, 1], :3]
+    receivers = (x_o, g[pixels[:, 0], pixels[:, 1], 3], n_o, _to_eye(scene, x_o))
     main = data.splat_cpu(cap["plan"], pos_id.reshape(-1, 4), flux.reshape(-1, 4), *receivers)
     tail = data.splat_cpu(cap["plan"], *data.tail_samples(pos_id, flux), *receivers, tail=True)
     cpu = main + tail
@@ -433,7 +440,8 @@ def test_world_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
     g, scatter = cap["gbuffer"], cap["scatter"]
     pixels = np.argwhere(g[..., 3] > 0.5)
     pixels = pixels[np.linspace(0, len(pixels) - 1, 30).astype(int)]
-    cpu = data.splat_cpu(cap["plan"], pos_id, flux, g[pixels[:, 0], pixels[:, 1], :3], g[pixels[:, 0], pixels[:, 1], 3],
-                         cap["gbuffer_normal"][pixels[:, 0], pixels[:, 1], :3], world=True)
+    x_o = g[pixels[:, 0], pixels[:, 1], :3]
+    cpu = data.splat_cpu(cap["plan"], pos_id, flux, x_o, g[pixels[:, 0], pixels[:, 1], 3],
+                         cap["gbuffer_normal"][pixels[:, 0], pixels[:, 1], :3], _to_eye(scene, x_o), world=True)
     assert cpu.max() > 0
     np.testing.assert_allclose(scatter[pixels[:, 0], pixels[:, 1], :3], cpu, rtol=1e-4, atol=1e-6 * cpu.max())

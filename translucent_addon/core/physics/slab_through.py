@@ -67,9 +67,15 @@ def factor(h_mm: ArrayLike, sigma_tr: ArrayLike, z_r: ArrayLike, A_eta: float) -
     # z_r out of reach (a layer over a base: no factor) from overflowing where the ramp is off.
     T = 2.0 * np.exp(np.minimum(s * (z_r - z_b + c_r - d), 50.0)) * _one_minus_exp(2.0 * a) / _one_minus_exp(2.0 * b)
     K = z_r / c_r + z_v * np.exp(-s * (c_v - c_r)) / c_v
-    ramp = np.clip((d / z_r - RAMP_MFP[0]) / (RAMP_MFP[1] - RAMP_MFP[0]), 0.0, 1.0)
-    ramp = ramp * ramp * (3.0 - 2.0 * ramp)  # smoothstep, as the shader's
-    return 1.0 + (T / K - 1.0) * ramp
+    return 1.0 + (T / K - 1.0) * ramp(h_mm, z_r)
+
+
+def ramp(h_mm: ArrayLike, z_r: ArrayLike) -> np.ndarray:
+    """(..., 3): how far the pair at depth h is into the thin-part regime, smoothstep from 2 to 4 mean free paths
+    (z_r, per channel) as the shader's; 0 for a layer over a base (z_r out of reach)."""
+    d = np.maximum(np.asarray(h_mm, np.float64), 0.0)[..., None]
+    t = np.clip((d / np.asarray(z_r, np.float64) - RAMP_MFP[0]) / (RAMP_MFP[1] - RAMP_MFP[0]), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
 
 
 def through_factor(h_mm: ArrayLike, sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float) -> np.ndarray:

@@ -5,7 +5,8 @@ For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, J
     L_o(x_o) = F_t(eta, w_o) / pi * a(n . w_o) * int_A R_d(|x_i - x_o|) C(h) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
 
 with C(h) the thin-part factor of x_i lying h below x_o's tangent plane (``physics.slab_through``) and a the
-profile's angular law (``physics.angular_law``; 1 for the papers' dipole).
+profile's angular law (``physics.angular_law``; 1 for the papers' dipole); the light of pairs across a thin
+part leaves by the diffusion mode's law M(mu_o) in place of a(mu_o), over the factor's ramp.
     E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) a(n . w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
                (an environment image: its irradiance E_sh(n) in spherical harmonics, Shah Eq. 6.19)
 
@@ -141,6 +142,9 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         reach = max(float(np.max(model.r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm
         total = E_o * near_integral(sa, ss, medium.eta, rho, profile=medium.profile)
         slab = slab_through.constants(sa, ss, medium.eta, layered=medium.layer_thickness_mm is not None)
+        # M(mu_o) / a(mu_o) per receiver: how light across a thin part leaves, over the angular law (EXACT only).
+        through = None if medium.profile != "EXACT" else angular_law.through_exit(
+            angular_law.through_constants(sa, ss, medium.eta), medium.eta, cos_o) / angular_law.lookup(angular, cos_o)
         tree_i = cKDTree(x_i)
         # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
         neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))
@@ -161,6 +165,9 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             # Light through thin parts, as the methods draw it.
             depth_mm = np.einsum("ij,ij->i", x_o[start + rows] - x_i[cols], n_o[start + rows]) * mm
             contrib *= slab_through.factor(depth_mm, *slab)
+            if through is not None:  # ... and leaves by the diffusion mode's law, not a(mu_o) (angular_law)
+                ramp = slab_through.ramp(depth_mm, slab[1])
+                contrib *= 1.0 + (through[start + rows] - 1.0) * ramp
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]

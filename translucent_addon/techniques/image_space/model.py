@@ -131,10 +131,12 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
     """The MaterialsData block (translucent_structs.glsl). params, 2 vec4 per slot: (mm_per_unit, r_max_mm,
     rho_mm, eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm); slab, 2 vec4
     per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``; angular, ``angular_law.SAMPLES`` vec4
-    per slot: the medium's profile's angular law. Zeros for None."""
+    per slot: the medium's profile's angular law; through_exit, 3 vec4 per slot: ``angular_law.through_constants``
+    and 1 for the EXACT profile (the DIPOLE keeps the Lambertian law). Zeros for None."""
     data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     slab = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     angular = np.zeros((MAX_MATERIALS, angular_law.SAMPLES, 4), np.float32)
+    through = np.zeros((MAX_MATERIALS, 3, 4), np.float32)
     for k, (t, m) in enumerate(zip(p.tables, p.media) if p is not None else ()):
         data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
         data[k, 1, :3] = transmittance_kernel(m.eta)
@@ -143,7 +145,20 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
         slab[k, 0] = (*sigma_tr, A_eta)
         slab[k, 1, :3] = z_r
         angular[k, :, :3] = angular_table(m)
-    return data.tobytes() + slab.tobytes() + angular.tobytes()
+        if m.profile == "EXACT":
+            through[k, :, :3] = angular_law.through_constants(m.sigma_a, m.sigma_s_prime, m.eta)
+            through[k, 0, 3] = 1.0
+    return data.tobytes() + slab.tobytes() + angular.tobytes() + through.tobytes()
+
+
+def through_exit_law(med, mu_o: float, ramp: np.ndarray) -> np.ndarray:
+    """(..., 3): the light of pairs across a thin part (``ramp`` of ``slab_through``, per channel) leaves by the
+    diffusion mode's law over the angular law, M(mu_o) / a(mu_o) (``angular_law.through_exit``); 1 for DIPOLE."""
+    if med.profile != "EXACT":
+        return np.ones_like(ramp)
+    ratio = angular_law.through_exit(angular_law.through_constants(med.sigma_a, med.sigma_s_prime, med.eta), med.eta,
+                                     mu_o) / angular_law.lookup(angular_table(med), mu_o)
+    return 1.0 + (ratio - 1.0) * ramp
 
 
 def angular_table(med) -> np.ndarray:
@@ -324,12 +339,14 @@ def tail_samples(sample_pos_id: np.ndarray, sample_flux: np.ndarray):
 
 
 def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.ndarray, x_o: np.ndarray,
-              id_o: np.ndarray, n_o: np.ndarray, world: bool = False, tail: bool = False) -> np.ndarray:
+              id_o: np.ndarray, n_o: np.ndarray, to_eye: np.ndarray, world: bool = False,
+              tail: bool = False) -> np.ndarray:
     """The scatter sum S(x_o) = sum_i [id_i = id_o] R_d(M_i r) M_i^2 w(r) Phi_i, as the splat pass computes it.
 
     sample_pos_id: (S, 4) world xyz and slot + 1 (0: no sample); sample_flux: (S, 4) Phi rgb and M_d;
     x_o: (P, 3) world positions; id_o: (P,) slot + 1; n_o: (P, 3) facet normals (w leaves out samples off
-    x_o's tangent plane, ``physics.lut.partition_off_plane``). Light samples take R_d (1 - t(M r)), their
+    x_o's tangent plane, ``physics.lut.partition_off_plane``); to_eye: (P, 3) unit directions to the eye (the
+    light across a thin part leaves by ``through_exit_law``). Light samples take R_d (1 - t(M r)), their
     tail splats (``tail``, from ``tail_samples``) R_d t(M r) out to TAIL_REACH r_max (``physics.lut.crossover``);
     ``world``: world samples, the whole profile to r_max, split at the world's rho.
     """
@@ -351,6 +368,8 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         value = far_lookup(table, r_mm * M, tail) * (M * M * share * partition_off_plane(r_mm, rho, h_mm))[:, None]
         # Light through thin parts: x_i below x_o's tangent plane by h (slab_through).
         depth_mm = ((x_o[p] - pos[same]) @ n_o[p]) * med.mm_per_unit
-        value = value * slab_through.factor(depth_mm, *slab_constants(med))
+        slab = slab_constants(med)
+        value = value * slab_through.factor(depth_mm, *slab) * through_exit_law(
+            med, float(n_o[p] @ to_eye[p]), slab_through.ramp(depth_mm, slab[1]))
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out

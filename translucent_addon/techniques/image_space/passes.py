@@ -57,6 +57,7 @@ SHADER_SPECS = {
     ),
     "is_splat": shaders.ShaderSpec(
         source="is_splat.glsl",
+        libraries=("translucent_common.glsl", "translucent_angular.glsl"),
         vertex_in=(("VEC2", "corner"),),
         varyings=(("flat", "VEC3", "v_xi"), ("flat", "VEC4", "v_flux"), ("flat", "FLOAT", "v_slot")),
         uniform_blocks=((0, "FrameData", "frame"), (3, "MaterialsData", "materials")),
