@@ -146,8 +146,12 @@ void main()
   float w = partition_weight_off_plane(r_mm, rho, abs(h_mm));
   /* Light that crossed a thin part leaves by the diffusion mode's law, not the angular law the composite
    * applies: over the same ramp as the thin-part factor. */
-  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, xo.xyz);
-  vec3 exit_law = mix(vec3(1.0), through_exit_ratio(slot, dot(n_o, to_eye)), through_ramp(slot, max(h_mm, 0.0)));
+  vec3 ramp = through_ramp(slot, max(h_mm, 0.0));
+  vec3 exit_law = vec3(1.0);
+  if (max(ramp.r, max(ramp.g, ramp.b)) > 0.0) { /* most pairs lie on one face: nothing to weigh */
+    vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, xo.xyz);
+    exit_law = mix(vec3(1.0), through_exit_ratio(slot, dot(n_o, to_eye)), ramp);
+  }
   out_color = vec4(R * through_factor(slot, max(h_mm, 0.0)) * exit_law * (M * M * w) * v_flux.rgb, 1.0);
 }
 #endif

@@ -40,6 +40,8 @@ def main() -> int:
     parser.add_argument("--methods", nargs="*", default=list(METHODS))
     parser.add_argument("--samples", type=int, default=256, help="samples per seed of the reference")
     parser.add_argument("--seeds", type=int, default=2, help="seeds averaged into the reference (at least 2)")
+    parser.add_argument("--raw", default="", help="also write linear float images here (<scene>_<method>.npy, the "
+                                                 "reference and the object mask), for ratio maps")
     args = parser.parse_args()
 
     package = blender_env.start()
@@ -89,6 +91,11 @@ def main() -> int:
             pair = metrics.block_relative_rmse(seeds[0], seeds[1], mask, BLOCK)
             floor = pair / np.sqrt(2.0) / np.sqrt(args.seeds / 2)
             report.save_image_png(out / f"{name}_exact.png", reference)
+            raw = Path(args.raw) if args.raw else None
+            if raw is not None:
+                raw.mkdir(parents=True, exist_ok=True)
+                np.save(raw / f"{name}_exact.npy", reference.astype(np.float32))
+                np.save(raw / f"{name}_mask.npy", mask)
             print(f"[{name}] reference noise {noise:.4f}, block RMSE floor {floor:.4f}", flush=True)
 
             for method in args.methods:
@@ -114,6 +121,8 @@ def main() -> int:
                     rows.append(row)
                     slug = f"{name}_{method}_{profile}".lower()
                     report.save_image_png(out / f"{slug}.png", image)
+                    if raw is not None:
+                        np.save(raw / f"{slug}.npy", image.astype(np.float32))
                     report.save_error_png(out / f"{slug}_error.png", image, reference, mask)
                     print(f"[{name}] {method} {profile}: mean {row['mean_ratio']}, block RMSE {row['block_rmse']}, "
                           f"{seconds:.2f} s", flush=True)

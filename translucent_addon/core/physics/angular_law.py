@@ -77,9 +77,19 @@ def factor(alpha_prime: float, eta: float, mu: ArrayLike) -> np.ndarray:
 
 
 def table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: int = SAMPLES) -> np.ndarray:
-    """a at ``nodes(n)`` per RGB channel, (n, 3) float64, for the reduced coefficients (per mm)."""
-    sigma_a = np.broadcast_to(np.asarray(sigma_a, np.float64), (3,))
-    sigma_s_prime = np.broadcast_to(np.asarray(sigma_s_prime, np.float64), (3,))
+    """a at ``nodes(n)`` per RGB channel, (n, 3) float64, for the reduced coefficients (per mm). Cached per
+    medium: H for a high albedo takes tens of milliseconds, and every frame asks."""
+    return _table(*_channels(sigma_a, sigma_s_prime), float(eta), int(n)).copy()
+
+
+def _channels(sigma_a: ArrayLike, sigma_s_prime: ArrayLike) -> tuple[tuple, tuple]:
+    return (tuple(float(x) for x in np.broadcast_to(np.asarray(sigma_a, np.float64), (3,))),
+            tuple(float(x) for x in np.broadcast_to(np.asarray(sigma_s_prime, np.float64), (3,))))
+
+
+@functools.lru_cache(maxsize=256)
+def _table(sigma_a: tuple, sigma_s_prime: tuple, eta: float, n: int) -> np.ndarray:
+    sigma_a, sigma_s_prime = np.array(sigma_a), np.array(sigma_s_prime)
     sigma_t = sigma_a + sigma_s_prime
     alpha_prime = np.divide(sigma_s_prime, sigma_t, out=np.zeros(3), where=sigma_t > 0)
     mu = nodes(n)
@@ -134,9 +144,14 @@ def _emergent_shape(gamma: np.ndarray, k: np.ndarray, mu_t: np.ndarray) -> np.nd
 
 def through_constants(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float) -> np.ndarray:
     """(3, 3): rows gamma, k and the normalisation 1 / <H / (1 - k mu_t)> per RGB channel (the mean over light
-    leaving through the Fresnel boundary, as for a), what the splat shader needs for ``through_exit``."""
-    sigma_a = np.broadcast_to(np.asarray(sigma_a, np.float64), (3,))
-    sigma_s_prime = np.broadcast_to(np.asarray(sigma_s_prime, np.float64), (3,))
+    leaving through the Fresnel boundary, as for a), what the splat shader needs for ``through_exit``. Cached
+    per medium."""
+    return _through_constants(*_channels(sigma_a, sigma_s_prime), float(eta)).copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _through_constants(sigma_a: tuple, sigma_s_prime: tuple, eta: float) -> np.ndarray:
+    sigma_a, sigma_s_prime = np.array(sigma_a), np.array(sigma_s_prime)
     sigma_t = sigma_a + sigma_s_prime
     alpha_prime = np.clip(np.divide(sigma_s_prime, sigma_t, out=np.zeros(3), where=sigma_t > 0), ALBEDO_FLOOR, 1.0)
     gamma, k = np.sqrt(1.0 - alpha_prime), diffusion_k(alpha_prime)
