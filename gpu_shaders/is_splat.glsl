@@ -70,8 +70,8 @@ float one_minus_exp(float x)
 }
 
 /* Light through thin parts (physics/slab_through.py): a slab's diffusion transmission over the half-space
- * dipole's at depth d below x_o's tangent plane, ramped in from 2 to 4 mean free paths. */
-vec3 through_factor(int slot, float d)
+ * dipole's at depth d below x_o's tangent plane, ramped in from 2 to 4 mean free paths (``ramp``, per channel). */
+vec3 through_factor(int slot, float d, out vec3 ramp)
 {
   vec4 c0 = materials.slab[2 * slot];
   vec3 z_r = materials.slab[2 * slot + 1].xyz;
@@ -80,7 +80,8 @@ vec3 through_factor(int slot, float d)
     float s = c0[k];
     float zr = z_r[k];
     if (d <= 2.0 * zr) {
-      result[k] = 1.0; /* under 2 mean free paths (or a layer over a base): the half-space profile */
+      result[k] = 1.0;
+      ramp[k] = 0.0; /* under 2 mean free paths (or a layer over a base): the half-space profile */
       continue;
     }
     float zb = 2.0 * c0.w * zr / 3.0;
@@ -90,19 +91,8 @@ vec3 through_factor(int slot, float d)
     float T = 2.0 * exp(s * (zr - zb + cr - d)) * one_minus_exp(2.0 * s * (zr + zb)) /
               one_minus_exp(2.0 * s * (d + 2.0 * zb));
     float K = zr / cr + zv * exp(-s * (cv - cr)) / cv;
-    float ramp = smoothstep(2.0 * zr, 4.0 * zr, d);
-    result[k] = 1.0 + (T / K - 1.0) * ramp;
-  }
-  return result;
-}
-
-/* The thin-part factor's ramp per channel, smoothstep from 2 to 4 mean free paths (0 for a layer over a base). */
-vec3 through_ramp(int slot, float d)
-{
-  vec3 z_r = materials.slab[2 * slot + 1].xyz;
-  vec3 result;
-  for (int k = 0; k < 3; k++) {
-    result[k] = (d <= 2.0 * z_r[k]) ? 0.0 : smoothstep(2.0 * z_r[k], 4.0 * z_r[k], d);
+    ramp[k] = smoothstep(2.0 * zr, 4.0 * zr, d);
+    result[k] = 1.0 + (T / K - 1.0) * ramp[k];
   }
   return result;
 }
@@ -146,12 +136,12 @@ void main()
   float w = partition_weight_off_plane(r_mm, rho, abs(h_mm));
   /* Light that crossed a thin part leaves by the diffusion mode's law, not the angular law the composite
    * applies: over the same ramp as the thin-part factor. */
-  vec3 ramp = through_ramp(slot, max(h_mm, 0.0));
-  vec3 exit_law = vec3(1.0);
+  vec3 ramp;
+  vec3 C = through_factor(slot, max(h_mm, 0.0), ramp);
   if (max(ramp.r, max(ramp.g, ramp.b)) > 0.0) { /* most pairs lie on one face: nothing to weigh */
     vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, xo.xyz);
-    exit_law = mix(vec3(1.0), through_exit_ratio(slot, dot(n_o, to_eye)), ramp);
+    C *= mix(vec3(1.0), through_exit_ratio(slot, dot(n_o, to_eye)), ramp);
   }
-  out_color = vec4(R * through_factor(slot, max(h_mm, 0.0)) * exit_law * (M * M * w) * v_flux.rgb, 1.0);
+  out_color = vec4(R * C * (M * M * w) * v_flux.rgb, 1.0);
 }
 #endif
