@@ -75,40 +75,52 @@ def test_tables_and_limits():
     np.testing.assert_array_equal(angular_law.lookup(t, 1.0), t[-1])
 
 
-def _slab_exits(d: float, photons: int = 1_000_000, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """Scatterings and exit cosines of the light leaving the far face of an index-matched slab d mean free paths
-    thick, lit cosine-weighted (the test's own Monte Carlo, unabsorbed: reweighted by alpha'^n)."""
+def _slab_exits(d: float, eta: float, photons: int = 1_000_000, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Scatterings and exit cosines (outside) of the light leaving the far face of a slab d mean free paths thick,
+    lit cosine-weighted, its faces smooth at relative index eta (Fresnel reflection inside, refraction out): the
+    test's own Monte Carlo, unabsorbed (reweighted by alpha'^n)."""
     rng = np.random.default_rng(seed)
-    mu = np.sqrt(rng.random(photons))
+    mu = np.sqrt(1.0 - (1.0 - rng.random(photons)) / eta**2)  # cosine-weighted outside, refracted in
     z, n = np.zeros(photons), np.zeros(photons, np.int64)
     out_n, out_mu = [], []
     while len(z):
         z_new = z - np.log1p(-rng.random(len(z))) * mu
-        through = z_new > d
-        out_n.append(n[through & (n > 0)])
-        out_mu.append(mu[through & (n > 0)])
-        inside = (z_new >= 0.0) & ~through
-        z, n = z_new[inside], n[inside] + 1
-        mu = 2.0 * rng.random(len(z)) - 1.0
+        far, near = z_new > d, z_new < 0.0
+        at_face = far | near
+        inside_cos = np.abs(mu)
+        reflected = at_face & (rng.random(len(z)) < fresnel_dielectric(inside_cos, 1.0 / eta))
+        leaves = at_face & ~reflected
+        through = leaves & far & (n > 0)
+        out_n.append(n[through])
+        out_mu.append(np.sqrt(np.clip(1.0 - eta**2 * (1.0 - inside_cos[through] ** 2), 0.0, 1.0)))
+        # A reflected photon restarts at the face, mirrored (the memoryless free path allows it).
+        z = np.where(far & reflected, d, np.where(near & reflected, 0.0, z_new))
+        scatters = ~at_face
+        mu = np.where(reflected, -mu, np.where(scatters, 2.0 * rng.random(len(z)) - 1.0, mu))
+        n = n + scatters
+        z, mu, n = z[~leaves], mu[~leaves], n[~leaves]
     return np.concatenate(out_n), np.concatenate(out_mu)
 
 
-def test_light_through_a_slab_leaves_by_the_diffusion_mode():
-    """Light that crossed 8 mean free paths leaves limb-darkened, H(mu) / (1 - mu / nu_0): within 5 % of the
-    Monte Carlo's radiance per bin of mu from 0.1 to 1 (measured within 4.6 %), at four albedos; limb-darkened
-    (over 1.5 times brighter near the normal than at grazing) where the angular law a(mu) of light coming back
-    out of the lit face is limb-brightened."""
-    n, mu_out = _slab_exits(8.0)
+@pytest.mark.parametrize("eta,bound", [(1.0, 0.03), (1.3, 0.09)])
+def test_light_through_a_slab_leaves_by_the_diffusion_mode(eta, bound):
+    """Light that crossed 8 mean free paths leaves limb-darkened, F_t(mu) H(mu_t) / (1 - mu_t / nu_0): the
+    Monte Carlo's radiance per bin of mu from 0.1 to 1 within 3 % index-matched (measured within 1.3 %), within
+    9 % with Fresnel faces at eta 1.3 (measured 7.7 %, grazing light 6-8 % short: the refracted cosine is an
+    approximation there), at three albedos; over 1.5 times brighter near the normal than at grazing, where the
+    angular law a(mu) of light coming back out of the lit face is limb-brightened."""
+    n, mu_out = _slab_exits(8.0, eta)
     edges = np.linspace(0.1, 1.0, 7)
     centres = 0.5 * (edges[1:] + edges[:-1])
-    for alpha in (0.9, 0.96, 0.99, 0.999):
+    for alpha in (0.9, 0.99, 0.999):
         power, _ = np.histogram(mu_out, bins=edges, weights=np.power(alpha, n))
         radiance = power / (centres * np.diff(edges))
-        law = angular_law.through_exit(angular_law.through_constants(1.0 - alpha, alpha, 1.0), 1.0, centres)[:, 0]
+        law = angular_law.through_exit(angular_law.through_constants(1.0 - alpha, alpha, eta), eta, centres)[:, 0]
+        law = law * (1.0 - fresnel_dielectric(centres, eta))  # what the renderer draws: F_t(mu_o) / pi ...
         # Shapes compared (the slab's transmittance is slab_through's business): both scaled to their sums.
-        np.testing.assert_allclose(law / law.sum(), radiance / radiance.sum(), rtol=0.05, err_msg=f"alpha' {alpha}")
-        assert law[-1] / law[0] > 1.5 and angular_law.factor(alpha, 1.0, centres[-1]) < angular_law.factor(
-            alpha, 1.0, centres[0])
+        np.testing.assert_allclose(law / law.sum(), radiance / radiance.sum(), rtol=bound, err_msg=f"alpha' {alpha}")
+        assert law[-1] / law[0] > 1.5 and angular_law.factor(alpha, eta, centres[-1]) < angular_law.factor(
+            alpha, eta, centres[0])
 
 
 def test_through_law_closed_forms():
