@@ -613,7 +613,8 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     """The CPU dipole model of the translucent objects (cached): (image, seconds, from cache)."""
     # model 4: visibility by facet; the far side of thin parts in the far field; SH environment light;
     # the near disk corrected by the samples' irradiance where it differs from E(x_o)
-    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 4}
+    # model 5: the angular laws (a(mu) in and out; thin-part pairs leave by the diffusion mode's law)
+    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 5}
     hit = cache.load(cache_dir, desc)
     if hit is not None:
         progress("dipole model reference: from the cache")
