@@ -139,3 +139,13 @@ def test_through_law_closed_forms():
         weight = w * (1.0 - fresnel_dielectric(mu, eta)) * mu
         M = angular_law.through_exit(angular_law.through_constants((0.03, 0.17, 0.5), (0.74, 0.88, 1.0), eta), eta, mu)
         np.testing.assert_allclose((M * weight[:, None]).sum(0) / weight.sum(), 1.0, atol=1e-6)
+
+
+def test_through_law_is_bounded_at_every_albedo():
+    """Dark media: the slowest mode's 1 / (1 - k mu) would reach 1e14 at alpha' = 1e-4 (inf in a shader's float);
+    k is held at K_MAX, so the law stays finite, at most 2.5 near the normal, and its mean stays 1."""
+    for alpha in (0.0, 1e-4, 0.1, 0.5, 0.68, 0.9, 1.0):
+        c = angular_law.through_constants(1.0 - alpha, alpha, 1.3)
+        M = angular_law.through_exit(c, 1.3, np.linspace(0.0, 1.0, 101))
+        assert np.all(np.isfinite(M)) and np.all(M > 0) and M.max() < 2.5, alpha
+        assert np.all(c[1] <= angular_law.K_MAX) and np.all(np.isfinite(c.astype(np.float32)))

@@ -118,6 +118,9 @@ def lookup(table_: np.ndarray, mu: ArrayLike) -> np.ndarray:
 # IMAGE_SPACE draws the light of its thin-part pairs (``slab_through``, the same ramp) leaving by this law in
 # place of a(mu_o). H is Hapke's closed form (within 0.75 % of Chandrasekhar's), evaluated in the splat shader.
 
+K_MAX = 0.85  # the largest k = 1 / nu_0 the emergent law takes (alpha' 0.68; ``through_constants``)
+
+
 def diffusion_k(alpha_prime: ArrayLike) -> np.ndarray:
     """k = 1 / nu_0, the decay of the slowest diffusion mode per mean free path: alpha' artanh(k) / k = 1
     (isotropic scattering; k ~ sqrt(3 (1 - alpha')) near alpha' = 1, k -> 1 as alpha' -> 0). Bisection."""
@@ -155,7 +158,10 @@ def _through_constants(sigma_a: tuple, sigma_s_prime: tuple, eta: float) -> np.n
     sigma_a, sigma_s_prime = np.array(sigma_a), np.array(sigma_s_prime)
     sigma_t = sigma_a + sigma_s_prime
     alpha_prime = np.clip(np.divide(sigma_s_prime, sigma_t, out=np.zeros(3), where=sigma_t > 0), ALBEDO_FLOOR, 1.0)
-    gamma, k = np.sqrt(1.0 - alpha_prime), diffusion_k(alpha_prime)
+    # Below alpha' ~ 0.68 the slowest mode dies within a mean free path (k -> 1: 1 / (1 - k mu) would reach 1e14
+    # at alpha' = 1e-4, inf in a shader's float) and diffusion, which the thin-part factor rests on, no longer
+    # holds; such media send next to nothing through a thin part. Their law is held at skin blue's.
+    gamma, k = np.sqrt(1.0 - alpha_prime), np.minimum(diffusion_k(alpha_prime), K_MAX)
     x, w = np.polynomial.legendre.leggauss(96)
     mu, w = 0.5 * (x + 1.0), 0.5 * w
     eta = float(max(eta, 1.0))
