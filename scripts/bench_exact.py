@@ -4,7 +4,9 @@ Per scene (the bench set's back-lit figure with thin limbs and front-lit skin in
 the medium index-matched (eta = 1, so Cycles' brute force samples the lights from inside the volume and
 converges; it is the yardstick, Cycles' random walk a peer), the boundary black to light coming back from
 outside (no method here carries light from one part of the object into another through the air). The
-reference is the mean of several seeds (cached in bench/cache), their spread its noise floor.
+reference is the mean of several seeds (cached in bench/cache), their spread its noise floor. ``skin_frontlit_ior``
+is front-lit skin at its own index (1.3) behind a Glass boundary, its key an area light (``AT_IOR``): where the
+angular law is an approximation, and where Cycles' brute force still converges.
 
 Each subsurface method is drawn with the exact-transport profile (EXACT, the default) and with the papers'
 dipole (DIPOLE), box-filtered from 3 x 3 samples per pixel as Cycles' BOX filter does, and measured by
@@ -14,6 +16,7 @@ bench/results/exact/ (summary.md, results.json, images).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
@@ -31,12 +34,45 @@ BLOCK = 4
 METHODS = ("IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH")
 
 
+# Scenes drawn at their preset's index of refraction: Cycles' brute force (a Glass boundary) converges under
+# area lights and the world only, so the key spot becomes an area light of the same on-axis intensity.
+AT_IOR = {"skin_frontlit_ior": "skin_frontlit"}
+
+
+def area_key(scene, scale: float) -> None:
+    """Swap the scene's key spot for a square area light at its place, aimed alike, as bright on axis, as large as
+    the fill (0.3 of the scene's scale: a smaller one leaves the brute force's paths out of the glass too few
+    chances to meet it; at 0.02 its 4 x 1024 samples kept a block noise of 0.49)."""
+    import bpy
+
+    key = bpy.data.objects["Key Light"]
+    spot = key.data
+    area = bpy.data.lights.new("Key Area", "AREA")
+    area.size = 0.3 * scale
+    area.energy = spot.energy / 4.0  # on-axis intensity: a spot P / (4 pi), an area light P / pi
+    key.data = area
+
+
+@contextlib.contextmanager
+def at_ior(scene, subject):
+    """The refracting set-up: the floor out, the medium at its own index of refraction."""
+    import bpy
+
+    ground = bpy.data.objects["Ground"]
+    scene.collection.objects.unlink(ground)
+    try:
+        yield
+    finally:
+        scene.collection.objects.link(ground)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "exact"))
     parser.add_argument("--cache", default=str(ROOT / "bench" / "cache"))
     parser.add_argument("--size", type=int, default=128, help="image width and height")
-    parser.add_argument("--scenes", nargs="*", default=["figure_backlit", "skin_frontlit", "bunny_backlit"])
+    parser.add_argument("--scenes", nargs="*", default=["figure_backlit", "skin_frontlit", "skin_frontlit_ior",
+                                                          "bunny_backlit"])
     parser.add_argument("--methods", nargs="*", default=list(METHODS))
     parser.add_argument("--samples", type=int, default=256, help="samples per seed of the reference")
     parser.add_argument("--seeds", type=int, default=2, help="seeds averaged into the reference (at least 2)")
@@ -62,9 +98,12 @@ def main() -> int:
     rows = []
     for name in args.scenes:
         bpy.ops.wm.read_homefile(use_empty=True)
-        scene = demo.build_scene(name, bpy.context.scene)
-        subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
-        with isolated(scene, subject):
+        base = AT_IOR.get(name, name)
+        scene = demo.build_scene(base, bpy.context.scene)
+        subject = bpy.data.objects[demo.SCENES[base]["mesh"].capitalize()]
+        if name in AT_IOR:
+            area_key(scene, demo.SCENES[base]["size"] / 0.15)  # demo.build_scene's light scale
+        with (at_ior if name in AT_IOR else isolated)(scene, subject):
             depsgraph = bpy.context.evaluated_depsgraph_get()
             frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, n, n))
             tracer = bvh.BVHTracer(runner.scene_triangles(frame)[0])
@@ -73,11 +112,15 @@ def main() -> int:
             seeds = []
             for seed in range(1, args.seeds + 1):
                 desc = {**description, "engine": "CYCLES", "kind": "brute_force", "samples": args.samples,
-                        "bounces": settings.cycles_bounces, "seed": seed, "self_interreflection": False}
+                        "bounces": settings.cycles_bounces, "seed": seed, "self_interreflection": False,
+                        **({"surface_reflection": False} if name in AT_IOR else {})}
                 hit = cache.load(Path(args.cache), desc)
                 if hit is None:
                     print(f"[{name}] Cycles brute force, seed {seed}, {args.samples} spp ...", flush=True)
-                    with runner.twin_materials_applied([subject], "brute_force", self_interreflection=False), \
+                    # At an index of refraction, the camera sees the light that leaves the medium and not the
+                    # glass's mirror image of the lamps (which no method here draws).
+                    with runner.twin_materials_applied([subject], "brute_force", self_interreflection=False,
+                                                       surface_reflection=name not in AT_IOR), \
                             runner.engine_setup(scene, "CYCLES", **runner.cycles_options(
                                 args.samples, settings.cycles_bounces, seed=seed)):
                         image, sec = runner.render_pixels(scene, n, n)
