@@ -56,6 +56,7 @@ bench: $(STAMP)
 	$(PY) scripts/bench.py
 	$(PY) scripts/bench_frame.py
 	$(PY) scripts/bench_exact.py
+	$(PY) scripts/bench_exact.py --sweep --output bench/results/exact_sweep
 	$(PY) scripts/bench_quadgraph.py
 	$(PY) scripts/bench_geocube.py
 	$(PY) scripts/bench_caustics.py

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import re
 import sys
 import time
 from pathlib import Path
@@ -66,6 +67,43 @@ def at_ior(scene, subject):
         scene.collection.objects.link(ground)
 
 
+# The quality settings of the sweep (``--sweep``): the main bench's and bench_auto's series.
+SWEEP = {
+    "IMAGE_SPACE": [("k=8", {"splat_overlap": 8.0}), ("k=16", {"splat_overlap": 16.0}),
+                    ("k=32", {"splat_overlap": 32.0}), ("k=48", {"splat_overlap": 48.0, "splat_max_grid": 2048})],
+    "TEXTURE_SPACE": [("atlas 256", {"atlas_resolution": 256, "proxy_spacing": 3.5}),
+                      ("atlas 512", {"atlas_resolution": 512, "proxy_spacing": 3.5}),
+                      ("atlas 512, spacing 2.4", {"atlas_resolution": 512, "proxy_spacing": 2.4})],
+    "QUADGRAPH": [("K=2", {"quadgraph_K": 2.0}), ("K=1", {"quadgraph_K": 1.0}), ("K=0.5", {"quadgraph_K": 0.5})],
+}
+AUTO_TARGETS = {"IMAGE_SPACE": (0.10, 0.05, 0.03), "TEXTURE_SPACE": (0.10, 0.05), "QUADGRAPH": ()}
+
+
+def variants(method: str, subject, sweep: bool):
+    """(label, apply) per image of a method: the exact profile and the dipole, or with ``sweep`` the quality
+    settings of ``SWEEP`` and Auto at each of ``AUTO_TARGETS`` (the exact profile)."""
+    import bpy
+
+    t = subject.translucent
+    if not sweep:
+        return [(p, lambda p=p: setattr(t, "profile", p)) for p in (("EXACT", "DIPOLE") if method != "QUADGRAPH"
+                                                                     else ("EXACT",))]
+    scene = bpy.context.scene
+
+    def manual(values):
+        t.profile, t.quality = "EXACT", "MANUAL"
+        for key, value in values.items():
+            setattr(scene.translucent if hasattr(scene.translucent, key) else t, key, value)
+
+    def auto(target):
+        t.profile, t.quality, t.target_error = "EXACT", "AUTO", target
+        bpy.context.view_layer.objects.active = subject
+        bpy.ops.translucent.auto_quality()
+
+    return ([(label, lambda v=values: manual(v)) for label, values in SWEEP[method]]
+            + [(f"auto {target:g}", lambda x=target: auto(x)) for target in AUTO_TARGETS[method]])
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "exact"))
@@ -76,6 +114,10 @@ def main() -> int:
     parser.add_argument("--methods", nargs="*", default=list(METHODS))
     parser.add_argument("--samples", type=int, default=256, help="samples per seed of the reference")
     parser.add_argument("--seeds", type=int, default=2, help="seeds averaged into the reference (at least 2)")
+    parser.add_argument("--sweep", action="store_true",
+                        help="each method at its quality settings and Auto (exact profile) instead of the two "
+                             "profiles: what the quality Auto aims at buys against exact transport "
+                             "(write it elsewhere: --output bench/results/exact_sweep)")
     parser.add_argument("--raw", default="", help="also write linear float images here (<scene>_<method>.npy, the "
                                                  "reference and the object mask), for ratio maps")
     args = parser.parse_args()
@@ -142,9 +184,9 @@ def main() -> int:
             print(f"[{name}] reference noise {noise:.4f}, block RMSE floor {floor:.4f}", flush=True)
 
             for method in args.methods:
-                for profile in (("EXACT", "DIPOLE") if method != "QUADGRAPH" else ("EXACT",)):
+                for profile, apply in variants(method, subject, args.sweep):
                     subject.translucent.method = method
-                    subject.translucent.profile = profile
+                    apply()
                     t0 = time.perf_counter()
                     if method != "IMAGE_SPACE":
                         runner.bake_objects([subject], method, progress=lambda *_: None)
@@ -162,7 +204,7 @@ def main() -> int:
                            "rel_rmse": round(metrics.relative_rmse(image, reference, mask), 4),
                            "reference_noise": round(noise, 4), "block_rmse_floor": round(float(floor), 4)}
                     rows.append(row)
-                    slug = f"{name}_{method}_{profile}".lower()
+                    slug = re.sub(r"[^a-z0-9.=]+", "_", f"{name}_{method}_{profile}".lower())
                     report.save_image_png(out / f"{slug}.png", image)
                     if raw is not None:
                         np.save(raw / f"{slug}.npy", image.astype(np.float32))
@@ -170,11 +212,12 @@ def main() -> int:
                     print(f"[{name}] {method} {profile}: mean {row['mean_ratio']}, block RMSE {row['block_rmse']}, "
                           f"{seconds:.2f} s", flush=True)
     (out / "results.json").write_text(json.dumps(rows, indent=1))
-    lines = ["| scene | method | profile | mean R, G, B (1 = exact) | 4x4 block rel. RMSE | frame s |",
-             "|---" * 6 + "|"]
+    lines = [f"| scene | method | {'setting' if args.sweep else 'profile'} | mean R, G, B (1 = exact) | "
+             "4x4 block rel. RMSE | frame s | bake s |", "|---" * 7 + "|"]
     for r in rows:
         lines.append(f"| {r['scene']} | {r['method']} | {r['profile']} | "
-                     f"{', '.join(f'{v:.3f}' for v in r['mean_ratio'])} | {r['block_rmse']:.3f} | {r['seconds']:.2f} |")
+                     f"{', '.join(f'{v:.3f}' for v in r['mean_ratio'])} | {r['block_rmse']:.3f} | {r['seconds']:.2f} | "
+                     f"{r['bake_seconds']:.1f} |")
     (out / "summary.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     return 0
