@@ -35,6 +35,30 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         gpu.state.blend_set("NONE")
 
 
+def rgb_table(table):
+    """An (n, 3) table as an n x 1 RGBA32F texture (the cosine tables the passes read with ``cosine_lerp`` or
+    ``table_lerp``)."""
+    image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
+    return texture_from_array(image)
+
+
+class MediumTables:
+    """Per-medium tables of one object's resources, each built again only when the medium changes (one entry
+    per name: dragging a coefficient does not pile up textures)."""
+
+    def __init__(self):
+        self._cached = {}  # name: (medium key, table or texture)
+
+    def get(self, name: str, medium, table_of, texture: bool = True):
+        """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture (or as it is)."""
+        key = (medium.profile, tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
+        cached = self._cached.get(name)
+        if cached is None or cached[0] != key:
+            table = table_of(medium.sigma_a, medium.sigma_s_prime, medium.eta)
+            cached = self._cached[name] = (key, rgb_table(table) if texture else table)
+        return cached[1]
+
+
 def unit_texture(pipeline):
     """One texel of 1 (RGBA32F), built once per pipeline: the illumination pass's neutral table."""
     tex = pipeline.targets.get("unit_texture")

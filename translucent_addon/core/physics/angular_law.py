@@ -177,3 +177,10 @@ def through_exit(constants: np.ndarray, eta: float, mu: ArrayLike) -> np.ndarray
     gamma, k, inv_mean = constants
     mu_t = refracted_cosine(np.clip(np.asarray(mu, np.float64), 0.0, 1.0), float(max(eta, 1.0)))[..., None]
     return _emergent_shape(gamma, k, mu_t) * inv_mean
+
+
+def through_exit_ratio(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, mu: ArrayLike) -> np.ndarray:
+    """M(mu) / a(mu) (..., 3): what the light of a thin-part pair is weighed by where the angular law of the light
+    leaving was applied to all of it (CPU twin of ``through_exit_ratio`` in translucent_angular.glsl)."""
+    return (through_exit(through_constants(sigma_a, sigma_s_prime, eta), eta, mu)
+            / lookup(table(sigma_a, sigma_s_prime, eta), mu))

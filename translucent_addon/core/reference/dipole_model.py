@@ -143,8 +143,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         total = E_o * near_integral(sa, ss, medium.eta, rho, profile=medium.profile)
         slab = slab_through.constants(sa, ss, medium.eta, layered=medium.layer_thickness_mm is not None)
         # M(mu_o) / a(mu_o) per receiver: how light across a thin part leaves, over the angular law (EXACT only).
-        through = None if medium.profile != "EXACT" else angular_law.through_exit(
-            angular_law.through_constants(sa, ss, medium.eta), medium.eta, cos_o) / angular_law.lookup(angular, cos_o)
+        through = None if medium.profile != "EXACT" else angular_law.through_exit_ratio(sa, ss, medium.eta, cos_o)
         tree_i = cKDTree(x_i)
         # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
         neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))

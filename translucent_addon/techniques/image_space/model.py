@@ -156,8 +156,7 @@ def through_exit_law(med, mu_o: float, ramp: np.ndarray) -> np.ndarray:
     diffusion mode's law over the angular law, M(mu_o) / a(mu_o) (``angular_law.through_exit``); 1 for DIPOLE."""
     if med.profile != "EXACT":
         return np.ones_like(ramp)
-    ratio = angular_law.through_exit(angular_law.through_constants(med.sigma_a, med.sigma_s_prime, med.eta), med.eta,
-                                     mu_o) / angular_law.lookup(angular_table(med), mu_o)
+    ratio = angular_law.through_exit_ratio(med.sigma_a, med.sigma_s_prime, med.eta, mu_o)
     return 1.0 + (ratio - 1.0) * ramp
 
 

@@ -46,7 +46,7 @@ from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
 from ...gpu.frame_context import FrameContext
-from ...gpu.illumination import draw_illumination, unit_texture
+from ...gpu.illumination import MediumTables, draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
 from . import bake as quadgraph_bake
@@ -172,7 +172,7 @@ class Resources:
         self.display = {}
         self.surface = {}
         self._loss_scale = None  # (material key, finest tables, texture): Resources.loss_scale
-        self.medium_tables = {}  # name: (medium key, n x 1 texture), the tables below
+        self.medium_tables = MediumTables()  # the tables below
         self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
         self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
         self.iterations: list[int] = []
@@ -284,38 +284,23 @@ class Resources:
         """What a lit node's exitance gives up per unit q to the surface term, R, as a one-texel table
         for ``ts_illumination``'s cosine table (``single_scattering.exitance_loss``), rebuilt when the
         medium changes."""
-        return self._medium_table("loss", medium, ss.exitance_loss)
+        return self.medium_tables.get("loss", medium, ss.exitance_loss)
 
     def chandrasekhar_h(self, medium):
         """H(mu) of the medium's albedo per channel (``single_scattering.h_table``), rebuilt when it changes."""
-        return self._medium_table("H", medium, lambda sigma_a, sigma_s_prime, eta: ss.h_table(sigma_a, sigma_s_prime))
+        return self.medium_tables.get("H", medium,
+                                      lambda sigma_a, sigma_s_prime, eta: ss.h_table(sigma_a, sigma_s_prime))
 
     def terminator(self, medium):
         """The clamped ramp's excess G per channel as a texture and the kernel's mean radius rho in mm
         (``physics.terminator``), rebuilt when the medium changes."""
-        rho = self._medium_table("rho", medium, terminator.kernel_mean_radii, texture=False)
-        return self._medium_table("terminator", medium, terminator.excess_table), rho
+        rho = self.medium_tables.get("rho", medium, terminator.kernel_mean_radii, texture=False)
+        return self.medium_tables.get("terminator", medium, terminator.excess_table), rho
 
     def world_law(self, medium):
         """The angular law of the world's light entering a flat face over Lambert's per channel
         (``single_scattering.uniform_light_table``), rebuilt when the medium changes."""
-        return self._medium_table("world", medium, ss.uniform_light_table)
-
-    def _medium_table(self, name: str, medium, table_of, texture: bool = True):
-        """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture (or as it is), built again
-        only when the medium's coefficients change."""
-        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
-        cached = self.medium_tables.get(name)
-        if cached is None or cached[0] != key:
-            table = table_of(medium.sigma_a, medium.sigma_s_prime, medium.eta)
-            cached = self.medium_tables[name] = (key, _rgb_table(table) if texture else table)
-        return cached[1]
-
-
-def _rgb_table(table):
-    """An (n, 3) table as an n x 1 RGBA32F texture."""
-    image = np.concatenate([table, np.zeros((len(table), 1))], axis=1)[None].astype(np.float32)
-    return texture_from_array(image)
+        return self.medium_tables.get("world", medium, ss.uniform_light_table)
 
 
 def prepare(frame) -> list[Active]:

@@ -26,7 +26,7 @@ from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
 from ...gpu.frame_context import FrameContext
-from ...gpu.illumination import draw_illumination, unit_texture
+from ...gpu.illumination import MediumTables, draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
 from . import bake as texture_space_bake
@@ -100,6 +100,7 @@ class Resources:
         self.vertex_in = new_target(t.vertex_size, attachments=2)  # E^g, B^d
         self.vertex_out = new_target(t.vertex_size)
         self.display = {}  # display batch by mesh key
+        self.medium_tables = MediumTables()
         self._sparse = None
 
     def display_batch(self, mesh):
@@ -138,20 +139,13 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
     for a in actives:
         draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
                           objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta,
-                          angular_texture(pipeline, a.mesh.medium) if mode == 1 else unit_texture(pipeline))
+                          angular_texture(a) if mode == 1 else unit_texture(pipeline))
 
 
-def angular_texture(pipeline, medium):
-    """The medium's angular law a(mu) (``angular_law``; ones for the DIPOLE profile) as an n x 1 RGBA32F table,
-    built once per medium and pipeline."""
-    key = ("angular", medium.profile, tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
-    tex = pipeline.targets.get(key)
-    if tex is None:
-        table = profile_model(medium.profile).angular_table(medium.sigma_a, medium.sigma_s_prime, medium.eta)
-        image = np.ones((1, len(table), 4), np.float32)
-        image[0, :, :3] = table
-        tex = pipeline.targets[key] = texture_from_array(image)
-    return tex
+def angular_texture(a: Active):
+    """The medium's angular law a(mu) (``angular_law``; ones for the DIPOLE profile) as an n x 1 table."""
+    medium = a.mesh.medium
+    return a.resources.medium_tables.get("angular", medium, profile_model(medium.profile).angular_table)
 
 
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
@@ -240,7 +234,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("local_map", local_map)
             shader.uniform_sampler("global_map", global_map)
             shader.uniform_float("eta", float(a.mesh.medium.eta))
-            shader.uniform_sampler("angular_table", angular_texture(pipeline, a.mesh.medium))
+            shader.uniform_sampler("angular_table", angular_texture(a))
             res.display_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
         t4 = time.perf_counter()
