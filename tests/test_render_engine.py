@@ -212,6 +212,23 @@ def test_lambert_objects_under_an_environment_image_match_the_cpu_reference(tr, 
     assert lum.max() > 2.0 * lum.min()  # the top sees the sky, the sides half of it
 
 
+def test_a_world_image_made_where_a_freed_one_was_is_read_anew(tr, scene):
+    """The sky is cached per image; a freed image's address is soon given to a new one of the same name and
+    size (a scene reset between renders). Each new sky is read: its mean is its own (4 of 20 were stale when
+    the cache was keyed on the address)."""
+    from translucent_addon.blender.demo import environment_world
+
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    means = []
+    for i in range(20):
+        world = environment_world(scene, np.full((8, 16, 3), float(i + 1), np.float32))
+        means.append(float(extract.world_environment(scene).mean[0]))
+        image = world.node_tree.nodes["Environment Texture"].image
+        bpy.data.worlds.remove(world)
+        bpy.data.images.remove(image)
+    np.testing.assert_allclose(means, np.arange(1, 21), rtol=1e-4)
+
+
 _FAILING_PASS = """
 import sys, importlib
 sys.path.insert(0, sys.argv[1])
