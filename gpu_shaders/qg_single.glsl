@@ -286,9 +286,11 @@ void main()
     L += (1.0 - F_0) * L_1;
   }
   if ((terms & 2) != 0) {
-    L += local_multiple(v_world, n, mu_k, mu_ko, E, to_light, grad_mu, chord, sigma_t, sigma_tr,
-                        tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)));
+    /* the first escape, and what the boundary reflects back in to leave later (boundary_gain.py) */
+    L += boundary_gain.rgb * local_multiple(v_world, n, mu_k, mu_ko, E, to_light, grad_mu, chord, sigma_t,
+                                            sigma_tr, tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)));
   }
-  out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) * L, 0.0);
+  /* out of the medium: Fresnel's transmittance and the radiance's n^2 law (single_scattering.py) */
+  out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) / (eta * eta) * L, 0.0);
 }
 #endif

@@ -51,7 +51,7 @@ class MediumTables:
 
     def get(self, name: str, medium, table_of, texture: bool = True):
         """``table_of(sigma_a, sigma_s_prime, eta)`` (n, 3) as an n x 1 texture (or as it is)."""
-        key = (medium.profile, tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta)
+        key = (medium.profile, tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.eta, medium.g)
         cached = self._cached.get(name)
         if cached is None or cached[0] != key:
             table = table_of(medium.sigma_a, medium.sigma_s_prime, medium.eta)

@@ -6,13 +6,15 @@ missing; Jensen et al. 2001 add it as the single-scattering term L^(1) beside th
 refracted view ray x(t) = x_o + t w_t inside the medium, light of normal irradiance E that has crossed a
 path d(t) of the medium reaches x(t) and scatters once towards the eye:
 
-    L^(1)(x_o, w_o) = T_o T_i  integral_0^inf  sigma_s p(cos theta) E exp(-sigma_t (t + d(t))) dt
+    L^(1)(x_o, w_o) = T_o T_i / eta^2  integral_0^inf  sigma_s p(cos theta) E exp(-sigma_t (t + d(t))) dt
 
 with sigma_s = sigma_s' / (1 - g), sigma_t = sigma_a + sigma_s, p the Henyey-Greenstein phase function
-and T_o, T_i the Fresnel transmittances out of and into the medium. The GPU pass (``qg_single.glsl``)
-reads d(t) from the light's distance map at the nodes ``march_nodes`` and integrates segment by segment
-with the exponent linear inside each segment (``march``): exact wherever d is linear in t, as under a
-flat face lit by a distant light, for which (eta = 1)
+and T_o, T_i the Fresnel transmittances out of and into the medium. The 1 / eta^2 is the radiance's n^2
+law: light leaving a denser medium spreads its flux over a wider solid angle (Jensen 2001 Eq. 7 leaves it
+out; with it the flux out is what crossed the boundary, which ``boundary_gain`` relies on).
+The GPU pass (``qg_single.glsl``) reads d(t) from the light's distance map at the nodes ``march_nodes`` and
+integrates segment by segment with the exponent linear inside each segment (``march``): exact wherever d is
+linear in t, as under a flat face lit by a distant light, for which (eta = 1)
 
     L^(1) / E = alpha p(cos theta) mu_i / (mu_i + mu_o)        (``half_space``).
 
@@ -120,21 +122,22 @@ def half_space(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, g: float, mu_i: flo
     """Closed form of L^(1) / E under a flat face, light at cosine mu_i and eye at mu_o, as ``qg_single``
     models it: the view ray refracted to cosine mu_t inside (d(t) = t mu_t / mu_i, the light's path
     straight), T_o = 1 - F_r(mu_o) and T_i = 1 - F_0 (1 at eta = 1):
-    T_o T_i alpha p(cos theta) mu_i / (mu_i + mu_t), times 1 - exp(-sigma_t H (1 / mu_t + 1 / mu_i)) for a
-    slab of thickness H (the view ray leaves at H / mu_t)."""
+    T_o T_i / eta^2 alpha p(cos theta) mu_i / (mu_i + mu_t), times 1 - exp(-sigma_t H (1 / mu_t + 1 / mu_i))
+    for a slab of thickness H (the view ray leaves at H / mu_t)."""
 
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
     mu_t = refracted_cosine(mu_o, eta)
     T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - fresnel_dielectric(1.0, eta))
     kept = -np.expm1(-sigma_t * thickness * (1.0 / mu_t + 1.0 / mu_i)) if np.isfinite(thickness) else 1.0
-    return T * sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_t) * kept
+    return T / eta**2 * sigma_s / sigma_t * hg_phase(cos_theta, g) * mu_i / (mu_i + mu_t) * kept
 
 
 def single_albedo(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, g: float, eta: float, mu_i: ArrayLike,
                   n: int = 48) -> np.ndarray:
     """R_1(mu_i): the flux the single-scattering term sends out of a flat face, over the incident flux
     E mu_i, without the entry transmittance T_i; the model ``qg_single`` draws (view ray refracted,
-    light path straight, T_o = 1 - F_r(mu_o)). Gauss-Legendre in mu_o, uniform in azimuth.
+    light path straight, T_o = 1 - F_r(mu_o), the exit's 1 / eta^2). Gauss-Legendre in mu_o, uniform in
+    azimuth.
     At eta = 1 and g = 0: (alpha / 2) (1 - mu_i ln(1 + 1 / mu_i)). Returns (len(mu_i), 3)."""
 
     sigma_s, sigma_t = coefficients(sigma_a, sigma_s_prime, g)
@@ -152,7 +155,7 @@ def single_albedo(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, g: float, eta: f
     p = hg_phase(cos_theta, g)
     T_o = 1.0 - fresnel_dielectric(mu_o, eta)
     integrand = (T_o * mu_o)[None, :, None] * p / (mu_i[:, None, None] + mu_t[None, :, None])
-    flux = (integrand * w_mu[None, :, None]).sum(axis=1).mean(axis=1) * 2.0 * np.pi
+    flux = (integrand * w_mu[None, :, None]).sum(axis=1).mean(axis=1) * 2.0 * np.pi / eta**2
     return flux[:, None] * alpha[None, :]
 
 
@@ -201,10 +204,11 @@ def multiple_half_space(alpha: float, mu_i: ArrayLike, mu_o: ArrayLike, eta: flo
     Not Lambertian: at grazing light and grazing view it is 1.35 (alpha 0.96) to 1.7 (0.68) times the
     Lambertian radiance R_ms mu_i / pi of the same exitance, and it is flux-exact: over the hemisphere
     it sends out plane_albedo - R_1 of the light that enters. At eta != 1 (``qg_single``'s model) the
-    same at the refracted cosines mu_i,t and mu_o,t, between the Fresnel transmittances: the light
-    entering per unit area is still T_i E mu_i, so the numerator keeps mu_i,
-    T_o T_i alpha mu_i (H(mu_i,t) H(mu_o,t) - 1) / (4 pi (mu_i,t + mu_o,t)), with no 1 / eta^2 (as
-    Jensen's single scattering; the index-matched H has no internal reflection either)."""
+    same at the refracted cosines mu_i,t and mu_o,t, between the Fresnel transmittances and with the
+    exit's 1 / eta^2: the light entering per unit area is still T_i E mu_i, so the numerator keeps mu_i,
+    T_o T_i alpha mu_i (H(mu_i,t) H(mu_o,t) - 1) / (4 pi eta^2 (mu_i,t + mu_o,t)). That is the light's
+    first escape: the index-matched H has no internal reflection, which sends light back in to leave
+    later (``boundary_gain``: the factor the pass draws it with)."""
 
     mu_i = np.asarray(mu_i, np.float64)
     mu_o = np.asarray(mu_o, np.float64)
@@ -212,7 +216,7 @@ def multiple_half_space(alpha: float, mu_i: ArrayLike, mu_o: ArrayLike, eta: flo
     H_i = chandrasekhar_H(alpha, mu_it.ravel()).reshape(mu_it.shape)
     H_o = chandrasekhar_H(alpha, mu_ot.ravel()).reshape(mu_ot.shape)
     T = (1.0 - fresnel_dielectric(mu_o, eta)) * (1.0 - fresnel_dielectric(mu_i, eta)) if eta != 1.0 else 1.0
-    return T * alpha * mu_i * (H_i * H_o - 1.0) / (4.0 * np.pi * (mu_it + mu_ot))
+    return T * alpha * mu_i * (H_i * H_o - 1.0) / (4.0 * np.pi * eta**2 * (mu_it + mu_ot))
 
 
 def exitance_loss(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float) -> np.ndarray:

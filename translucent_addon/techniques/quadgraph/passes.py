@@ -37,6 +37,7 @@ import numpy as np
 
 from ...core.frame import Lost
 from ...core.geometry.mesh_measures import vertex_normals
+from ...core.physics import boundary_gain as bg
 from ...core.physics import diffusion as df
 from ...core.physics import single_scattering as ss
 from ...core.physics import terminator
@@ -100,7 +101,8 @@ SHADER_SPECS = {
         samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "depths"), (2, "FLOAT_2D", "h_table"),
                   (3, "FLOAT_2D", "terminator_table")),
         push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("FLOAT", "g"), ("VEC4", "sigma_a"), ("VEC4", "sigma_s"),
-                        ("VEC4", "terminator_rho"), ("INT", "segments"), ("FLOAT", "tau_max"), ("INT", "terms")),
+                        ("VEC4", "terminator_rho"), ("INT", "segments"), ("FLOAT", "tau_max"), ("INT", "terms"),
+                        ("VEC4", "boundary_gain")),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
 }
@@ -291,6 +293,12 @@ class Resources:
         return self.medium_tables.get("H", medium,
                                       lambda sigma_a, sigma_s_prime, eta: ss.h_table(sigma_a, sigma_s_prime))
 
+    def boundary_gain(self, medium):
+        """C per channel on the local multiple scattering at eta != 1 (``physics.boundary_gain``), (3,),
+        computed again when the medium changes."""
+        return self.medium_tables.get("gain", medium, lambda sigma_a, sigma_s_prime, eta: bg.boundary_gain(
+            sigma_a, sigma_s_prime, medium.g, eta), texture=False)[0]
+
     def terminator(self, medium):
         """The clamped ramp's excess G per channel as a texture and the kernel's mean radius rho in mm
         (``physics.terminator``), rebuilt when the medium changes."""
@@ -395,6 +403,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 shader.uniform_float("sigma_a", (*map(float, (sigma_t - sigma_s) * m.mm_per_unit), 0.0))
                 shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
                 shader.uniform_sampler("h_table", a.resources.chandrasekhar_h(m))
+                shader.uniform_float("boundary_gain", (*map(float, a.resources.boundary_gain(m)), 0.0))
                 table, rho_mm = a.resources.terminator(m)
                 shader.uniform_sampler("terminator_table", table)
                 shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
