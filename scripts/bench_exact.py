@@ -104,6 +104,84 @@ def variants(method: str, subject, sweep: bool):
             + [(f"auto {target:g}", lambda x=target: auto(x)) for target in AUTO_TARGETS[method]])
 
 
+# The peers, measured against the same exact transport: Cycles' random walk (the Principled BSDF's subsurface,
+# the twin of our medium) and EEVEE. Not at IOR 1.3: there their boundary mirrors the lamps, which the reference
+# leaves out, and the block error would measure the highlight.
+RANDOM_WALK_SPP = (16, 128)
+EEVEE_SAMPLES = (16,)
+
+
+def peers(scene, subject, runner, metrics, cache, reference, mask, noise, floor, name, n, cache_dir, description):
+    """Rows for Cycles' random walk and EEVEE on the scene (the random walk cached like the reference)."""
+    settings = runner.CompareSettings()
+    rows = []
+
+    def row(series, label, image, seconds):
+        ratio = image[mask][:, :3].mean(0) / reference[mask][:, :3].mean(0)
+        r = {"scene": name, "method": series, "profile": label, "seconds": round(seconds, 3), "bake_seconds": 0.0,
+             "mean_ratio": [round(float(v), 4) for v in ratio],
+             "block_rmse": round(metrics.block_relative_rmse(image, reference, mask, BLOCK), 4),
+             "rel_rmse": round(metrics.relative_rmse(image, reference, mask), 4),
+             "reference_noise": round(noise, 4), "block_rmse_floor": round(float(floor), 4)}
+        print(f"[{name}] {series} {label}: mean {r['mean_ratio']}, block RMSE {r['block_rmse']}, {seconds:.2f} s",
+              flush=True)
+        return r
+
+    for spp in RANDOM_WALK_SPP:
+        desc = {**description, "engine": "CYCLES", "kind": "random_walk", "samples": spp,
+                "bounces": settings.cycles_bounces, "seed": 1}
+        hit = cache.load(cache_dir, desc)
+        if hit is None:
+            with runner.twin_materials_applied([subject], "random_walk"), \
+                    runner.engine_setup(scene, "CYCLES", **runner.cycles_options(spp, settings.cycles_bounces)):
+                hit = runner.render_pixels(scene, n, n)
+            cache.store(cache_dir, desc, *hit)
+        rows.append(row("Cycles random walk", f"{spp} spp", *hit))
+    for spp in EEVEE_SAMPLES:
+        with runner.twin_materials_applied([subject], "random_walk"), \
+                runner.engine_setup(scene, runner.eevee_engine_id(), **runner.eevee_options(spp)):
+            runner.warm_eevee(scene, n, n)
+            rows.append(row("EEVEE", f"{spp} samples", *runner.render_pixels(scene, n, n)))
+    return rows
+
+
+def chart(rows, path: Path) -> None:
+    """Speed against accuracy, one panel per scene: 4x4-block error against exact transport over seconds per
+    frame, our methods (exact profile) and the peers; the reference's own block noise dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    fig, axes = plt.subplots(1, len(scenes), figsize=(4.2 * len(scenes), 4.0), squeeze=False)
+    styles = {"IMAGE_SPACE": ("C0", "o"), "TEXTURE_SPACE": ("C1", "s"), "QUADGRAPH": ("C2", "D"),
+              "Cycles random walk": ("C3", "^"), "EEVEE": ("C4", "v")}
+    for ax, scene in zip(axes[0], scenes):
+        rs = [r for r in rows if r["scene"] == scene and r["profile"] != "DIPOLE"]
+        for series, (colour, marker) in styles.items():
+            pts = [r for r in rs if r["method"] == series]
+            if pts:
+                ax.plot([r["seconds"] for r in pts], [r["block_rmse"] for r in pts], marker, color=colour,
+                        label=series.replace("_", " ").lower() if series in METHODS else series)
+                for r in pts:
+                    if series not in METHODS:
+                        ax.annotate(r["profile"], (r["seconds"], r["block_rmse"]), fontsize=7,
+                                    xytext=(4, 2), textcoords="offset points")
+        if rs:
+            ax.axhline(rs[0]["block_rmse_floor"], color="0.5", ls="--", lw=0.8, label="reference noise")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(scene.replace("_", " "))
+        ax.set_xlabel("seconds per frame (128x128, llvmpipe / CPU)")
+        ax.set_ylabel("4x4-block relative RMSE vs exact transport")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "exact"))
@@ -210,8 +288,13 @@ def main() -> int:
                         np.save(raw / f"{slug}.npy", image.astype(np.float32))
                     report.save_error_png(out / f"{slug}_error.png", image, reference, mask)
                     print(f"[{name}] {method} {profile}: mean {row['mean_ratio']}, block RMSE {row['block_rmse']}, "
-                          f"{seconds:.2f} s", flush=True)
+                          f"{seconds:.2f} s, bake {bake_seconds:.1f} s", flush=True)
+            if not args.sweep and name not in AT_IOR:
+                rows.extend(peers(scene, subject, runner, metrics, cache, reference, mask, noise, floor, name, n,
+                                  Path(args.cache), description))
     (out / "results.json").write_text(json.dumps(rows, indent=1))
+    if not args.sweep:
+        chart(rows, out / "chart.png")
     lines = [f"| scene | method | {'setting' if args.sweep else 'profile'} | mean R, G, B (1 = exact) | "
              "4x4 block rel. RMSE | frame s | bake s |", "|---" * 7 + "|"]
     for r in rows:
