@@ -113,6 +113,42 @@ def test_sparse_throughput_equals_the_dense_matrix_above_the_threshold():
     assert len(indices) < len(v) ** 2 - len(v)  # something was dropped
 
 
+def test_light_straight_through_a_part_is_kept_beyond_the_half_space_reach():
+    """Two 30 mm plates 22 mm apart facing away from each other (a thick part, skin1): the half-space reach
+    A / 3 R_d >= THRESHOLD stops at 20.2 mm, but through the part a pair carries C(h) R_d (slab_through), and
+    those above the threshold are kept: the sparse product equals the dense one (C included) thresholded,
+    and entries cross the gap. A reach from R_d alone dropped every one of them."""
+    from translucent_addon.core.geometry.mesh_measures import vertex_normals
+    from translucent_addon.core.physics import slab_through
+
+    gap = 22.0
+    top, f = plate(12, 30.0)
+    bottom = top - [0.0, 0.0, gap]
+    v = np.concatenate([top, bottom])
+    tris = np.concatenate([f, f[:, ::-1] + len(top)])  # the bottom faces down
+    A_v = vertex_areas(v, tris)
+    assert lensch.throughput_radius(MATERIAL, A_v.max()) < gap < lensch.throughput_radius(MATERIAL, A_v.max(),
+                                                                                             through=True)
+    indptr, indices, data = lensch.throughput(v, A_v, MATERIAL, triangles=tris)
+    n = vertex_normals(v, tris)
+    r = np.linalg.norm(v[:, None] - v[None], axis=2)
+    h = np.einsum("ijd,jd->ij", v[None, :] - v[:, None], n)  # depth of i below j's tangent plane
+    C = slab_through.through_factor(h.ravel(), SKIN.sigma_a, SKIN.sigma_s_prime, SKIN.eta).reshape(len(v), len(v), 3)
+    dense = (A_v[:, None, None] / 3.0) * MATERIAL.R_d(r.ravel()).reshape(len(v), len(v), 3) * C
+    for c in range(3):
+        np.fill_diagonal(dense[..., c], 0)
+    dense[dense.max(axis=2) < lensch.THRESHOLD] = 0.0
+    rows = np.repeat(np.arange(len(v)), np.diff(indptr))
+    crossing = (rows < len(top)) != (indices < len(top))
+    assert crossing.sum() > 100
+    from scipy.sparse import csr_matrix
+
+    E = np.random.default_rng(2).uniform(size=(len(v), 3))
+    for c in range(3):
+        sparse = csr_matrix((data[:, c], indices, indptr), shape=(len(v), len(v)))
+        np.testing.assert_allclose(sparse @ E[:, c], dense[..., c].T @ E[:, c], rtol=1e-3)
+
+
 def test_inside_the_kernel_local_plus_global_is_the_kernel(plate_bake):
     """After the correction of Sec. 5.4, an impulse's response in its 7x7 window is exactly A R_d."""
     v, f, atlas, bake = plate_bake

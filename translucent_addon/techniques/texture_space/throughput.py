@@ -124,18 +124,29 @@ def dual_weights(atlas: TexelAtlas, triangles: np.ndarray, A_v: np.ndarray):
     return verts.astype(np.int32), weights
 
 
-def throughput_radius(material: Material, area_mm2: float, threshold: float = THRESHOLD) -> float:
-    """Distance beyond which A / 3 R_d(r) < threshold in every channel (bisection)."""
-    def f(r):
-        return float(np.max(area_mm2 / 3.0 * material.R_d(np.array([r]))))
+def throughput_radius(material: Material, area_mm2: float, threshold: float = THRESHOLD,
+                      through: bool = False) -> float:
+    """Distance beyond which A / 3 R_d(r) < threshold in every channel. ``through``: A / 3 C(r) R_d(r), the most
+    a pair at that distance carries once light through a thin part is counted (``physics.slab_through``: the
+    source straight behind the receiver, h = r; C grows with the depth), the reach ``throughput`` looks at."""
+    return float(_reaches(material, np.array([float(area_mm2)]), threshold, through)[0])
 
-    lo, hi = 0.0, 1.0
-    while f(hi) > threshold and hi < 1e7:
-        hi *= 2.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if f(mid) > threshold else (lo, mid)
-    return hi
+
+def _reaches(material: Material, areas_mm2: np.ndarray, threshold: float, through: bool) -> np.ndarray:
+    """``throughput_radius`` for each area: the largest r on a fine geometric grid where the bound holds."""
+    r = np.geomspace(1e-3, 1e5, 4097)
+    value = material.R_d(r)
+    if through:
+        value = value * slab_through.factor(r, *slab_through.constants(material.sigma_a, material.sigma_s_prime,
+                                                                         material.eta))
+    peak = value.max(axis=1)  # (n,): largest channel
+    # the last grid point above threshold / (A / 3), one step out: a reach at least as long as the bound's
+    above = peak[None, :] * (np.asarray(areas_mm2, np.float64)[:, None] / 3.0) >= threshold
+    last = np.where(above.any(axis=1), len(r) - 1 - np.argmax(above[:, ::-1], axis=1), 0)
+    return r[np.minimum(last + 1, len(r) - 1)]
+
+
+AREA_CLASSES = 8  # sources grouped by vertex area, each class searched within its own reach
 
 
 HAT_QUADRATURE = 3  # sub-triangles per edge when integrating a hat against R_d
@@ -198,11 +209,25 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
     from scipy.spatial import cKDTree
 
     v = np.asarray(vertices_mm, np.float64)
-    radius = throughput_radius(material, float(A_v.max()), threshold)
+    A_v = np.asarray(A_v, np.float64)
+    # Candidates: each source within the reach of its area class, the through-light bound included (a pair
+    # straight through a part carries C(h) R_d; a reach from R_d alone stopped short of a 30 mm torso).
+    edges = np.geomspace(max(float(A_v.min()), 1e-12), max(float(A_v.max()), 1e-12) * (1 + 1e-9), AREA_CLASSES + 1)
+    klass = np.clip(np.searchsorted(edges, A_v, side="right") - 1, 0, AREA_CLASSES - 1)
+    reach = _reaches(material, edges[1:], threshold, triangles is not None)
     tree = cKDTree(v)
-    pairs = tree.query_pairs(radius, output_type="ndarray")  # i < j
-    src = np.concatenate([pairs[:, 0], pairs[:, 1]])
-    dst = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    src, dst = [], []
+    for k in range(AREA_CLASSES):
+        members = np.flatnonzero(klass == k)
+        if len(members) == 0:
+            continue
+        found = cKDTree(v[members]).sparse_distance_matrix(tree, reach[k], output_type="ndarray")
+        s_k, d_k = members[found["i"]], found["j"]
+        off = s_k != d_k
+        src.append(s_k[off])
+        dst.append(d_k[off])
+    src = np.concatenate(src).astype(np.int64)
+    dst = np.concatenate(dst).astype(np.int64)
     data = np.empty((len(src), 3), np.float32)
     n = vertex_normals(v, np.asarray(triangles, np.int64)) if triangles is not None else None
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
