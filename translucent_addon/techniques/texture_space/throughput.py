@@ -140,10 +140,15 @@ def _reaches(material: Material, areas_mm2: np.ndarray, threshold: float, throug
         value = value * slab_through.factor(r, *slab_through.constants(material.sigma_a, material.sigma_s_prime,
                                                                          material.eta))
     peak = value.max(axis=1)  # (n,): largest channel
-    # the last grid point above threshold / (A / 3), one step out: a reach at least as long as the bound's
-    above = peak[None, :] * (np.asarray(areas_mm2, np.float64)[:, None] / 3.0) >= threshold
+    level = threshold / (np.asarray(areas_mm2, np.float64) / 3.0)  # (m,): the bound on the profile
+    above = peak[None, :] >= level[:, None]
     last = np.where(above.any(axis=1), len(r) - 1 - np.argmax(above[:, ::-1], axis=1), 0)
-    return r[np.minimum(last + 1, len(r) - 1)]
+    nxt = np.minimum(last + 1, len(r) - 1)
+    # the crossing between the last grid point above and the next, log-linear in both
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo, hi = np.log(peak[last]), np.log(np.maximum(peak[nxt], 1e-300))
+        t = np.clip(np.where(hi < lo, (lo - np.log(level)) / (lo - hi), 1.0), 0.0, 1.0)
+    return np.exp(np.log(r[last]) + t * (np.log(r[nxt]) - np.log(r[last])))
 
 
 AREA_CLASSES = 8  # sources grouped by vertex area, each class searched within its own reach
