@@ -1,6 +1,7 @@
 /* TEXTURE_SPACE global response at the vertices (Lensch Eq. 9, 11, 13): for vertex j,
- * B_j = B^d_j + sum_i F^0_ij E^g_i over row j of the sparse matrix (CSR in integer textures),
- * divided by the surface texture at the vertex, T_p(v_j). One fragment per vertex. Indices are
+ * B_j = B^d_j + sum_i F^0_ij E^g_i + sum_P G_jP E_P over row j of the sparse matrix (CSR in integer textures;
+ * a source index past the vertices is a far cluster P, its power E_P in E_cluster: techniques/texture_space/
+ * far_field.py), divided by the surface texture at the vertex, T_p(v_j). One fragment per vertex. Indices are
  * stored as exact floats (below 2^24); a row start as two of them, hi * row_split + lo
  * (texture_space_data.ROW_SPLIT), so that F may hold more than 2^24 entries. */
 #ifdef GPU_VERTEX_SHADER
@@ -39,8 +40,16 @@ void main()
   vec3 B = texelFetch(B_direct, p, 0).rgb;
   for (int e = begin; e < end; e++) {
     ivec2 at = entry(e, width);
-    int i = clamp(int(texelFetch(F_indices, at, 0).r + 0.5), 0, vertex_count - 1);
-    B += texelFetch(F_data, at, 0).rgb * texelFetch(E_vertex, ivec2(i % vertex_width, i / vertex_width), 0).rgb;
+    int i = clamp(int(texelFetch(F_indices, at, 0).r + 0.5), 0, vertex_count + cluster_count - 1);
+    vec3 E;
+    if (i < vertex_count) {
+      E = texelFetch(E_vertex, ivec2(i % vertex_width, i / vertex_width), 0).rgb;
+    }
+    else {
+      i -= vertex_count;
+      E = texelFetch(E_cluster, ivec2(i % vertex_width, i / vertex_width), 0).rgb;
+    }
+    B += texelFetch(F_data, at, 0).rgb * E;
   }
   vec3 T_p = max(texelFetch(T_p_vertex, p, 0).rgb, vec3(1e-4));
   out_vertex = vec4(B / T_p, 1.0);

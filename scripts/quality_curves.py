@@ -7,7 +7,7 @@ several resolutions, with what makes the resolution dimensionless:
   radius), ``bench/results/<scene>/discretisation/discretisation.json``;
 * TEXTURE_SPACE: the same at atlas resolution and proxy spacing, with the proxy's mean edge h (mm) over the
   object's bounding-box diagonal D, ``bench/results/texture_space/discretisation.json``, and the bake's form
-  factors and seconds (its cost);
+  factors and seconds (its cost; ``scripts/texture_space_costs.py`` re-measures the cost after this);
 * QUADGRAPH: relative RMSE and median against exact transport at density K,
   ``bench/results/quadgraph/results.json`` (its discretisation is below its model's error there).
 
@@ -50,6 +50,15 @@ def scene_measures(name: str) -> dict:
             "r_max_mm": round(float(np.max(r_max(np.asarray(m.sigma_a), np.asarray(m.sigma_s_prime), m.eta))), 3)}
 
 
+def write_curves(data: dict) -> None:
+    """A row a line, so that a change of the curves reads well in a diff."""
+    body = ",\n".join(f" {json.dumps(k)}: " + (json.dumps(v) if not isinstance(v, (list, dict)) or not v else
+                       "[\n" + ",\n".join(f"  {json.dumps(r)}" for r in v) + "\n ]" if isinstance(v, list) else
+                       "{\n" + ",\n".join(f"  {json.dumps(n)}: {json.dumps(r)}" for n, r in v.items()) + "\n }")
+                       for k, v in data.items())
+    OUT.write_text("{\n" + body + "\n}\n")
+
+
 def main() -> None:
     scenes = {name: scene_measures(name) for name in SCENES}
     image_space = []
@@ -84,12 +93,7 @@ def main() -> None:
     data = {"source": "scripts/quality_curves.py from bench/results (make bench); machine: bench/results/machine.json",
             "atlas_fill": ATLAS_FILL, "profile": "EXACT", "scenes": scenes, "image_space": image_space,
             "texture_space": texture_space, "quadgraph": quadgraph}
-    # A row a line, so that a change of the curves reads well in a diff.
-    body = ",\n".join(f" {json.dumps(k)}: " + (json.dumps(v) if not isinstance(v, (list, dict)) or not v else
-                       "[\n" + ",\n".join(f"  {json.dumps(r)}" for r in v) + "\n ]" if isinstance(v, list) else
-                       "{\n" + ",\n".join(f"  {json.dumps(n)}: {json.dumps(r)}" for n, r in v.items()) + "\n }")
-                       for k, v in data.items())
-    OUT.write_text("{\n" + body + "\n}\n")
+    write_curves(data)
     print(f"wrote {OUT}: {len(image_space)} IMAGE_SPACE, {len(texture_space)} TEXTURE_SPACE, "
           f"{len(quadgraph)} QUADGRAPH rows")
 

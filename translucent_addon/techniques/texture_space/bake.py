@@ -98,6 +98,7 @@ def bake(inputs):
         "proxy_spacing": float(inputs.proxy_spacing), "atlas": [atlas.width, atlas.height],
         "surface_texels": int(atlas.surface_count),
         "border_texels": int(atlas.count - atlas.surface_count), "form_factors": int(len(tables.F_indices)),
+        "far_entries": int(len(tables.G_indices)), "clusters": int(tables.cluster_count),
         "texel_mm": float(np.sqrt(np.median(atlas.area_mm2[:atlas.surface_count]))),
         "atlas_seconds": round(t_atlas, 3), "seconds": round(time.perf_counter() - t0, 3),
         "bytes": int(sum(a.nbytes for a in arrays.values())),

@@ -71,7 +71,9 @@ class GpuTables:
     # barycentrics there (T', 3, 3) (None: the display is drawn with its own triangles).
     display_parent: np.ndarray | None
     display_bary: np.ndarray | None
-    form_factors: int
+    form_factors: int  # entries of F^0 and G together
+    cluster_count: int  # cluster slots of the far field (0: a bake from before it)
+    cluster_points: tuple | None  # ``cluster_gather``: (texel (V L, 2), slot (V L,), A_i / 3 (V L,))
 
     @property
     def gpu_product(self) -> bool:
@@ -80,6 +82,10 @@ class GpuTables:
     @property
     def vertex_size(self) -> tuple:
         return VERTEX_WIDTH, max(1, -(-self.vertex_count // VERTEX_WIDTH))
+
+    @property
+    def cluster_size(self) -> tuple:
+        return VERTEX_WIDTH, max(1, -(-self.cluster_count // VERTEX_WIDTH))
 
     def drawn_corners(self, display_corners: np.ndarray) -> np.ndarray:
         """Per-corner display attributes (3T, c) at the corners that are drawn (3T', c)."""
@@ -100,6 +106,8 @@ MAX_ATLAS_SIDE = 16384
 # Local kernels of at most (2 * 8 + 1)^2 taps; bakes make 7x7. A stored shape past this is damage, and would
 # make the filter pass's loop over taps as long as the shape says.
 MAX_LOCAL_HALF = 8
+# Cluster slots of the far field: a bake makes fewer than its vertices; past this a stored array is damage.
+MAX_CLUSTER_SLOTS = 1 << 24
 
 
 def check(arrays: dict) -> None:
@@ -132,6 +140,12 @@ def check(arrays: dict) -> None:
     entries = len(indices(arrays, "lensch_F_indices", (None,), V))
     row_pointers(arrays, "lensch_F_indptr", V, entries)
     shaped(arrays, "lensch_F_data", (entries, 3))
+    if "lensch_clusters" in arrays:  # the far field (bakes from before it have none)
+        clusters = indices(arrays, "lensch_clusters", (V, None), MAX_CLUSTER_SLOTS)
+        slots = int(clusters.max()) + 1 if clusters.size else 0
+        entries = len(indices(arrays, "lensch_G_indices", (None,), slots))
+        row_pointers(arrays, "lensch_G_indptr", V, entries)
+        shaped(arrays, "lensch_G_data", (entries, 3))
     C = len(shaped(arrays, "display_uv", (None, 2)))
     indices(arrays, "vertex_corner", (V,), C)
     if "display_parent" in arrays:  # a refined display: its parents are checked against the mesh (``fits``)
@@ -164,9 +178,37 @@ def local_half(kernels: np.ndarray) -> int:
     return (side - 1) // 2
 
 
+def merged_rows(lensch: LenschBake):
+    """F^0 and the far field G as one CSR over V + C sources (a cluster slot P is column V + P): what the GPU's
+    product walks, each row F's entries then G's."""
+    if not lensch.has_far_field:
+        return lensch.F_indptr, lensch.F_indices, lensch.F_data
+    V = len(lensch.A_v)
+    F_ptr, G_ptr = np.asarray(lensch.F_indptr, np.int64), np.asarray(lensch.G_indptr, np.int64)
+    F_count, G_count = np.diff(F_ptr), np.diff(G_ptr)
+    indptr = F_ptr + G_ptr
+    F_pos = np.arange(len(lensch.F_indices)) + np.repeat(indptr[:-1] - F_ptr[:-1], F_count)
+    G_pos = np.arange(len(lensch.G_indices)) + np.repeat(indptr[:-1] + F_count - G_ptr[:-1], G_count)
+    indices = np.empty(int(indptr[-1]), np.int64)
+    data = np.empty((int(indptr[-1]), 3), np.float32)
+    indices[F_pos], indices[G_pos] = lensch.F_indices, np.asarray(lensch.G_indices, np.int64) + V
+    data[F_pos], data[G_pos] = lensch.F_data, lensch.G_data
+    return indptr, indices, data
+
+
+def cluster_gather(lensch: LenschBake):
+    """The points that gather the clusters' power E_P = sum A_i / 3 E^g_i each frame: per vertex and level, its
+    texel in the vertex image, its cluster slot and A_i / 3 (``ts_gather`` with the vertex image as input)."""
+    V, L = lensch.clusters.shape
+    i = np.repeat(np.arange(V), L)
+    texel = np.stack([i % VERTEX_WIDTH, i // VERTEX_WIDTH], axis=1).astype(np.float32)
+    return texel, lensch.clusters.reshape(-1).astype(np.float32), np.repeat(lensch.A_v / 3.0, L).astype(np.float32)
+
+
 def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
     atlas, lensch = load(arrays, taps=False)
-    gpu_product = len(lensch.F_indices) <= GPU_PRODUCT_LIMIT
+    F_indptr, F_indices, F_data = merged_rows(lensch)
+    gpu_product = len(F_indices) <= GPU_PRODUCT_LIMIT
     n, N = atlas.surface_count, atlas.count
     # Back to object space: p = S^-1 x / mm, and normals n_o ~ S^T n (their transform is S^-T).
     S = np.asarray(arrays.get("stretch", np.eye(3)), np.float64).reshape(3, 3)
@@ -197,10 +239,12 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
         kernels=wrap(rows),
         local_half=local_half(kernels),
-        F_indptr=wrap(split_rows(lensch.F_indptr), channels=2) if gpu_product else None,
-        F_indices=wrap(lensch.F_indices.astype(np.int32), channels=1) if gpu_product else None,
-        F_data=wrap(np.asarray(lensch.F_data, np.float32)) if gpu_product else None,
-        form_factors=int(len(lensch.F_indices)),
+        F_indptr=wrap(split_rows(F_indptr), channels=2) if gpu_product else None,
+        F_indices=wrap(F_indices.astype(np.int32), channels=1) if gpu_product else None,
+        F_data=wrap(np.asarray(F_data, np.float32)) if gpu_product else None,
+        form_factors=int(len(F_indices)),
+        cluster_count=lensch.cluster_count,
+        cluster_points=cluster_gather(lensch) if lensch.has_far_field else None,
         display_uv=np.asarray(arrays["display_uv"], np.float32),
         vertex_corner=np.asarray(arrays["vertex_corner"], np.int32),
         display_parent=np.asarray(arrays["display_parent"], np.int64) if "display_parent" in arrays else None,

@@ -6,8 +6,9 @@ Per frame, for each mesh with an up-to-date bake (Lensch Fig. 3):
    emitter loop so that each reuses that emitter's shadow atlas (``ts_illumination``);
 2. vertex gather (Eq. 10) and direct radiosity B^d (Sec. 5.4): three points per surface texel,
    additive into per-vertex textures (``ts_gather``);
-3. global response F^0 E^g + B^d per vertex, divided by T_p (Eq. 11, 13): a fragment per vertex
-   walking its row of the sparse matrix (``ts_product``), or scipy.sparse on the CPU
+3. global response F^0 E^g + G E_P + B^d per vertex, divided by T_p (Eq. 11, 13): the far field's cluster
+   power E_P gathered from E^g first (``ts_gather`` over the vertex image, ``far_field.py``), then a fragment
+   per vertex walking its row of the sparse matrix (``ts_product``), or scipy.sparse on the CPU
    (``Scene.translucent.texture_product``);
 4. local response, the 7x7 filter (Eq. 15), and the interpolated global response (Eq. 12): a
    point per texel (``ts_filter``);
@@ -32,7 +33,7 @@ from ..protocol import Technique
 from . import bake as texture_space_bake
 from . import model as tsd
 from . import quality as texture_space_quality
-from .throughput import global_product, throughput_matrices
+from .throughput import LenschBake, far_product, global_product, throughput_matrices
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -49,8 +50,10 @@ SHADER_SPECS = {
         source="ts_product.glsl",
         vertex_in=(("VEC2", "corner"),),
         samplers=((0, "FLOAT_2D", "F_indptr"), (1, "FLOAT_2D", "F_indices"), (2, "FLOAT_2D", "F_data"),
-                  (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex")),
-        push_constants=(("INT", "vertex_width"), ("INT", "vertex_count"), ("INT", "row_split")),
+                  (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex"),
+                  (6, "FLOAT_2D", "E_cluster")),
+        push_constants=(("INT", "vertex_width"), ("INT", "vertex_count"), ("INT", "cluster_count"),
+                        ("INT", "row_split")),
         fragment_out=((0, "VEC4", "out_vertex"),),
     ),
     "ts_filter": shaders.ShaderSpec(
@@ -99,6 +102,14 @@ class Resources:
         self.maps = new_target(t.atlas_size, attachments=2)  # local, global
         self.vertex_in = new_target(t.vertex_size, attachments=2)  # E^g, B^d
         self.vertex_out = new_target(t.vertex_size)
+        # The far field's clusters: their power gathered from E^g (``ts_gather`` over the vertex image; its second
+        # output, B^d, stays zero there).
+        self.cluster_points = self.cluster_in = None
+        if t.cluster_points is not None:
+            texel, slot, weight = t.cluster_points
+            self.cluster_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
+                "texel": texel, "target": slot, "dual": weight, "blend": np.zeros((len(slot), 3), np.float32)})
+            self.cluster_in = new_target(t.cluster_size, attachments=2)
         self.display = {}  # display batch by mesh key
         self.medium_tables = MediumTables()
         self._sparse = None
@@ -118,11 +129,21 @@ class Resources:
         return batch
 
     def sparse(self):
-        """F^0 per channel as scipy CSR matrices (the CPU product), built once."""
+        """(F^0 per channel as scipy CSR matrices, the bake's far field) for the CPU product, built once."""
         if self._sparse is None:
             a = self.arrays
-            self._sparse = throughput_matrices(a["lensch_F_indptr"], a["lensch_F_indices"], a["lensch_F_data"])
+            lensch = LenschBake.from_arrays(a)
+            self._sparse = (throughput_matrices(a["lensch_F_indptr"], a["lensch_F_indices"], a["lensch_F_data"]),
+                            lensch, lensch.far_matrices() if lensch.has_far_field else None)
         return self._sparse
+
+    def cpu_product(self, E_g: np.ndarray, B_d: np.ndarray) -> np.ndarray:
+        """B^d + F^0 E^g + G E_P at the vertices (V, 3) with SciPy (Lensch Eq. 11 and the far field)."""
+        F, lensch, G = self.sparse()
+        B = global_product(F, E_g, B_d)
+        if G is not None:
+            B += far_product(G, lensch.cluster_power(E_g))
+        return B
 
 
 def prepare(frame) -> list[Active]:
@@ -180,11 +201,24 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
         vout_fb, (B_vertex,), _ = res.vertex_out
         if product_here == "CPU":
-            B = global_product(res.sparse(), E_g, B_d) / np.maximum(T_p, 1e-4)
+            B = res.cpu_product(E_g, B_d) / np.maximum(T_p, 1e-4)
             B_vertex = texture_from_array(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
             res.cpu_vertex = B_vertex  # referenced until drawn
         else:
             T_p_texture = texture_from_array(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
+            E_cluster = unit_texture(pipeline)  # read by no entry where the bake has no far field
+            if res.cluster_in is not None:
+                cl_fb, (E_cluster, _), _ = res.cluster_in
+                with cl_fb.bind():
+                    clear_target(cl_fb, depth=None)
+                    gpu.state.blend_set("ADDITIVE_PREMULT")
+                    shader = shaders.get("ts_gather")
+                    shader.bind()
+                    shader.uniform_sampler("irradiance", E_vertex)
+                    shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+                    shader.uniform_float("vertex_size", tuple(float(x) for x in t.cluster_size))
+                    res.cluster_points.draw(shader)
+                    gpu.state.blend_set("NONE")
             with vout_fb.bind():
                 gpu.state.blend_set("NONE")
                 shader = shaders.get("ts_product")
@@ -197,6 +231,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 shader.uniform_sampler("T_p_vertex", T_p_texture)
                 shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
                 shader.uniform_int("vertex_count", t.vertex_count)
+                shader.uniform_int("cluster_count", t.cluster_count)
+                shader.uniform_sampler("E_cluster", E_cluster)
                 shader.uniform_int("row_split", tsd.ROW_SPLIT)
                 screen_quad(pipeline, "ts_product").draw(shader)
         t2 = time.perf_counter()

@@ -32,9 +32,13 @@ from ...core.geometry.mesh_checks import triangle_areas
 from ...core.geometry.mesh_measures import subtriangle_centroids, vertex_areas, vertex_normals
 from ...core.physics import slab_through
 from ...core.physics.lut import profile_model
+from . import far_field
 from .atlas import TexelAtlas
 
 THRESHOLD = 1e-5  # throughput factors below this are dropped (Lensch 6.2)
+# A far cluster's entry is dropped below THRESHOLD times this (its light under unit irradiance): a receiver on the
+# dark side of a part gathers 1e-3 of the lit side's light from hundreds of such entries (``far_field``).
+FAR_THRESHOLD = 1e-4
 LOCAL = 3  # 7x7 kernels: offsets -3..3
 RING = 4  # the 9x9 kernel's boundary Gamma: offsets with max(|dx|, |dy|) = 4
 FIT_OUTER = None  # outermost ring of the blending fit; None: from the vertex spacing
@@ -151,9 +155,6 @@ def _reaches(material: Material, areas_mm2: np.ndarray, threshold: float, throug
     return np.exp(np.log(r[last]) + t * (np.log(r[nxt]) - np.log(r[last])))
 
 
-AREA_CLASSES = 8  # sources grouped by vertex area, each class searched within its own reach
-
-
 HAT_QUADRATURE = 3  # sub-triangles per edge when integrating a hat against R_d
 # Across a thin part (normals at more than 90 degrees) within this many sqrt(A_i) the hat is
 # integrated: no local kernel covers that light, and R_d changes across one hat there.
@@ -200,64 +201,73 @@ def _across(n_src, n_dst, r, A_src) -> np.ndarray:
 
 def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, threshold: float = THRESHOLD,
                triangles: np.ndarray | None = None):
-    """F^0 gathered by receiver as CSR: row j holds the sources i with F_ij (Lensch 5.2).
+    """F^0 gathered by receiver as CSR, near pairs one by one (Lensch 5.2) and far sources by cluster
+    (``far_field``): returns ((indptr (V+1,) int32, indices (nnz,) int32, data (nnz, 3) float32), FarField).
 
-    F_ij = A_i / 3 R_d(|v_i - v_j|), Lensch's one-point rule for int int psi_i R_d psi~_j. Integrating
+    F_ij = A_i / 3 R_d(|v_i - v_j|) C(h_ij), Lensch's one-point rule for int int psi_i R_d psi~_j. Integrating
     the hat exactly looks more accurate but is not: it spreads the response of light entering
     near v_i over the whole hat, into the 7x7 neighbourhood of v_j that the local kernels
     already cover (measured on a plate: +14 to +32 % instead of +2 to +5 %). Across a thin part
     (given ``triangles``: vertex normals more than 90 degrees apart, closer than ``ACROSS_REACH``
-    sqrt(A_i)) no kernel covers the light, and there the hat is integrated. Returns (indptr
-    (V+1,) int32, indices (nnz,) int32, data (nnz, 3) float32); the diagonal is absent (F^0 of
-    Sec. 5.4) and entries whose largest channel is below ``threshold`` are dropped.
+    sqrt(A_i)) no kernel covers the light, and there the hat is integrated. The diagonal is absent (F^0 of
+    Sec. 5.4); near entries whose largest channel is below ``threshold`` are dropped, far ones (their light
+    under unit irradiance) below ``threshold`` FAR_THRESHOLD. C (``physics.slab_through``) is light through
+    thin parts, h_ij the depth of v_i below v_j's tangent plane; without ``triangles`` there are no normals
+    and C = 1.
     """
-    from scipy.spatial import cKDTree
-
     v = np.asarray(vertices_mm, np.float64)
     A_v = np.asarray(A_v, np.float64)
-    # Candidates: each source within the reach of its area class, the through-light bound included (a pair
-    # straight through a part carries C(h) R_d; a reach from R_d alone stopped short of a 30 mm torso).
-    edges = np.geomspace(max(float(A_v.min()), 1e-12), max(float(A_v.max()), 1e-12) * (1 + 1e-9), AREA_CLASSES + 1)
-    klass = np.clip(np.searchsorted(edges, A_v, side="right") - 1, 0, AREA_CLASSES - 1)
-    reach = _reaches(material, edges[1:], threshold, triangles is not None)
-    tree = cKDTree(v)
-    src, dst = [], []
-    for k in range(AREA_CLASSES):
-        members = np.flatnonzero(klass == k)
-        if len(members) == 0:
-            continue
-        found = cKDTree(v[members]).sparse_distance_matrix(tree, reach[k], output_type="ndarray")
-        s_k, d_k = members[found["i"]], found["j"]
-        off = s_k != d_k
-        src.append(s_k[off])
-        dst.append(d_k[off])
-    src = np.concatenate(src).astype(np.int64)
-    dst = np.concatenate(dst).astype(np.int64)
+    V = len(v)
+    n = vertex_normals(v, np.asarray(triangles, np.int64)) if triangles is not None else np.zeros((V, 3))
+    # Pairs across a thin part are hat-integrated and the blending ring reads F one pair at a time: those stay near.
+    hierarchy = far_field.build(v, n, A_v, near_mm=ACROSS_REACH * np.sqrt(A_v))
+    (dst, src), (far_dst, far_level, far_cluster) = far_field.interactions(hierarchy, v)
     data = np.empty((len(src), 3), np.float32)
-    n = vertex_normals(v, np.asarray(triangles, np.int64)) if triangles is not None else None
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
-    through = np.ones((len(src), 3), np.float32)
     across = []
     for a in range(0, len(src), _CHUNK):
         b = min(a + _CHUNK, len(src))
         r = np.linalg.norm(v[src[a:b]] - v[dst[a:b]], axis=1)
         data[a:b] = A_v[src[a:b], None] / 3.0 * material.R_d(r)
-        if n is not None:
+        if triangles is not None:
             across.append(a + np.flatnonzero(_across(n[src[a:b]], n[dst[a:b]], r, A_v[src[a:b]])))
             # Light through thin parts: v_i lies h below v_j's tangent plane (physics.slab_through).
             depth = np.einsum("ij,ij->i", v[dst[a:b]] - v[src[a:b]], n[dst[a:b]])
-            through[a:b] = slab_through.factor(depth, *slab)
+            data[a:b] *= slab_through.factor(depth, *slab)
     if across:
         across = np.concatenate(across)
-        data[across] = hat_integrals(v, triangles, src[across], dst[across], material)
-    data *= through
+        depth = np.einsum("ij,ij->i", v[dst[across]] - v[src[across]], n[dst[across]])
+        data[across] = hat_integrals(v, triangles, src[across], dst[across], material) * slab_through.factor(depth,
+                                                                                                             *slab)
+    near = _csr(V, dst, src, data, threshold)
+    G = far_field.far_weights(hierarchy, v, n, A_v, material, far_dst, far_level, far_cluster)
+    power = np.concatenate(hierarchy.W)[np.asarray(hierarchy.offset)[far_level] + far_cluster]
+    slots = np.asarray(hierarchy.offset)[far_level] + far_cluster
+    keep = (G * power[:, None]).max(axis=1) >= threshold * FAR_THRESHOLD
+    far = FarField(*_csr(V, far_dst[keep], slots[keep], G[keep].astype(np.float32), 0.0), hierarchy.slots())
+    return near, far
+
+
+def _csr(V: int, dst: np.ndarray, src: np.ndarray, data: np.ndarray, threshold: float):
+    """(indptr, indices, data) by receiver, columns ascending; entries whose largest channel is below ``threshold``
+    dropped."""
     keep = data.max(axis=1) >= threshold
-    src, dst, data = src[keep], dst[keep], data[keep]
+    dst, src, data = dst[keep], src[keep], data[keep]
     order = np.lexsort((src, dst))
-    src, dst, data = src[order], dst[order], data[order]
-    indptr = np.zeros(len(v) + 1, np.int64)
+    indptr = np.zeros(V + 1, np.int64)
     np.add.at(indptr, dst + 1, 1)
-    return np.cumsum(indptr).astype(np.int32), src.astype(np.int32), data
+    return np.cumsum(indptr).astype(np.int32), src[order].astype(np.int32), np.ascontiguousarray(data[order])
+
+
+@dataclasses.dataclass(frozen=True)
+class FarField:
+    """The far sources of each receiver (``far_field``): G as CSR over cluster slots, and each vertex's slot at
+    every level (the run gathers the clusters' power E_P = sum A_i / 3 E^g_i through it)."""
+
+    indptr: np.ndarray  # (V+1,) int32
+    indices: np.ndarray  # (m,) int32: cluster slots
+    data: np.ndarray  # (m, 3) float32: per unit of the cluster's power
+    clusters: np.ndarray  # (V, L) int32
 
 
 def _taps(atlas: TexelAtlas, centres: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -503,13 +513,46 @@ class LenschBake:
     F_indptr: np.ndarray  # (V+1,) int32
     F_indices: np.ndarray  # (nnz,) int32
     F_data: np.ndarray  # (nnz, 3) float32
+    # The far field (``far_field``, ``FarField``); bakes from before it have none (their F kept every pair above the
+    # threshold instead).
+    G_indptr: np.ndarray | None = None  # (V+1,) int32
+    G_indices: np.ndarray | None = None  # (m,) int32: cluster slots
+    G_data: np.ndarray | None = None  # (m, 3) float32
+    clusters: np.ndarray | None = None  # (V, L) int32: each vertex's slot at every level
 
     def to_arrays(self, prefix: str = "lensch_") -> dict[str, np.ndarray]:
-        return {f"{prefix}{f.name}": getattr(self, f.name) for f in dataclasses.fields(self)}
+        return {f"{prefix}{f.name}": getattr(self, f.name) for f in dataclasses.fields(self)
+                if getattr(self, f.name) is not None}
 
     @classmethod
     def from_arrays(cls, arrays: dict, prefix: str = "lensch_") -> "LenschBake":
-        return cls(**{f.name: arrays[f"{prefix}{f.name}"] for f in dataclasses.fields(cls)})
+        return cls(**{f.name: arrays.get(f"{prefix}{f.name}") for f in dataclasses.fields(cls)})
+
+    @property
+    def has_far_field(self) -> bool:
+        return self.G_indptr is not None and self.clusters is not None and self.clusters.size > 0
+
+    @property
+    def cluster_count(self) -> int:
+        return int(self.clusters.max()) + 1 if self.has_far_field else 0
+
+    def cluster_power(self, E_g: np.ndarray) -> np.ndarray:
+        """E_P = sum_(i in P) A_i / 3 E^g_i (C, 3) for every cluster slot, every level (``far_field``)."""
+        C = self.cluster_count
+        w = self.A_v.astype(np.float64) / 3.0
+        E_g = np.asarray(E_g, np.float64)
+        out = np.zeros((C, 3))
+        for level in range(self.clusters.shape[1]):
+            for c in range(3):
+                out[:, c] += np.bincount(self.clusters[:, level], w * E_g[:, c], C)
+        return out
+
+    def far_matrices(self) -> list:
+        """G per colour channel as scipy CSR (rows: receivers, columns: cluster slots)."""
+        from scipy.sparse import csr_matrix
+
+        V, C = len(self.A_v), self.cluster_count
+        return [csr_matrix((self.G_data[:, c], self.G_indices, self.G_indptr), shape=(V, C)) for c in range(3)]
 
 
 def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray, material: Material,
@@ -521,8 +564,9 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
     """
     A_v = vertex_areas(vertices_mm, triangles)
     dual_v, dual_w = dual_weights(atlas, triangles, A_v)
-    yield 0.05, "throughput factors F (Lensch 5.2)"
-    indptr, indices, data = throughput(vertices_mm, A_v, material, threshold, triangles)
+    yield 0.05, "throughput factors F (Lensch 5.2), far sources by cluster"
+    (indptr, indices, data), far = throughput(vertices_mm, A_v, material, threshold, triangles)
+    far_arrays = dict(G_indptr=far.indptr, G_indices=far.indices, G_data=far.data, clusters=far.clusters)
     yield 0.3, "7x7 kernels (Lensch 5.3)"
     J = texel_jacobians(atlas, vertices_mm, triangles)
     taps, K = local_kernels(atlas, material, J)
@@ -543,7 +587,8 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
         if calibrate:
             yield 0.8, "uniform-light calibration of the global response"
             first = LenschBake(A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w, blend_weights=w,
-                               kernel_taps=taps, kernels=K_corrected, F_indptr=indptr, F_indices=indices, F_data=data)
+                               kernel_taps=taps, kernels=K_corrected, F_indptr=indptr, F_indices=indices, F_data=data,
+                               **far_arrays)
             one_ring = edge_entries(triangles, indptr, indices)
             gain = uniform_gain(atlas, first, vertices_mm, triangles, material, one_ring)
             response.gain = gain
@@ -560,7 +605,7 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
     return LenschBake(
         A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w.astype(np.float32),
         blend_weights=w.astype(np.float32), kernel_taps=taps, kernels=K.astype(np.float32),
-        F_indptr=indptr, F_indices=indices, F_data=data,
+        F_indptr=indptr, F_indices=indices, F_data=data, **far_arrays,
     )
 
 
@@ -585,6 +630,8 @@ def uniform_gain(atlas: TexelAtlas, bake: "LenschBake", vertices_mm, triangles, 
     exact = np.zeros((V, 3))
     for c in range(3):
         exact[:, c] = np.bincount(rows, weights=bake.F_data[:, c], minlength=V)
+    if bake.has_far_field:  # the far sources under E = 1, each cluster's power its W
+        exact += far_product(bake.far_matrices(), bake.cluster_power(np.ones((V, 3))))
     # Near pairs on the same side: the hat integral instead of the point rule.
     r = np.linalg.norm(v[bake.F_indices] - v[rows], axis=1)
     near = np.flatnonzero(r < ACROSS_REACH * np.sqrt(A_v[bake.F_indices]))
@@ -696,7 +743,15 @@ def vertex_radiosity(bake: LenschBake, E_surface: np.ndarray) -> np.ndarray:
     for k in range(3):
         np.add.at(E_g, bake.dual_vertices[:, k], bake.dual_weights[:, k, None] * E_s)
         np.add.at(B_d, bake.dual_vertices[:, k], bake.blend_weights[:, k, :] * E_s)
-    return global_product(throughput_matrices(bake.F_indptr, bake.F_indices, bake.F_data), E_g, B_d)
+    B = global_product(throughput_matrices(bake.F_indptr, bake.F_indices, bake.F_data), E_g, B_d)
+    if bake.has_far_field:
+        B += far_product(bake.far_matrices(), bake.cluster_power(E_g))
+    return B
+
+
+def far_product(matrices: list, E_P: np.ndarray) -> np.ndarray:
+    """sum_P G_jP E_P per channel (V, 3): the far sources' light at every vertex (``far_field``)."""
+    return np.stack([G @ np.asarray(E_P[:, c], np.float64) for c, G in enumerate(matrices)], axis=1)
 
 
 def local_radiosity(bake: LenschBake, E: np.ndarray) -> np.ndarray:
