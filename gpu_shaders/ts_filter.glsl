@@ -1,7 +1,8 @@
 /* TEXTURE_SPACE local response and combination (Lensch Eq. 15, 12, 9): one point per texel. The
  * texel's source (itself, or across the seam for a border texel) is filtered with its local kernel
  * K' ((2 local_half + 1)^2 entries, row `row` of the kernel table) over the illumination map, and the vertex
- * response B_v / T_p(v) is interpolated with the source's barycentrics. Outputs carry alpha 1 so
+ * response B_v / T_p(v) and its share through thin parts are interpolated with the source's barycentrics.
+ * Outputs carry alpha 1 so
  * that the display can weigh texels by coverage. */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -29,11 +30,15 @@ void main()
     B_l += K * texelFetch(irradiance, centre + ivec2(k % side - local_half, k / side - local_half), 0).rgb;
   }
   vec3 B_g = vec3(0.0);
+  vec3 B_t = vec3(0.0);
   for (int c = 0; c < 3; c++) {
     int v = int(v_verts[c] + 0.5);
-    B_g += v_bary[c] * texelFetch(B_vertex, ivec2(v % vertex_width, v / vertex_width), 0).rgb;
+    ivec2 at = ivec2(v % vertex_width, v / vertex_width);
+    B_g += v_bary[c] * texelFetch(B_vertex, at, 0).rgb;
+    B_t += v_bary[c] * texelFetch(B_through, at, 0).rgb;
   }
   out_local = vec4(B_l, 1.0);
   out_global = vec4(B_g, 1.0);
+  out_through = vec4(B_t, 1.0);
 }
 #endif

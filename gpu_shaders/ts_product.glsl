@@ -29,6 +29,7 @@ void main()
   int j = p.y * vertex_width + p.x;
   if (j >= vertex_count) {
     out_vertex = vec4(0.0);
+    out_through = vec4(0.0);
     return;
   }
   ivec2 table = textureSize(F_indices, 0);
@@ -38,6 +39,9 @@ void main()
   int begin = max(row_start(j), 0);
   int end = min(row_start(j + 1), table.x * table.y);
   vec3 B = texelFetch(B_direct, p, 0).rgb;
+  vec3 B_t = vec3(0.0); /* the light that crossed a thin part: each entry's depth (alpha) ramped in from 2 to 4
+                           mean free paths, as the splat shader's through_factor (texture_space/throughput.py,
+                           through_share) */
   for (int e = begin; e < end; e++) {
     ivec2 at = entry(e, width);
     int i = clamp(int(texelFetch(F_indices, at, 0).r + 0.5), 0, vertex_count + cluster_count - 1);
@@ -49,9 +53,12 @@ void main()
       i -= vertex_count;
       E = texelFetch(E_cluster, ivec2(i % vertex_width, i / vertex_width), 0).rgb;
     }
-    B += texelFetch(F_data, at, 0).rgb * E;
+    vec4 F = texelFetch(F_data, at, 0);
+    B += F.rgb * E;
+    B_t += F.rgb * smoothstep(2.0 * z_r, 4.0 * z_r, vec3(F.a)) * E;
   }
   vec3 T_p = max(texelFetch(T_p_vertex, p, 0).rgb, vec3(1e-4));
   out_vertex = vec4(B / T_p, 1.0);
+  out_through = vec4(B_t / T_p, 1.0);
 }
 #endif

@@ -70,7 +70,7 @@ def test_a_far_entry_is_the_mean_of_its_childrens_profile(cow):
     n = vertex_normals(v, t)
     _, (far_dst, far_level, far_cluster) = far_field.interactions(h, v)
     pick = np.flatnonzero(far_level == 0)[::997][:40]
-    G = far_field.far_weights(h, v, n, A_v, material, far_dst[pick], far_level[pick], far_cluster[pick])
+    G, _ = far_field.far_weights(h, v, n, A_v, material, far_dst[pick], far_level[pick], far_cluster[pick])
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
     for k, (j, P) in enumerate(zip(far_dst[pick], far_cluster[pick])):
         i = np.flatnonzero(h.of[0] == P)
@@ -95,5 +95,5 @@ def test_a_loose_vertex_without_area_leaves_every_entry_finite():
     assert A_v[-1] == 0.0
     m = load_presets()["marble"]
     material = throughput.Material(tuple(m.sigma_a), tuple(m.sigma_s_prime), 1.0)
-    (indptr, indices, data), far = throughput.throughput(v, A_v, material, triangles=t)
+    (indptr, indices, data), _, far = throughput.throughput(v, A_v, material, triangles=t)
     assert np.isfinite(data).all() and np.isfinite(far.data).all() and len(far.indices) > 0

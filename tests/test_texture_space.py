@@ -48,16 +48,18 @@ def test_gpu_passes_equal_the_cpu_twin_of_the_same_irradiance(tr, scene):
     x, y = atlas.texel_xy[:, 0], atlas.texel_xy[:, 1]
     E = ts["irradiance"][y, x, :3]
     assert E.max() > 1.0 and np.isfinite(E).all(), "the light reaches the ball"
-    local, glob = data.frame_radiosity(ts["arrays"], E, T_p_vertex=ts["T_p_vertex"])
-    gpu_local, gpu_global = ts["local"][y, x, :3], ts["global"][y, x, :3]
+    local, glob, through = data.frame_radiosity(ts["arrays"], E, T_p_vertex=ts["T_p_vertex"])
+    gpu_local, gpu_global, gpu_through = ts["local"][y, x, :3], ts["global"][y, x, :3], ts["through"][y, x, :3]
     assert np.all(ts["local"][y, x, 3] == 1.0)
-    for gpu_values, cpu in ((gpu_local, local), (gpu_global, glob)):
+    for gpu_values, cpu in ((gpu_local, local), (gpu_global, glob), (gpu_through, through)):
         assert cpu.max() > 0
         np.testing.assert_allclose(gpu_values, cpu, rtol=1e-3, atol=1e-4 * cpu.max())
+    # Light crosses the 10 cm ball: part of the global response, not all of it.
+    assert 0.0 < through.sum() < 0.5 * glob.sum()
     # The far field (cluster gather and the clusters' entries) is in what was compared: without it the twin
     # differs from the GPU well past that tolerance.
     near_only = {k: a for k, a in ts["arrays"].items() if not k.startswith(("lensch_G_", "lensch_clusters"))}
-    _, glob_near = data.frame_radiosity(near_only, E, T_p_vertex=ts["T_p_vertex"])
+    _, glob_near, _ = data.frame_radiosity(near_only, E, T_p_vertex=ts["T_p_vertex"])
     assert not np.allclose(gpu_global, glob_near, rtol=1e-3, atol=1e-4 * glob.max())
 
 

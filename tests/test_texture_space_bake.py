@@ -127,7 +127,7 @@ def test_near_pairs_and_far_clusters_carry_every_pair_of_the_dense_matrix():
     share of the pairs."""
     v, f = plate(24, 60.0)
     A_v = vertex_areas(v, f)
-    near, far = lensch.throughput(v, A_v, MATERIAL)
+    near, _, far = lensch.throughput(v, A_v, MATERIAL)
     dense = _dense(v, A_v)
     assert len(near[1]) < 0.3 * len(v) ** 2 and len(far.indices) > 0
     for E in (np.ones((len(v), 3)), np.exp(v[:, :1] / 30.0) * np.array([1.0, 0.5, 0.25])):
@@ -147,7 +147,7 @@ def test_light_straight_through_a_part_reaches_the_far_face():
     v = np.concatenate([top, bottom])
     tris = np.concatenate([f, f[:, ::-1] + len(top)])  # the bottom faces down
     A_v = vertex_areas(v, tris)
-    near, far = lensch.throughput(v, A_v, MATERIAL, triangles=tris)
+    near, _, far = lensch.throughput(v, A_v, MATERIAL, triangles=tris)
     dense = _dense(v, A_v, vertex_normals(v, tris))
     E = np.zeros((len(v), 3))
     E[len(top):] = 1.0
@@ -379,8 +379,10 @@ def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):
     assert bake.G_indptr[j + 1] > bake.G_indptr[j]
     np.testing.assert_array_equal(indices[indptr[j]:indptr[j + 1]],
                                   np.concatenate([bake.F_indices[F_row], bake.G_indices[G_row] + len(v)]))
-    np.testing.assert_array_equal(data[indptr[j]:indptr[j + 1]], np.concatenate([bake.F_data[F_row],
-                                                                                  bake.G_data[G_row]]))
+    np.testing.assert_array_equal(data[indptr[j]:indptr[j + 1], :3], np.concatenate([bake.F_data[F_row],
+                                                                                      bake.G_data[G_row]]))
+    np.testing.assert_array_equal(data[indptr[j]:indptr[j + 1], 3], np.concatenate([bake.F_depth[F_row],
+                                                                                     bake.G_depth[G_row]]))
     assert t.cluster_count == bake.cluster_count > 0 and len(t.cluster_points[1]) == bake.clusters.size
     # Row starts past 2^24 (a float's exact integers) still come back exactly from two float32 halves.
     starts = np.array([0, 4095, 4096, (1 << 24) + 1, tsd.GPU_PRODUCT_LIMIT - 1], np.int64)
@@ -435,3 +437,34 @@ def test_a_stored_bake_whose_indices_do_not_fit_is_refused_before_scipy_or_the_g
         tsd.load(damaged)
     with pytest.raises(store.DamagedBakeError, match=why):
         tsd.gpu_tables(damaged, 1.0)
+
+
+def test_the_light_that_crossed_a_part_is_told_apart_from_the_light_that_came_back():
+    """``through_share``: on the two plates 22 mm apart, lit below, what reaches the top plate crossed the part
+    (B^t = B there), and what the lit plate sends back to itself did not (B^t = 0 there). The display sends B^t out
+    by the diffusion mode's law M and the rest by the angular law a."""
+    from translucent_addon.core.physics import slab_through
+    from translucent_addon.core.physics.angular_law import nodes, through_constants, through_exit, through_exit_table
+
+    top, f = plate(12, 30.0)
+    v = np.concatenate([top, top - [0.0, 0.0, 22.0]])
+    tris = np.concatenate([f, f[:, ::-1] + len(top)])
+    A_v = vertex_areas(v, tris)
+    (indptr, indices, data), depth, far = lensch.throughput(v, A_v, MATERIAL, triangles=tris)
+    z_r = slab_through.constants(SKIN.sigma_a, SKIN.sigma_s_prime, SKIN.eta)[1]
+    bake = lensch.LenschBake(A_v=A_v, dual_vertices=None, dual_weights=None, blend_weights=None, kernel_taps=None,
+                             kernels=None, F_indptr=indptr, F_indices=indices, F_data=data, G_indptr=far.indptr,
+                             G_indices=far.indices, G_data=far.data, clusters=far.clusters, F_depth=depth,
+                             G_depth=far.depth, z_r=z_r)
+    E = np.zeros((len(v), 3))
+    E[len(top):] = 1.0
+    B = _product(v, A_v, (indptr, indices, data), far, E)
+    B_t = lensch.vertex_through(bake, E)
+    np.testing.assert_allclose(B_t[:len(top)], B[:len(top)], rtol=1e-6)
+    assert np.abs(B_t[len(top):]).max() < 1e-6 * B[len(top):].max()
+    M = through_exit_table(SKIN.sigma_a, SKIN.sigma_s_prime, SKIN.eta)
+    np.testing.assert_allclose(M, through_exit(through_constants(SKIN.sigma_a, SKIN.sigma_s_prime, SKIN.eta),
+                                               SKIN.eta, nodes()))
+    assert np.all(np.diff(M[:, 0]) > 0)  # the diffusion mode leaves more towards the normal than at grazing
+    np.testing.assert_array_equal(profile_model("DIPOLE").through_exit_table(SKIN.sigma_a, SKIN.sigma_s_prime,
+                                                                             SKIN.eta), 1.0)

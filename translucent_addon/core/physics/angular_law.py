@@ -179,6 +179,12 @@ def through_exit(constants: np.ndarray, eta: float, mu: ArrayLike) -> np.ndarray
     return _emergent_shape(gamma, k, mu_t) * inv_mean
 
 
+def through_exit_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: int = SAMPLES) -> np.ndarray:
+    """M at ``nodes(n)`` per RGB channel (n, 3): ``through_exit`` on the angular law's grid (TEXTURE_SPACE's display
+    reads it as it reads ``table``)."""
+    return through_exit(through_constants(sigma_a, sigma_s_prime, eta), eta, nodes(n))
+
+
 def through_exit_ratio(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, mu: ArrayLike) -> np.ndarray:
     """M(mu) / a(mu) (..., 3): what the light of a thin-part pair is weighed by where the angular law of the light
     leaving was applied to all of it (CPU twin of ``through_exit_ratio`` in translucent_angular.glsl)."""

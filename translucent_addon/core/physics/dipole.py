@@ -122,3 +122,9 @@ def angular_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: i
     """The angular weights of the papers' model, (n, 3) ones: Jensen 2001 Eq. 4 sends R_d out Lambertian under
     light from any angle (``angular_law`` is the exact profile's; n is its SAMPLES)."""
     return np.ones((n, 3))
+
+
+def through_exit_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, n: int = 16) -> np.ndarray:
+    """How the light that crossed a thin part leaves, (n, 3) ones: the papers' model sends all of it out
+    Lambertian (``angular_law.through_exit_table`` is the exact profile's)."""
+    return np.ones((n, 3))

@@ -28,6 +28,8 @@ TABLE = DATA / "half_space_profile.npz"
 # How the light it sends back depends on the angles it arrives and leaves at (the profile is tabulated for
 # cosine-weighted light, sent out Lambertian): the module of that name.
 angular_table = angular_law.table
+# How the light that crossed a thin part leaves (the slowest diffusion mode's law).
+through_exit_table = angular_law.through_exit_table
 ETAS = (1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.8, 2.0)
 # Albedos: every 0.03 up to 0.9, then 1 - alpha' geometric in 50 steps of 19 % from 0.086 to 1.6e-5, and 1.
 HIGH_ROOTS = np.geomspace(0.004, 1.0, 64)[:50]  # s = sqrt(1 - alpha') of the high albedos

@@ -162,13 +162,16 @@ def interactions(h: Hierarchy, v_mm: np.ndarray):
 
 
 def far_weights(h: Hierarchy, v_mm: np.ndarray, normals: np.ndarray, A_v: np.ndarray, material,
-                dst: np.ndarray, level: np.ndarray, cluster: np.ndarray) -> np.ndarray:
-    """G_jP (n, 3) per unit of the cluster's power: its children's R_d C at the receiver, weighed by their W."""
+                dst: np.ndarray, level: np.ndarray, cluster: np.ndarray):
+    """(G_jP (n, 3) per unit of the cluster's power: its children's R_d C at the receiver, weighed by their W;
+    the depth of the cluster below the receiver's tangent plane (n,), its children's mean weighed by their light
+    in green, which says how much of it crossed the part)."""
     v = np.asarray(v_mm, np.float64)
     n = np.asarray(normals, np.float64)
     w_v = np.asarray(A_v, np.float64) / 3.0
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
     out = np.zeros((len(dst), 3))
+    out_depth = np.zeros(len(dst))
     for l in range(h.levels):
         at = np.flatnonzero(level == l)
         if len(at) == 0:
@@ -191,4 +194,6 @@ def far_weights(h: Hierarchy, v_mm: np.ndarray, normals: np.ndarray, A_v: np.nda
             sums = np.stack([np.bincount(pair, f[:, c], len(rows)) for c in range(3)], axis=1)
             W_P = h.W[l][cluster[rows], None]
             out[rows] = np.divide(sums, W_P, out=np.zeros_like(sums), where=W_P > 0.0)  # no area: no power either
-    return out
+            deep = np.bincount(pair, f[:, 1] * np.maximum(depth, 0.0), len(rows))
+            out_depth[rows] = np.divide(deep, sums[:, 1], out=np.zeros(len(rows)), where=sums[:, 1] > 0.0)
+    return out, out_depth

@@ -16,7 +16,16 @@ from ...core.bake_store import DamagedBakeError
 from ...core.geometry.mesh_measures import facing_side
 from .atlas import TexelAtlas
 from .proxy import carry_corners
-from .throughput import LenschBake, _offsets, _taps, local_radiosity, vertex_radiosity
+from .throughput import (
+    LenschBake,
+    _offsets,
+    _taps,
+    gathered,
+    has_through,
+    local_radiosity,
+    vertex_radiosity,
+    vertex_through,
+)
 
 TABLE_WIDTH = 4096
 # Row starts of F travel as two exact floats, start = hi * ROW_SPLIT + lo (a float holds integers below
@@ -64,7 +73,7 @@ class GpuTables:
     local_half: int  # the local kernels are (2 local_half + 1)^2 texels
     F_indptr: np.ndarray  # (rows, TABLE_WIDTH, 2) int32: each row start as (hi, lo), see ROW_SPLIT
     F_indices: np.ndarray  # (rows, TABLE_WIDTH, 1) int32
-    F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32
+    F_data: np.ndarray  # (rows, TABLE_WIDTH, 4) float32: the entry, its depth (``merged_rows``)
     display_uv: np.ndarray  # (3T', 2) float32, texel units, per corner of the drawn display
     vertex_corner: np.ndarray  # (V,) int32: drawn display corner nearest each proxy vertex
     # A refined proxy drawn in place of the display: each triangle's display triangle (T',) and corner
@@ -74,6 +83,7 @@ class GpuTables:
     form_factors: int  # entries of F^0 and G together
     cluster_count: int  # cluster slots of the far field (0: a bake from before it)
     cluster_points: tuple | None  # ``cluster_gather``: (texel (V L, 2), slot (V L,), A_i / 3 (V L,))
+    z_r: tuple  # the medium's mean free paths, the through share's scale (1e30: none, a bake before it)
 
     @property
     def gpu_product(self) -> bool:
@@ -146,6 +156,11 @@ def check(arrays: dict) -> None:
         entries = len(indices(arrays, "lensch_G_indices", (None,), slots))
         row_pointers(arrays, "lensch_G_indptr", V, entries)
         shaped(arrays, "lensch_G_data", (entries, 3))
+        if "lensch_G_depth" in arrays:
+            shaped(arrays, "lensch_G_depth", (entries,))
+    if "lensch_F_depth" in arrays:  # the through share's depths (bakes from before them have none)
+        shaped(arrays, "lensch_F_depth", (len(arrays["lensch_F_indices"]),))
+        shaped(arrays, "lensch_z_r", (3,))
     C = len(shaped(arrays, "display_uv", (None, 2)))
     indices(arrays, "vertex_corner", (V,), C)
     if "display_parent" in arrays:  # a refined display: its parents are checked against the mesh (``fits``)
@@ -180,9 +195,13 @@ def local_half(kernels: np.ndarray) -> int:
 
 def merged_rows(lensch: LenschBake):
     """F^0 and the far field G as one CSR over V + C sources (a cluster slot P is column V + P): what the GPU's
-    product walks, each row F's entries then G's."""
+    product walks, each row F's entries then G's; data (nnz, 4): the entry, and its depth (``through_share``)."""
+    F_depth = lensch.F_depth if lensch.F_depth is not None else np.zeros(len(lensch.F_indices), np.float32)
+    F_data = np.concatenate([lensch.F_data, F_depth[:, None]], axis=1).astype(np.float32)
     if not lensch.has_far_field:
-        return lensch.F_indptr, lensch.F_indices, lensch.F_data
+        return lensch.F_indptr, lensch.F_indices, F_data
+    G_depth = lensch.G_depth if lensch.G_depth is not None else np.zeros(len(lensch.G_indices), np.float32)
+    G_data = np.concatenate([lensch.G_data, G_depth[:, None]], axis=1).astype(np.float32)
     V = len(lensch.A_v)
     F_ptr, G_ptr = np.asarray(lensch.F_indptr, np.int64), np.asarray(lensch.G_indptr, np.int64)
     F_count, G_count = np.diff(F_ptr), np.diff(G_ptr)
@@ -190,9 +209,9 @@ def merged_rows(lensch: LenschBake):
     F_pos = np.arange(len(lensch.F_indices)) + np.repeat(indptr[:-1] - F_ptr[:-1], F_count)
     G_pos = np.arange(len(lensch.G_indices)) + np.repeat(indptr[:-1] + F_count - G_ptr[:-1], G_count)
     indices = np.empty(int(indptr[-1]), np.int64)
-    data = np.empty((int(indptr[-1]), 3), np.float32)
+    data = np.empty((int(indptr[-1]), 4), np.float32)
     indices[F_pos], indices[G_pos] = lensch.F_indices, np.asarray(lensch.G_indices, np.int64) + V
-    data[F_pos], data[G_pos] = lensch.F_data, lensch.G_data
+    data[F_pos], data[G_pos] = F_data, G_data
     return indptr, indices, data
 
 
@@ -242,6 +261,7 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         F_indptr=wrap(split_rows(F_indptr), channels=2) if gpu_product else None,
         F_indices=wrap(F_indices.astype(np.int32), channels=1) if gpu_product else None,
         F_data=wrap(np.asarray(F_data, np.float32)) if gpu_product else None,
+        z_r=tuple(float(x) for x in (lensch.z_r if has_through(lensch) else np.full(3, 1e30))),
         form_factors=int(len(F_indices)),
         cluster_count=lensch.cluster_count,
         cluster_points=cluster_gather(lensch) if lensch.has_far_field else None,
@@ -259,7 +279,8 @@ def vertex_image(values: np.ndarray, vertex_count: int) -> np.ndarray:
 
 
 def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None = None):
-    """CPU twin of the GPU passes: (B^l (N, 3), B^g / T_p interpolated (N, 3)) at every texel.
+    """CPU twin of the GPU passes: (B^l (N, 3), B^g / T_p interpolated (N, 3), its share through thin parts B^t / T_p
+    (N, 3)) at every texel.
 
     ``E`` (N, 3) is the illumination map at every texel (border texels hold their source's); a
     border texel's outputs are its source's, as the filter pass draws them.
@@ -267,8 +288,12 @@ def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None =
     atlas, lensch = load(arrays)
     n = atlas.surface_count
     B_vertex = vertex_radiosity(lensch, np.asarray(E, np.float64)[:n])
+    B_through = (vertex_through(lensch, gathered(lensch, np.asarray(E, np.float64)[:n])[0]) if has_through(lensch)
+                 else np.zeros_like(B_vertex))
     if T_p_vertex is not None:
         B_vertex /= np.maximum(T_p_vertex, 1e-4)
+        B_through /= np.maximum(T_p_vertex, 1e-4)
     verts = np.asarray(arrays["proxy_triangles"], np.int64)[atlas.triangle]
     B_global = np.einsum("nk,nkc->nc", atlas.bary.astype(np.float64), B_vertex[verts])
-    return local_radiosity(lensch, E)[atlas.source], B_global
+    B_t = np.einsum("nk,nkc->nc", atlas.bary.astype(np.float64), B_through[verts])
+    return local_radiosity(lensch, E)[atlas.source], B_global, B_t

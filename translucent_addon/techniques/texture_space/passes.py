@@ -33,7 +33,7 @@ from ..protocol import Technique
 from . import bake as texture_space_bake
 from . import model as tsd
 from . import quality as texture_space_quality
-from .throughput import LenschBake, far_product, global_product, throughput_matrices
+from .throughput import LenschBake, far_product, global_product, has_through, throughput_matrices, vertex_through
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -53,17 +53,18 @@ SHADER_SPECS = {
                   (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex"),
                   (6, "FLOAT_2D", "E_cluster")),
         push_constants=(("INT", "vertex_width"), ("INT", "vertex_count"), ("INT", "cluster_count"),
-                        ("INT", "row_split")),
-        fragment_out=((0, "VEC4", "out_vertex"),),
+                        ("INT", "row_split"), ("VEC3", "z_r")),
+        fragment_out=((0, "VEC4", "out_vertex"), (1, "VEC4", "out_through")),
     ),
     "ts_filter": shaders.ShaderSpec(
         source="ts_filter.glsl",
         vertex_in=(("VEC2", "texel"), ("VEC2", "source"), ("FLOAT", "row"), ("VEC3", "bary"), ("VEC3", "verts")),
         varyings=(("flat", "VEC2", "v_source"), ("flat", "FLOAT", "v_row"), ("flat", "VEC3", "v_bary"),
                   ("flat", "VEC3", "v_verts")),
-        samplers=((0, "FLOAT_2D", "irradiance"), (1, "FLOAT_2D", "kernels"), (2, "FLOAT_2D", "B_vertex")),
+        samplers=((0, "FLOAT_2D", "irradiance"), (1, "FLOAT_2D", "kernels"), (2, "FLOAT_2D", "B_vertex"),
+                  (3, "FLOAT_2D", "B_through")),
         push_constants=(("INT", "vertex_width"), ("INT", "local_half"), ("VEC2", "atlas_size")),
-        fragment_out=((0, "VEC4", "out_local"), (1, "VEC4", "out_global")),
+        fragment_out=((0, "VEC4", "out_local"), (1, "VEC4", "out_global"), (2, "VEC4", "out_through")),
     ),
     "ts_display": shaders.ShaderSpec(
         source="ts_display.glsl",
@@ -71,7 +72,8 @@ SHADER_SPECS = {
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
                   ("smooth", "VEC2", "v_uv")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
-        samplers=((0, "FLOAT_2D", "local_map"), (1, "FLOAT_2D", "global_map"), (2, "FLOAT_2D", "angular_table")),
+        samplers=((0, "FLOAT_2D", "local_map"), (1, "FLOAT_2D", "global_map"), (2, "FLOAT_2D", "angular_table"),
+                  (3, "FLOAT_2D", "through_map"), (4, "FLOAT_2D", "exit_table")),
         push_constants=(("FLOAT", "eta"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
@@ -99,9 +101,9 @@ class Resources:
         self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
             "texel": t.texel, "source": t.source_texel, "row": t.row, "bary": t.bary, "verts": t.verts})
         self.irradiance = new_target(t.atlas_size)
-        self.maps = new_target(t.atlas_size, attachments=2)  # local, global
+        self.maps = new_target(t.atlas_size, attachments=3)  # local, global, global through thin parts
         self.vertex_in = new_target(t.vertex_size, attachments=2)  # E^g, B^d
-        self.vertex_out = new_target(t.vertex_size)
+        self.vertex_out = new_target(t.vertex_size, attachments=2)  # B / T_p, B^t / T_p
         # The far field's clusters: their power gathered from E^g (``ts_gather`` over the vertex image; its second
         # output, B^d, stays zero there).
         self.cluster_points = self.cluster_in = None
@@ -137,13 +139,15 @@ class Resources:
                             lensch, lensch.far_matrices() if lensch.has_far_field else None)
         return self._sparse
 
-    def cpu_product(self, E_g: np.ndarray, B_d: np.ndarray) -> np.ndarray:
-        """B^d + F^0 E^g + G E_P at the vertices (V, 3) with SciPy (Lensch Eq. 11 and the far field)."""
+    def cpu_product(self, E_g: np.ndarray, B_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(B^d + F^0 E^g + G E_P, its share through thin parts B^t) at the vertices (V, 3) with SciPy (Lensch
+        Eq. 11, the far field and ``throughput.through_share``)."""
         F, lensch, G = self.sparse()
         B = global_product(F, E_g, B_d)
         if G is not None:
             B += far_product(G, lensch.cluster_power(E_g))
-        return B
+        B_t = vertex_through(lensch, E_g) if has_through(lensch) else np.zeros_like(B)
+        return B, B_t
 
 
 def prepare(frame) -> list[Active]:
@@ -161,6 +165,13 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
         draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
                           objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta,
                           angular_texture(a) if mode == 1 else unit_texture(pipeline))
+
+
+def exit_texture(a: Active):
+    """How light that crossed a thin part leaves, M(mu) (``angular_law.through_exit_table``; ones for the DIPOLE
+    profile, which keeps the Lambertian law), as an n x 1 table."""
+    medium = a.mesh.medium
+    return a.resources.medium_tables.get("through_exit", medium, profile_model(medium.profile).through_exit_table)
 
 
 def angular_texture(a: Active):
@@ -199,11 +210,12 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
         t1 = time.perf_counter()
         T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
-        vout_fb, (B_vertex,), _ = res.vertex_out
+        vout_fb, (B_vertex, B_through), _ = res.vertex_out
         if product_here == "CPU":
-            B = res.cpu_product(E_g, B_d) / np.maximum(T_p, 1e-4)
+            B, B_t = (x / np.maximum(T_p, 1e-4) for x in res.cpu_product(E_g, B_d))
             B_vertex = texture_from_array(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
-            res.cpu_vertex = B_vertex  # referenced until drawn
+            B_through = texture_from_array(tsd.vertex_image(B_t.astype(np.float32), t.vertex_count), "RGBA32F")
+            res.cpu_vertex = (B_vertex, B_through)  # referenced until drawn
         else:
             T_p_texture = texture_from_array(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
             E_cluster = unit_texture(pipeline)  # read by no entry where the bake has no far field
@@ -234,9 +246,10 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 shader.uniform_int("cluster_count", t.cluster_count)
                 shader.uniform_sampler("E_cluster", E_cluster)
                 shader.uniform_int("row_split", tsd.ROW_SPLIT)
+                shader.uniform_float("z_r", t.z_r)
                 screen_quad(pipeline, "ts_product").draw(shader)
         t2 = time.perf_counter()
-        maps_fb, (local_map, global_map), _ = res.maps
+        maps_fb, (local_map, global_map, through_map), _ = res.maps
         with maps_fb.bind():
             clear_target(maps_fb, depth=None)
             gpu.state.blend_set("NONE")
@@ -245,6 +258,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("irradiance", irradiance)
             shader.uniform_sampler("kernels", res.kernels)
             shader.uniform_sampler("B_vertex", B_vertex)
+            shader.uniform_sampler("B_through", B_through)
             shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
             shader.uniform_int("local_half", t.local_half)
             shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
@@ -253,7 +267,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 w, h = t.atlas_size
                 pipeline.capture.setdefault("texture_space", []).append({
                     "name": a.mesh.name, "irradiance": None, "local": read_pixels(maps_fb, w, h, slot=0),
-                    "global": read_pixels(maps_fb, w, h, slot=1), "T_p_vertex": T_p, "arrays": res.arrays})
+                    "global": read_pixels(maps_fb, w, h, slot=1), "through": read_pixels(maps_fb, w, h, slot=2),
+                    "T_p_vertex": T_p, "arrays": res.arrays})
         if pipeline.capture is not None:
             with irr_fb.bind():
                 w, h = t.atlas_size
@@ -271,6 +286,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("global_map", global_map)
             shader.uniform_float("eta", float(a.mesh.medium.eta))
             shader.uniform_sampler("angular_table", angular_texture(a))
+            shader.uniform_sampler("through_map", through_map)
+            shader.uniform_sampler("exit_table", exit_texture(a))
             res.display_batch(a.mesh).draw(shader)
             gpu.state.depth_mask_set(True)
         t4 = time.perf_counter()

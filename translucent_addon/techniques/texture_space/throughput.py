@@ -202,7 +202,8 @@ def _across(n_src, n_dst, r, A_src) -> np.ndarray:
 def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, threshold: float = THRESHOLD,
                triangles: np.ndarray | None = None):
     """F^0 gathered by receiver as CSR, near pairs one by one (Lensch 5.2) and far sources by cluster
-    (``far_field``): returns ((indptr (V+1,) int32, indices (nnz,) int32, data (nnz, 3) float32), FarField).
+    (``far_field``): returns ((indptr (V+1,) int32, indices (nnz,) int32, data (nnz, 3) float32), depth (nnz,)
+    float32 of each source below its receiver's tangent plane (how much of its light crossed a part), FarField).
 
     F_ij = A_i / 3 R_d(|v_i - v_j|) C(h_ij), Lensch's one-point rule for int int psi_i R_d psi~_j. Integrating
     the hat exactly looks more accurate but is not: it spreads the response of light entering
@@ -223,6 +224,7 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
     hierarchy = far_field.build(v, n, A_v, near_mm=ACROSS_REACH * np.sqrt(A_v))
     (dst, src), (far_dst, far_level, far_cluster) = far_field.interactions(hierarchy, v)
     data = np.empty((len(src), 3), np.float32)
+    depth = np.zeros(len(src), np.float32)  # of v_i below v_j's tangent plane, mm (0 above it)
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, material.eta)
     across = []
     for a in range(0, len(src), _CHUNK):
@@ -232,31 +234,32 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
         if triangles is not None:
             across.append(a + np.flatnonzero(_across(n[src[a:b]], n[dst[a:b]], r, A_v[src[a:b]])))
             # Light through thin parts: v_i lies h below v_j's tangent plane (physics.slab_through).
-            depth = np.einsum("ij,ij->i", v[dst[a:b]] - v[src[a:b]], n[dst[a:b]])
-            data[a:b] *= slab_through.factor(depth, *slab)
+            depth[a:b] = np.maximum(np.einsum("ij,ij->i", v[dst[a:b]] - v[src[a:b]], n[dst[a:b]]), 0.0)
+            data[a:b] *= slab_through.factor(depth[a:b], *slab)
     if across:
         across = np.concatenate(across)
-        depth = np.einsum("ij,ij->i", v[dst[across]] - v[src[across]], n[dst[across]])
-        data[across] = hat_integrals(v, triangles, src[across], dst[across], material) * slab_through.factor(depth,
-                                                                                                             *slab)
-    near = _csr(V, dst, src, data, threshold)
-    G = far_field.far_weights(hierarchy, v, n, A_v, material, far_dst, far_level, far_cluster)
+        data[across] = (hat_integrals(v, triangles, src[across], dst[across], material)
+                        * slab_through.factor(depth[across], *slab))
+    *near, near_depth = _csr(V, dst, src, data, threshold, depth)
+    G, G_depth = far_field.far_weights(hierarchy, v, n, A_v, material, far_dst, far_level, far_cluster)
     power = np.concatenate(hierarchy.W)[np.asarray(hierarchy.offset)[far_level] + far_cluster]
     slots = np.asarray(hierarchy.offset)[far_level] + far_cluster
     keep = (G * power[:, None]).max(axis=1) >= threshold * FAR_THRESHOLD
-    far = FarField(*_csr(V, far_dst[keep], slots[keep], G[keep].astype(np.float32), 0.0), hierarchy.slots())
-    return near, far
+    far = FarField(*_csr(V, far_dst[keep], slots[keep], G[keep].astype(np.float32), 0.0,
+                         G_depth[keep].astype(np.float32)), hierarchy.slots())
+    return tuple(near), near_depth, far
 
 
-def _csr(V: int, dst: np.ndarray, src: np.ndarray, data: np.ndarray, threshold: float):
-    """(indptr, indices, data) by receiver, columns ascending; entries whose largest channel is below ``threshold``
-    dropped."""
+def _csr(V: int, dst: np.ndarray, src: np.ndarray, data: np.ndarray, threshold: float, *extra: np.ndarray):
+    """(indptr, indices, data, *extra) by receiver, columns ascending; entries whose largest channel is below
+    ``threshold`` dropped."""
     keep = data.max(axis=1) >= threshold
     dst, src, data = dst[keep], src[keep], data[keep]
     order = np.lexsort((src, dst))
     indptr = np.zeros(V + 1, np.int64)
     np.add.at(indptr, dst + 1, 1)
-    return np.cumsum(indptr).astype(np.int32), src[order].astype(np.int32), np.ascontiguousarray(data[order])
+    return (np.cumsum(indptr).astype(np.int32), src[order].astype(np.int32), np.ascontiguousarray(data[order]),
+            *(np.ascontiguousarray(e[keep][order]) for e in extra))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -267,6 +270,7 @@ class FarField:
     indptr: np.ndarray  # (V+1,) int32
     indices: np.ndarray  # (m,) int32: cluster slots
     data: np.ndarray  # (m, 3) float32: per unit of the cluster's power
+    depth: np.ndarray  # (m,) float32: below the receiver's tangent plane, mm (``far_field.far_weights``)
     clusters: np.ndarray  # (V, L) int32
 
 
@@ -519,6 +523,11 @@ class LenschBake:
     G_indices: np.ndarray | None = None  # (m,) int32: cluster slots
     G_data: np.ndarray | None = None  # (m, 3) float32
     clusters: np.ndarray | None = None  # (V, L) int32: each vertex's slot at every level
+    # Light through thin parts leaves by the diffusion mode's law (``through_share``): each entry's depth below its
+    # receiver's tangent plane (mm) and the medium's mean free paths z_r (3,), the ramp's scale.
+    F_depth: np.ndarray | None = None  # (nnz,) float32
+    G_depth: np.ndarray | None = None  # (m,) float32
+    z_r: np.ndarray | None = None  # (3,) float32
 
     def to_arrays(self, prefix: str = "lensch_") -> dict[str, np.ndarray]:
         return {f"{prefix}{f.name}": getattr(self, f.name) for f in dataclasses.fields(self)
@@ -565,8 +574,11 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
     A_v = vertex_areas(vertices_mm, triangles)
     dual_v, dual_w = dual_weights(atlas, triangles, A_v)
     yield 0.05, "throughput factors F (Lensch 5.2), far sources by cluster"
-    (indptr, indices, data), far = throughput(vertices_mm, A_v, material, threshold, triangles)
-    far_arrays = dict(G_indptr=far.indptr, G_indices=far.indices, G_data=far.data, clusters=far.clusters)
+    (indptr, indices, data), depth, far = throughput(vertices_mm, A_v, material, threshold, triangles)
+    far_arrays = dict(G_indptr=far.indptr, G_indices=far.indices, G_data=far.data, clusters=far.clusters,
+                      G_depth=far.depth, F_depth=depth,
+                      z_r=slab_through.constants(material.sigma_a, material.sigma_s_prime,
+                                                 material.eta)[1].astype(np.float32))
     yield 0.3, "7x7 kernels (Lensch 5.3)"
     J = texel_jacobians(atlas, vertices_mm, triangles)
     taps, K = local_kernels(atlas, material, J)
@@ -601,7 +613,7 @@ def precompute(atlas: TexelAtlas, vertices_mm: np.ndarray, triangles: np.ndarray
         # Without blending the diagonal of F stays (Sec. 5.2): the vertex's own irradiance scatters back.
         V = len(A_v)
         diag = (A_v / 3.0)[:, None] * material.R_d(np.zeros(V))
-        indptr, indices, data = _with_diagonal(indptr, indices, data, diag)
+        indptr, indices, data, far_arrays["F_depth"] = _with_diagonal(indptr, indices, data, diag, depth)
     return LenschBake(
         A_v=A_v.astype(np.float32), dual_vertices=dual_v, dual_weights=dual_w.astype(np.float32),
         blend_weights=w.astype(np.float32), kernel_taps=taps, kernels=K.astype(np.float32),
@@ -705,16 +717,17 @@ def apply_gain(bake: "LenschBake", gain: np.ndarray, one_ring: np.ndarray) -> "L
                                blend_weights=w.astype(np.float32))
 
 
-def _with_diagonal(indptr, indices, data, diag):
+def _with_diagonal(indptr, indices, data, diag, depth):
     V = len(indptr) - 1
     rows = np.repeat(np.arange(V), np.diff(indptr))
     rows = np.concatenate([rows, np.arange(V)])
     cols = np.concatenate([indices, np.arange(V)])
     vals = np.concatenate([data, diag.astype(np.float32)])
+    depth = np.concatenate([depth, np.zeros(V, np.float32)])
     order = np.lexsort((cols, rows))
     counts = np.bincount(rows, minlength=V)
     return (np.concatenate([[0], np.cumsum(counts)]).astype(np.int32), cols[order].astype(np.int32),
-            vals[order].astype(np.float32))
+            vals[order].astype(np.float32), depth[order])
 
 
 def throughput_matrices(F_indptr, F_indices, F_data) -> list:
@@ -736,16 +749,42 @@ def global_product(matrices: list, E_g: np.ndarray, B_d: np.ndarray) -> np.ndarr
 def vertex_radiosity(bake: LenschBake, E_surface: np.ndarray) -> np.ndarray:
     """The global response at the vertices, (V, 3), from the irradiance of the surface texels:
     the gather of Eq. 10 into E^g, the direct radiosity B^d (Sec. 5.4) and the product of Eq. 11."""
-    V = len(bake.A_v)
-    E_s = np.asarray(E_surface, np.float64)
-    E_g = np.zeros((V, 3))
-    B_d = np.zeros((V, 3))
-    for k in range(3):
-        np.add.at(E_g, bake.dual_vertices[:, k], bake.dual_weights[:, k, None] * E_s)
-        np.add.at(B_d, bake.dual_vertices[:, k], bake.blend_weights[:, k, :] * E_s)
+    E_g, B_d = gathered(bake, E_surface)
     B = global_product(throughput_matrices(bake.F_indptr, bake.F_indices, bake.F_data), E_g, B_d)
     if bake.has_far_field:
         B += far_product(bake.far_matrices(), bake.cluster_power(E_g))
+    return B
+
+
+def gathered(bake: LenschBake, E_surface: np.ndarray):
+    """(E^g, B^d) at the vertices (V, 3) from the surface texels' irradiance (Eq. 10, Sec. 5.4)."""
+    V = len(bake.A_v)
+    E_s = np.asarray(E_surface, np.float64)
+    E_g, B_d = np.zeros((V, 3)), np.zeros((V, 3))
+    for k in range(3):
+        np.add.at(E_g, bake.dual_vertices[:, k], bake.dual_weights[:, k, None] * E_s)
+        np.add.at(B_d, bake.dual_vertices[:, k], bake.blend_weights[:, k, :] * E_s)
+    return E_g, B_d
+
+
+def through_share(depth_mm: np.ndarray, z_r: np.ndarray) -> np.ndarray:
+    """(n, 3): how much of an entry's light crossed a thin part, ``slab_through.ramp`` of its depth (as the splat
+    shader's ramp, 2 to 4 mean free paths): that share leaves by the diffusion mode's law, not the angular law."""
+    return slab_through.ramp(np.asarray(depth_mm, np.float64), np.asarray(z_r, np.float64))
+
+
+def has_through(bake: LenschBake) -> bool:
+    return bake.F_depth is not None and bake.z_r is not None
+
+
+def vertex_through(bake: LenschBake, E_g: np.ndarray) -> np.ndarray:
+    """B^t (V, 3): the part of F^0 E^g + G E_P that crossed a thin part (``through_share`` of each entry)."""
+    E_g = np.asarray(E_g, np.float64)
+    F = bake.F_data * through_share(bake.F_depth, bake.z_r)
+    B = global_product(throughput_matrices(bake.F_indptr, bake.F_indices, F), E_g, np.zeros_like(E_g))
+    if bake.has_far_field:
+        G = dataclasses.replace(bake, G_data=bake.G_data * through_share(bake.G_depth, bake.z_r))
+        B += far_product(G.far_matrices(), bake.cluster_power(E_g))
     return B
 
 
