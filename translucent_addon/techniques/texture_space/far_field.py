@@ -56,6 +56,15 @@ class Hierarchy:
     def count(self) -> int:
         return int(self.offset[-1] + len(self.W[-1])) if self.of else 0
 
+    def children(self, level: int):
+        """CSR of each level-``level`` cluster's children, (start, ids): level - 1 clusters, or at level 0 its
+        vertices."""
+        if level == 0:
+            return _children(self.of[0], len(self.W[0]))
+        parent = np.zeros(len(self.W[level - 1]), np.int64)
+        parent[self.of[level - 1]] = self.of[level]  # through any member vertex (levels nest)
+        return _children(parent, len(self.W[level]))
+
     def slots(self) -> np.ndarray:
         """(V, L) int32: each vertex's cluster slot at every level (what the bake stores)."""
         return np.stack([self.of[l] + self.offset[l] for l in range(self.levels)], axis=1).astype(np.int32)
@@ -146,17 +155,7 @@ def interactions(h: Hierarchy, v_mm: np.ndarray):
         far_dst.append(j[take])
         far_level.append(np.full(int(take.sum()), level, np.int64))
         far_cluster.append(P[take])
-        j, P = j[~take], P[~take]
-        if level > 0:
-            # the children of level `level` clusters: level - 1 clusters, through any member vertex
-            parent = np.zeros(len(h.W[level - 1]), np.int64)
-            parent[h.of[level - 1]] = h.of[level]
-            start, members = _children(parent, C)
-        else:
-            start, members = _children(h.of[0], C)
-        j, P = _expand(j, P, start, members)
-        if level > 0:
-            C = len(h.W[level - 1])
+        j, P = _expand(j[~take], P[~take], *h.children(level))
     keep = j != P
     return (j[keep], P[keep]), (np.concatenate(far_dst), np.concatenate(far_level), np.concatenate(far_cluster))
 
@@ -176,14 +175,8 @@ def far_weights(h: Hierarchy, v_mm: np.ndarray, normals: np.ndarray, A_v: np.nda
         at = np.flatnonzero(level == l)
         if len(at) == 0:
             continue
-        if l == 0:
-            start, members = _children(h.of[0], len(h.W[0]))
-            cx, cw = v, w_v
-        else:
-            parent = np.zeros(len(h.W[l - 1]), np.int64)
-            parent[h.of[l - 1]] = h.of[l]
-            start, members = _children(parent, len(h.W[l]))
-            cx, cw = h.x[l - 1], h.W[l - 1]
+        start, members = h.children(l)
+        cx, cw = (v, w_v) if l == 0 else (h.x[l - 1], h.W[l - 1])
         for a in range(0, len(at), _CHUNK // 8):
             rows = at[a:a + _CHUNK // 8]
             pair, child = _expand(np.arange(len(rows)), cluster[rows], start, members)

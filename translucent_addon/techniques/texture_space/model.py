@@ -23,7 +23,7 @@ from .throughput import (
     gathered,
     has_through,
     local_radiosity,
-    vertex_radiosity,
+    vertex_product,
     vertex_through,
 )
 
@@ -287,9 +287,9 @@ def frame_radiosity(arrays: dict, E: np.ndarray, T_p_vertex: np.ndarray | None =
     """
     atlas, lensch = load(arrays)
     n = atlas.surface_count
-    B_vertex = vertex_radiosity(lensch, np.asarray(E, np.float64)[:n])
-    B_through = (vertex_through(lensch, gathered(lensch, np.asarray(E, np.float64)[:n])[0]) if has_through(lensch)
-                 else np.zeros_like(B_vertex))
+    E_g, B_d = gathered(lensch, np.asarray(E, np.float64)[:n])
+    B_vertex = vertex_product(lensch, E_g, B_d)
+    B_through = vertex_through(lensch, E_g) if has_through(lensch) else np.zeros_like(B_vertex)
     if T_p_vertex is not None:
         B_vertex /= np.maximum(T_p_vertex, 1e-4)
         B_through /= np.maximum(T_p_vertex, 1e-4)

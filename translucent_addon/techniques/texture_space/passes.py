@@ -33,7 +33,7 @@ from ..protocol import Technique
 from . import bake as texture_space_bake
 from . import model as tsd
 from . import quality as texture_space_quality
-from .throughput import LenschBake, far_product, global_product, has_through, throughput_matrices, vertex_through
+from .throughput import LenschBake, has_through, product_matrices, vertex_product
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -131,22 +131,20 @@ class Resources:
         return batch
 
     def sparse(self):
-        """(F^0 per channel as scipy CSR matrices, the bake's far field) for the CPU product, built once."""
+        """(the bake's tables, ``product_matrices`` of B and of B^t) for the CPU product, built once."""
         if self._sparse is None:
-            a = self.arrays
-            lensch = LenschBake.from_arrays(a)
-            self._sparse = (throughput_matrices(a["lensch_F_indptr"], a["lensch_F_indices"], a["lensch_F_data"]),
-                            lensch, lensch.far_matrices() if lensch.has_far_field else None)
+            lensch = LenschBake.from_arrays(self.arrays)
+            self._sparse = (lensch, product_matrices(lensch),
+                            product_matrices(lensch, through=True) if has_through(lensch) else None)
         return self._sparse
 
     def cpu_product(self, E_g: np.ndarray, B_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(B^d + F^0 E^g + G E_P, its share through thin parts B^t) at the vertices (V, 3) with SciPy (Lensch
         Eq. 11, the far field and ``throughput.through_share``)."""
-        F, lensch, G = self.sparse()
-        B = global_product(F, E_g, B_d)
-        if G is not None:
-            B += far_product(G, lensch.cluster_power(E_g))
-        B_t = vertex_through(lensch, E_g) if has_through(lensch) else np.zeros_like(B)
+        lensch, matrices, through = self.sparse()
+        E_P = lensch.cluster_power(E_g) if lensch.has_far_field else None
+        B = vertex_product(lensch, E_g, B_d, matrices, E_P)
+        B_t = vertex_product(lensch, E_g, None, through, E_P) if through is not None else np.zeros_like(B)
         return B, B_t
 
 
@@ -180,6 +178,22 @@ def angular_texture(a: Active):
     return a.resources.medium_tables.get("angular", medium, profile_model(medium.profile).angular_table)
 
 
+def _gather(fb, points, source, size: tuple) -> None:
+    """``ts_gather`` into the bound ``fb`` (cleared first, additive): each point adds its weights times its texel of
+    ``source`` to its slot of an image ``size`` wide and high (vertices from the atlas; clusters from the vertices)."""
+    import gpu
+
+    clear_target(fb, depth=None)
+    gpu.state.blend_set("ADDITIVE_PREMULT")
+    shader = shaders.get("ts_gather")
+    shader.bind()
+    shader.uniform_sampler("irradiance", source)
+    shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+    shader.uniform_float("vertex_size", tuple(float(x) for x in size))
+    points.draw(shader)
+    gpu.state.blend_set("NONE")
+
+
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
     """Gather, product, filter and display; returns seconds per step (summed over meshes)."""
     import gpu
@@ -195,16 +209,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         irr_fb, (irradiance,), _ = res.irradiance
         vin_fb, (E_vertex, B_direct), _ = res.vertex_in
         with vin_fb.bind():
-            clear_target(vin_fb, depth=None)
             gpu.state.depth_test_set("NONE")
-            gpu.state.blend_set("ADDITIVE_PREMULT")
-            shader = shaders.get("ts_gather")
-            shader.bind()
-            shader.uniform_sampler("irradiance", irradiance)
-            shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
-            shader.uniform_float("vertex_size", tuple(float(x) for x in t.vertex_size))
-            res.gather_points.draw(shader)
-            gpu.state.blend_set("NONE")
+            _gather(vin_fb, res.gather_points, irradiance, t.vertex_size)
             if product_here == "CPU":
                 E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
@@ -222,15 +228,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             if res.cluster_in is not None:
                 cl_fb, (E_cluster, _), _ = res.cluster_in
                 with cl_fb.bind():
-                    clear_target(cl_fb, depth=None)
-                    gpu.state.blend_set("ADDITIVE_PREMULT")
-                    shader = shaders.get("ts_gather")
-                    shader.bind()
-                    shader.uniform_sampler("irradiance", E_vertex)
-                    shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
-                    shader.uniform_float("vertex_size", tuple(float(x) for x in t.cluster_size))
-                    res.cluster_points.draw(shader)
-                    gpu.state.blend_set("NONE")
+                    _gather(cl_fb, res.cluster_points, E_vertex, t.cluster_size)
             with vout_fb.bind():
                 gpu.state.blend_set("NONE")
                 shader = shaders.get("ts_product")

@@ -128,22 +128,15 @@ def dual_weights(atlas: TexelAtlas, triangles: np.ndarray, A_v: np.ndarray):
     return verts.astype(np.int32), weights
 
 
-def throughput_radius(material: Material, area_mm2: float, threshold: float = THRESHOLD,
-                      through: bool = False) -> float:
-    """Distance beyond which A / 3 R_d(r) < threshold in every channel. ``through``: A / 3 C(r) R_d(r), the most
-    a pair at that distance carries once light through a thin part is counted (``physics.slab_through``: the
-    source straight behind the receiver, h = r; C grows with the depth), the reach ``throughput`` looks at."""
-    return float(_reaches(material, np.array([float(area_mm2)]), threshold, through)[0])
+def throughput_radius(material: Material, area_mm2: float, threshold: float = THRESHOLD) -> float:
+    """Distance beyond which A / 3 R_d(r) < threshold in every channel (Auto's estimate of a bake's entries)."""
+    return float(_reaches(material, np.array([float(area_mm2)]), threshold)[0])
 
 
-def _reaches(material: Material, areas_mm2: np.ndarray, threshold: float, through: bool) -> np.ndarray:
+def _reaches(material: Material, areas_mm2: np.ndarray, threshold: float) -> np.ndarray:
     """``throughput_radius`` for each area: the largest r on a fine geometric grid where the bound holds."""
     r = np.geomspace(1e-3, 1e5, 4097)
-    value = material.R_d(r)
-    if through:
-        value = value * slab_through.factor(r, *slab_through.constants(material.sigma_a, material.sigma_s_prime,
-                                                                         material.eta))
-    peak = value.max(axis=1)  # (n,): largest channel
+    peak = material.R_d(r).max(axis=1)  # (n,): largest channel
     level = threshold / (np.asarray(areas_mm2, np.float64) / 3.0)  # (m,): the bound on the profile
     above = peak[None, :] >= level[:, None]
     last = np.where(above.any(axis=1), len(r) - 1 - np.argmax(above[:, ::-1], axis=1), 0)
@@ -242,8 +235,8 @@ def throughput(vertices_mm: np.ndarray, A_v: np.ndarray, material: Material, thr
                         * slab_through.factor(depth[across], *slab))
     *near, near_depth = _csr(V, dst, src, data, threshold, depth)
     G, G_depth = far_field.far_weights(hierarchy, v, n, A_v, material, far_dst, far_level, far_cluster)
-    power = np.concatenate(hierarchy.W)[np.asarray(hierarchy.offset)[far_level] + far_cluster]
     slots = np.asarray(hierarchy.offset)[far_level] + far_cluster
+    power = np.concatenate(hierarchy.W)[slots]
     keep = (G * power[:, None]).max(axis=1) >= threshold * FAR_THRESHOLD
     far = FarField(*_csr(V, far_dst[keep], slots[keep], G[keep].astype(np.float32), 0.0,
                          G_depth[keep].astype(np.float32)), hierarchy.slots())
@@ -749,10 +742,29 @@ def global_product(matrices: list, E_g: np.ndarray, B_d: np.ndarray) -> np.ndarr
 def vertex_radiosity(bake: LenschBake, E_surface: np.ndarray) -> np.ndarray:
     """The global response at the vertices, (V, 3), from the irradiance of the surface texels:
     the gather of Eq. 10 into E^g, the direct radiosity B^d (Sec. 5.4) and the product of Eq. 11."""
-    E_g, B_d = gathered(bake, E_surface)
-    B = global_product(throughput_matrices(bake.F_indptr, bake.F_indices, bake.F_data), E_g, B_d)
-    if bake.has_far_field:
-        B += far_product(bake.far_matrices(), bake.cluster_power(E_g))
+    return vertex_product(bake, *gathered(bake, E_surface))
+
+
+def product_matrices(bake: LenschBake, through: bool = False) -> tuple[list, list | None]:
+    """(F^0, G) per colour channel as scipy CSR (G None without a far field). ``through``: each entry weighed by
+    its ``through_share``, the matrices of B^t. Built once per bake by whoever multiplies every frame."""
+    F_data, G_data = bake.F_data, bake.G_data
+    if through:
+        F_data = F_data * through_share(bake.F_depth, bake.z_r)
+        G_data = G_data * through_share(bake.G_depth, bake.z_r) if bake.has_far_field else None
+    F = throughput_matrices(bake.F_indptr, bake.F_indices, F_data)
+    return F, dataclasses.replace(bake, G_data=G_data).far_matrices() if bake.has_far_field else None
+
+
+def vertex_product(bake: LenschBake, E_g: np.ndarray, B_d: np.ndarray | None = None,
+                   matrices: tuple | None = None, E_P: np.ndarray | None = None) -> np.ndarray:
+    """B^d + F^0 E^g + G E_P at the vertices (V, 3) (Lensch Eq. 11 and the far field), with ``product_matrices``
+    (built here if not given) and the clusters' power E_P (gathered here if not given); B^d zero if None."""
+    F, G = product_matrices(bake) if matrices is None else matrices
+    E_g = np.asarray(E_g, np.float64)
+    B = global_product(F, E_g, np.zeros_like(E_g) if B_d is None else B_d)
+    if G is not None:
+        B += far_product(G, bake.cluster_power(E_g) if E_P is None else E_P)
     return B
 
 
@@ -779,13 +791,7 @@ def has_through(bake: LenschBake) -> bool:
 
 def vertex_through(bake: LenschBake, E_g: np.ndarray) -> np.ndarray:
     """B^t (V, 3): the part of F^0 E^g + G E_P that crossed a thin part (``through_share`` of each entry)."""
-    E_g = np.asarray(E_g, np.float64)
-    F = bake.F_data * through_share(bake.F_depth, bake.z_r)
-    B = global_product(throughput_matrices(bake.F_indptr, bake.F_indices, F), E_g, np.zeros_like(E_g))
-    if bake.has_far_field:
-        G = dataclasses.replace(bake, G_data=bake.G_data * through_share(bake.G_depth, bake.z_r))
-        B += far_product(G.far_matrices(), bake.cluster_power(E_g))
-    return B
+    return vertex_product(bake, E_g, matrices=product_matrices(bake, through=True))
 
 
 def far_product(matrices: list, E_P: np.ndarray) -> np.ndarray:
