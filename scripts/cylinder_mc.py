@@ -1,0 +1,107 @@
+"""Where the surface methods' model leaves exact transport on curved parts: `python scripts/cylinder_mc.py`.
+
+A back-lit infinite cylinder (radius R mm, the preset's medium, index-matched, isotropic scattering at the
+reduced coefficients, a collimated beam across its axis) by Monte Carlo, against the model IMAGE_SPACE,
+TEXTURE_SPACE and the dipole-model reference draw: B(x_o) = int R_d(|x_o - x|) C(h) E(x) dA with the exact
+profile R_d, the thin-part factor C of x lying h below x_o's tangent plane (``physics.slab_through``) and E the
+irradiance entering at x. Per radius and channel, the exitance ratio model / Monte Carlo (1 = right) in four
+bands of the angle from the beam's entry side: the lit centre (0-45 degrees), the lit flank (45-80), the band
+at the terminator (80-95, where a flat face's law gives the light a cosine near 0) and the dark side (100-180,
+the light through the part), each the ratio of the band's summed exitance. A second row shifts every source
+one mean free path along its refracted beam (Jensen's source on the beam, not below the entry point): what
+a model of light entering at an angle would gain. No Blender; about a minute per preset.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from translucent_addon.core.physics import slab_through  # noqa: E402
+from translucent_addon.core.physics.presets import load_presets  # noqa: E402
+from translucent_addon.techniques.texture_space.throughput import Material  # noqa: E402
+
+BANDS = {"lit centre": (0, 45), "lit flank": (45, 80), "terminator": (80, 95), "dark side": (100, 180)}
+
+
+def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int, bins: int, seed: int = 1):
+    """(bin centres: angle from the entry side's centre in degrees, exitance per unit incident irradiance)."""
+    rng = np.random.default_rng(seed)
+    sigma_t = sigma_a + sigma_s
+    y = rng.uniform(-R, R, photons)
+    p = np.stack([-np.sqrt(R * R - y * y) * (1 - 1e-9), y], 1)
+    d = np.tile([1.0, 0.0, 0.0], (photons, 1))
+    w = np.ones(photons)
+    exit_phi, exit_w = np.zeros(photons), np.zeros(photons)
+    alive = np.arange(photons)
+    while len(alive):
+        s = -np.log(rng.random(len(alive))) / sigma_t
+        P, D = p[alive], d[alive, :2]
+        a, b, c = (D**2).sum(1), 2 * (P * D).sum(1), (P**2).sum(1) - R * R
+        t_out = (-b + np.sqrt(np.maximum(b * b - 4 * a * c, 0))) / (2 * np.maximum(a, 1e-15))
+        out = (a > 1e-15) & (t_out < s)
+        q = P + D * np.where(out, t_out, s)[:, None]
+        gone = alive[out]
+        exit_phi[gone], exit_w[gone] = np.arctan2(q[out, 1], q[out, 0]), w[gone]
+        keep = alive[~out]
+        p[keep] = q[~out]
+        w[keep] *= sigma_s / sigma_t
+        mu, az = rng.random(len(keep)) * 2 - 1, rng.random(len(keep)) * 2 * np.pi
+        d[keep] = np.stack([np.sqrt(1 - mu * mu) * np.cos(az), np.sqrt(1 - mu * mu) * np.sin(az), mu], 1)
+        alive = keep[w[keep] > 1e-4]
+    edges = np.linspace(-np.pi, np.pi, bins + 1)
+    hist, _ = np.histogram(exit_phi, edges, weights=exit_w)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    return 180.0 - np.degrees(np.abs(centres)), hist / photons * 2 * R / (R * (edges[1] - edges[0]))
+
+
+def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000):
+    """The methods' B at receivers ``angles_deg`` from the entry side's centre; sources moved ``shift_mfp`` mean
+    free paths along the refracted beam (its tangential part, |sin theta_i| at eta 1)."""
+    material = Material((sigma_a,) * 3, (sigma_s,) * 3, 1.0)
+    slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, 1.0)
+    phi = np.linspace(-np.pi, np.pi, sources + 1)[:-1]  # from the entry side's centre
+    E = np.maximum(np.cos(phi), 0.0)
+    moved = phi + np.sign(phi) * shift_mfp / (sigma_a + sigma_s) * np.abs(np.sin(phi)) / R
+    u = np.linspace(-1, 1, 401)
+    z = np.sinh(u * np.arcsinh(60.0 / 0.003)) * 0.003  # along the axis, fine near the receiver
+    wz = np.gradient(z)
+    out = []
+    for a in np.radians(angles_deg):
+        dp = moved - a
+        chord, h = 2 * R * np.abs(np.sin(dp / 2)), R * (1 - np.cos(dp))
+        r = np.hypot(chord[:, None], z[None, :])
+        R_d = material.R_d(r.ravel())[:, 0].reshape(r.shape)
+        C = slab_through.factor(h, *slab)[:, 0]
+        out.append(((E * C * R * (phi[1] - phi[0]))[:, None] * R_d * wz[None, :]).sum())
+    return np.array(out)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="marble")
+    parser.add_argument("--radii", type=float, nargs="*", default=[3.0, 5.0, 10.0, 20.0])
+    parser.add_argument("--photons", type=int, default=200_000)
+    args = parser.parse_args()
+    m = load_presets()[args.preset]
+    print(f"{args.preset}: model / Monte Carlo per band (sources at the entry point; shifted one mean free path)")
+    print("| R mm | channel | " + " | ".join(BANDS) + " |")
+    print("|---|---" + "|---" * len(BANDS) + "|")
+    for R in args.radii:
+        for c, name in enumerate("RGB"):
+            angle, M = monte_carlo(R, m.sigma_a[c], m.sigma_s_prime[c], args.photons, 72)
+            cells = []
+            for shift in (0.0, 1.0):
+                B = model(R, m.sigma_a[c], m.sigma_s_prime[c], angle, shift)
+                cells.append([B[(angle >= lo) & (angle < hi)].sum() / M[(angle >= lo) & (angle < hi)].sum()
+                              for lo, hi in BANDS.values()])
+            print(f"| {R:g} | {name} | " + " | ".join(f"{a:.2f} / {b:.2f}" for a, b in zip(*cells)) + " |",
+                  flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
