@@ -13,6 +13,9 @@ void main()
   vec4 world = object.model * vec4(pos, 1.0);
   v_world = world.xyz;
   v_normal = mat3(object.normal_matrix) * nor;
+  mat3 S = world_shape_operator(mat3(object.normal_matrix), curv_d, curv_o) / max(length(v_normal), 1e-30);
+  v_curv_d = vec3(S[0][0], S[1][1], S[2][2]);
+  v_curv_o = vec3(S[0][1], S[0][2], S[1][2]);
   v_color = col;
   v_paint = paint;
   v_tint = tint;
@@ -36,9 +39,12 @@ vec3 near_field(int slot, float M)
 void main()
 {
   vec3 n = normalize(v_normal);
+  /* the facet's plane and the normal field (oblique_cosine); derivatives before any discard */
   vec3 n_g = cross(dFdx(v_world), dFdy(v_world)); /* the facet's plane; derivatives before any discard */
+  mat3 S = shape_operator(v_curv_d, v_curv_o); /* the normal field, for oblique_cosine */
   if (!facing_out(object.shading)) {
     n = -n;
+    S = -S;
   }
   int slot = int(object.shading.x + 0.5) - 1;
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
@@ -72,12 +78,15 @@ void main()
   if (dot(n_g, to_light) * dot(n_g, n) <= 0.0) {
     discard;
   }
-  vec3 E = radiance * cos_i * visibility(v_world, n);
-  vec3 lambert = v_color * E / PI;
+  vec3 V = radiance * visibility(v_world, n);
+  vec3 lambert = v_color * V * cos_i / PI;
   vec3 sss = vec3(0.0);
   if (slot >= 0) {
-    float eta = materials.params[2 * slot].w;
+    vec4 mat = materials.params[2 * slot];
+    float eta = mat.w;
     float M = clamp(v_paint.y, 0.25, 1.0);
+    /* the light entering at an angle, read where it entered (translucent_oblique.glsl) */
+    vec3 E = V * oblique_cosine(n, to_light, eta, materials.entry[slot].xyz / mat.x, S);
     sss = (1.0 - fresnel_dielectric(cos_o, eta)) / PI * E * (1.0 - fresnel_dielectric(cos_i, eta)) *
           near_field(slot, M) * angular_weight(slot, cos_i) * angular_weight(slot, cos_o) * modulation;
   }

@@ -9,6 +9,9 @@ void main()
   vec4 world = object.model * vec4(pos, 1.0);
   v_world = world.xyz;
   v_normal = mat3(object.normal_matrix) * nor;
+  mat3 S = world_shape_operator(mat3(object.normal_matrix), curv_d, curv_o) / max(length(v_normal), 1e-30);
+  v_curv_d = vec3(S[0][0], S[1][1], S[2][2]);
+  v_curv_o = vec3(S[0][1], S[0][2], S[1][2]);
   v_paint = paint;
   v_tint = tint;
   gl_Position = light.face_view_proj[face] * world;
@@ -35,7 +38,10 @@ void main()
   float cos_s = dot(n, to_light);
   float cos_g = abs(dot(normalize(cross(dFdx(v_world), dFdy(v_world))), to_light));
   float cos_i = max(cos_s, 0.0);
-  float shading = cos_i / max(cos_g, MIN_FACET_COS);
+  /* the light entering at an angle, read where it entered (translucent_oblique.glsl): its cosine per channel */
+  vec3 entering = oblique_cosine(n, to_light, mat.w, materials.entry[slot].xyz / mat.x,
+                                 shape_operator(v_curv_d, v_curv_o));
+  vec3 shading = entering / max(cos_g, MIN_FACET_COS);
   float measure;
   if (light.position_kind.w < 0.5) {
     measure = light.shadow.y; /* texel area, world units^2 */

@@ -40,6 +40,8 @@ struct MaterialsData {
   /* per slot k, how light that crossed a thin part leaves (physics/angular_law.through_constants):
    *   [3k] (gamma rgb, 1: on; 0: the Lambertian law), [3k + 1] (k = 1 / nu_0 rgb, 0), [3k + 2] (1 / <M> rgb, 0) */
   vec4 through_exit[96];
+  /* per slot k, light entering at an angle (physics/oblique_entry.py): (ell rgb mm, 0), 0 for no shift */
+  vec4 entry[32];
 };
 
 struct TemporalData {

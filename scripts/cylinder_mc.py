@@ -8,8 +8,9 @@ irradiance entering at x. Per radius and channel, the exitance ratio model / Mon
 bands of the angle from the beam's entry side: the lit centre (0-45 degrees), the lit flank (45-80), the band
 at the terminator (80-95, where a flat face's law gives the light a cosine near 0) and the dark side (100-180,
 the light through the part), each the ratio of the band's summed exitance. A second row shifts every source
-one mean free path along its refracted beam (Jensen's source on the beam, not below the entry point): what
-a model of light entering at an angle would gain. No Blender; about a minute per preset.
+one mean free path along its refracted beam (Jensen's source on the beam, not below the entry point): the
+model of light entering at an angle that IMAGE_SPACE's EXACT profile takes (``physics.oblique_entry``, there in
+the upstream form, without the light that drifts past the terminator). No Blender; about two minutes a preset.
 """
 from __future__ import annotations
 

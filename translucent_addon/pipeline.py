@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from .core.frame import FrameInputs, MeshInstance
+from .core.physics import oblique_entry
 from .gpu import blocks, shaders
 from .gpu.environment import environment
 from .gpu.frame_context import FrameContext
@@ -32,6 +33,7 @@ class Pipeline:
 
     def __init__(self):
         self._batches: dict[str, tuple] = {}
+        self._shapes: dict[str, tuple] = {}  # mesh name -> (corner positions, shape_attributes) when computed
         self._atlas = None  # (texels, color texture, depth texture, framebuffer)
         self.targets: dict = {}  # method render targets by (name, size), reused across frames
         self.last_timings: dict[str, float] = {}
@@ -39,14 +41,18 @@ class Pipeline:
 
     def free(self) -> None:
         self._batches.clear()
+        self._shapes.clear()
         self._atlas = None
         self.targets.clear()
 
-    def forget(self, keys_alive: set[str]) -> None:
-        """Drop batches of meshes that are no longer drawn."""
+    def forget(self, keys_alive: set[str], names_alive: set[str] | None = None) -> None:
+        """Drop batches of meshes that are no longer drawn (and the shape operators of names no longer drawn)."""
         for key in list(self._batches):
             if key not in keys_alive:
                 del self._batches[key]
+        for name in list(self._shapes) if names_alive is not None else ():
+            if name not in names_alive:
+                del self._shapes[name]
 
     # -- resources ---------------------------------------------------------
     def _batch(self, mesh: MeshInstance):
@@ -65,11 +71,24 @@ class Pipeline:
                     "col": np.ascontiguousarray(mesh.colors, dtype=np.float32),
                     "paint": np.ascontiguousarray(mesh.paint, dtype=np.float32),
                     "tint": np.ascontiguousarray(mesh.tint, dtype=np.float32),
+                    **self._shape(mesh),
                 },
             )
             shadow = batch_for_shader(shaders.get("shadow_distance"), "TRIS", {"pos": pos})
             cached = self._batches[mesh.key] = (base, shadow)
         return cached
+
+    def _shape(self, mesh: MeshInstance) -> dict:
+        """``shape_attributes`` of a mesh, reused for a new geometry of the same name (a deforming mesh: a new
+        batch every frame) while its corners have moved less than ``SHAPE_REUSE`` of its size in the mean."""
+        known = self._shapes.get(mesh.name)
+        if known is not None and len(known[0]) == len(mesh.positions):
+            size = float(np.ptp(mesh.positions, axis=0).max()) if len(mesh.positions) else 0.0
+            if float(np.abs(mesh.positions - known[0]).mean()) <= SHAPE_REUSE * size:
+                return known[1]
+        attributes = shape_attributes(mesh)
+        self._shapes[mesh.name] = (np.array(mesh.positions, np.float32), attributes)
+        return attributes
 
     def _shadow_atlas(self, texels: int):
         if self._atlas is None or self._atlas[0] != texels:
@@ -213,6 +232,23 @@ class Pipeline:
                 for (_, shadow), obj in zip(batches, objects):
                     shader.uniform_block("object", obj)
                     shadow.draw(shader)
+
+
+SHAPE_REUSE = 0.01  # a deforming mesh keeps its shape operators while its corners move less than this (mean)
+
+
+def shape_attributes(mesh: MeshInstance) -> dict:
+    """The base batch's curv_d and curv_o: each corner's shape operator (object space, diagonal and xy, xz, yz;
+    ``oblique_entry.corner_shape_operators``) where IMAGE_SPACE shifts light entering at an angle, else 0."""
+    n = len(mesh.positions)
+    m = mesh.medium
+    if mesh.method != "IMAGE_SPACE" or m is None or not oblique_entry.shift_length(
+            m.sigma_a, m.sigma_s_prime, m.profile, m.layer_thickness_mm is not None).any():
+        return {"curv_d": np.zeros((n, 3), np.float32), "curv_o": np.zeros((n, 3), np.float32)}
+    S = oblique_entry.corner_shape_operators(mesh.positions.reshape(-1, 3, 3), mesh.normals.reshape(-1, 3, 3))
+    S = S.reshape(n, 3, 3)
+    return {"curv_d": np.ascontiguousarray(np.stack([S[:, 0, 0], S[:, 1, 1], S[:, 2, 2]], 1), dtype=np.float32),
+            "curv_o": np.ascontiguousarray(np.stack([S[:, 0, 1], S[:, 0, 2], S[:, 1, 2]], 1), dtype=np.float32)}
 
 
 def render_offscreen(pipeline: Pipeline, frame: FrameInputs) -> np.ndarray:

@@ -33,7 +33,7 @@ def _draw():
         return
     if _pipeline is None:
         _pipeline = Pipeline()
-    _pipeline.forget({m.key for m in frame.meshes})
+    _pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
     _pipeline.draw(frame, clear=False)
 
 

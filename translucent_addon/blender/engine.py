@@ -110,7 +110,7 @@ class Viewport:
         frame = dataclasses.replace(frame, settings=draw_settings(
             depsgraph.scene, frame, "viewport", self.frames, capture=False))
         t1 = time.perf_counter()
-        self.pipeline.forget({m.key for m in frame.meshes})
+        self.pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
         draw_to_region(self.pipeline, frame, size, bind_display, unbind_display)
         _keep_timings(self.pipeline, "viewport", extract=t1 - t0, frame=time.perf_counter() - t0)
         return frame
@@ -173,7 +173,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         frame = dataclasses.replace(frame, settings=draw_settings(
             scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes))
         pipeline = final_pipeline()
-        pipeline.forget({m.key for m in frame.meshes})
+        pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
         pixels = render_offscreen(pipeline, frame)
         _keep_timings(pipeline, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
         for message in frame.warnings:  # after drawing: the passes add their own

@@ -33,7 +33,9 @@ class ShaderSpec:
 
 LIGHT_LIBS = ("translucent_common.glsl", "translucent_light.glsl")
 SHADOW_LIBS = LIGHT_LIBS + ("translucent_shadow.glsl",)
-SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint"), ("VEC3", "tint"))
+SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint"), ("VEC3", "tint"),
+              ("VEC3", "curv_d"), ("VEC3", "curv_o"))  # curv: the shape operator (pipeline.shape_attributes)
+CURVATURE_OUT = (("smooth", "VEC3", "v_curv_d"), ("smooth", "VEC3", "v_curv_o"))
 
 SPECS = {  # the pipeline's own passes; each technique joins its own (techniques.register)
     "shadow_distance": ShaderSpec(
@@ -46,10 +48,10 @@ SPECS = {  # the pipeline's own passes; each technique joins its own (techniques
     ),
     "base_lighting": ShaderSpec(
         source="base_lighting.glsl",
-        libraries=SHADOW_LIBS + ("translucent_world_sh.glsl", "translucent_angular.glsl"),
+        libraries=SHADOW_LIBS + ("translucent_world_sh.glsl", "translucent_angular.glsl", "translucent_oblique.glsl"),
         vertex_in=SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
-                  ("smooth", "VEC4", "v_paint"), ("smooth", "VEC3", "v_tint")),
+                  ("smooth", "VEC4", "v_paint"), ("smooth", "VEC3", "v_tint")) + CURVATURE_OUT,
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),
                         (3, "MaterialsData", "materials")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "near_lut")),

@@ -33,7 +33,7 @@ from ..frame import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-
 from ..geometry.camera import pixel_rays
 from ..geometry.mesh_measures import facing_side, subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
-from ..physics import angular_law, slab_through
+from ..physics import angular_law, oblique_entry, slab_through
 from ..physics.fresnel import fresnel_dielectric
 from ..physics.lut import near_integral, partition_off_plane, profile_model
 from ..physics.sh_irradiance import irradiance, transmittance_kernel
@@ -46,12 +46,17 @@ def sample_surface(mesh: MeshInstance, count: int) -> tuple[np.ndarray, np.ndarr
     Returns points (N, 3), interpolated normals (N, 3), the area each point stands for (N,) and the
     facet normals (N, 3), turned to the interpolated normal's side.
     """
+    return surface_samples(mesh, count)[:4]
+
+
+def surface_samples(mesh: MeshInstance, count: int) -> tuple[np.ndarray, ...]:
+    """``sample_surface``'s arrays, each point's triangle (N,) and its barycentric coordinates (N, 3)."""
     tris = mesh.world_positions().reshape(-1, 3, 3)
     nors = mesh.world_normals().reshape(-1, 3, 3)
     areas = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
     target = float(areas.sum()) / count
     splits = np.maximum(1, np.ceil(np.sqrt(areas / target))).astype(int)
-    points, normals, weights, facets = [], [], [], []
+    points, normals, weights, facets, triangles, barys = [], [], [], [], [], []
     n_g = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n_g /= np.maximum(np.linalg.norm(n_g, axis=1, keepdims=True), 1e-30)
     for n in np.unique(splits):
@@ -63,16 +68,22 @@ def sample_surface(mesh: MeshInstance, count: int) -> tuple[np.ndarray, np.ndarr
         normals.append(np.einsum("kc,tcd->tkd", bary, nors[sel]).reshape(-1, 3))
         weights.append(np.repeat(areas[sel] / n**2, len(uv)))
         facets.append(np.repeat(n_g[sel], len(uv), axis=0))
+        triangles.append(np.repeat(sel, len(uv)))
+        barys.append(np.tile(bary, (len(sel), 1)))
     normals = np.concatenate(normals)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-20)
-    return np.concatenate(points), normals, np.concatenate(weights), facing_side(np.concatenate(facets), normals)
+    return (np.concatenate(points), normals, np.concatenate(weights), facing_side(np.concatenate(facets), normals),
+            np.concatenate(triangles), np.concatenate(barys))
 
 
 def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.ndarray, medium: Medium, tracer: Any,
-                           scale: float, facet_normals: np.ndarray, angular: np.ndarray | None = None) -> np.ndarray:
+                           scale: float, facet_normals: np.ndarray, angular: np.ndarray | None = None,
+                           gradient: np.ndarray | None = None) -> np.ndarray:
     """E(x) (N, 3) entering the medium: lights with Fresnel transmission and shadow rays, plus the world.
     ``angular``: the angular law's table, weighing each light's power by a(cos_i) (the world's light is diffuse:
-    a averages 1 over it).
+    a averages 1 over it). ``gradient`` (N, 3, 3): the shape operator at each point (the corners'
+    ``oblique_entry.corner_shape_operators`` interpolated): a light's cosine is then read where its light entered
+    (``physics.oblique_entry``, the EXACT profile's; IMAGE_SPACE's ``oblique_cosine``).
 
     The cosine is the interpolated normal's; visibility is the facet's, as a light's view (IMAGE_SPACE
     samples, shadow maps) and Cycles' shadow rays (offset along the facet normal) see it: a facet that
@@ -81,9 +92,18 @@ def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.n
     """
     p_off = points + facet_normals * 1e-4 * scale
     E = np.zeros((len(points), 3))
+    # ell in world units
+    ell = (oblique_entry.shift_length(medium.sigma_a, medium.sigma_s_prime, medium.profile,
+                                      medium.layer_thickness_mm is not None) / medium.mm_per_unit
+           if gradient is not None else np.zeros(3))
     for E_e, to_light in shadowed_irradiance(frame.emitters, p_off, normals, tracer):
         cos_i = np.einsum("ij,ij->i", normals, to_light)
         facing = np.einsum("ij,ij->i", facet_normals, to_light) > 0
+        if ell.any():  # E_e holds cos_i: the cosine where the light entered instead
+            lit = cos_i > 0.0
+            E_e = E_e.copy()
+            E_e[lit] *= (oblique_entry.entering_cosine(to_light[lit], normals[lit], gradient[lit], ell, medium.eta)
+                         / cos_i[lit, None])
         transmitted = E_e * ((1.0 - fresnel_dielectric(cos_i, medium.eta)) * facing)[:, None]
         E += transmitted if angular is None else transmitted * angular_law.lookup(angular, cos_i)
     # The world's irradiance through the boundary, unoccluded, to SH order 2 (Shah Eq. 6.19); for a
@@ -93,8 +113,11 @@ def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.n
 
 
 def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 200_000,
-                  epsilon: float = 1e-3, tracer: Any = None, max_pairs: int = 20_000_000) -> np.ndarray:
+                  epsilon: float = 1e-3, tracer: Any = None, max_pairs: int = 20_000_000,
+                  entry_shift: bool = True) -> np.ndarray:
     """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
+    ``entry_shift``: light entering at an angle is read where it entered (``physics.oblique_entry``, the
+    EXACT profile's, as IMAGE_SPACE draws it; TEXTURE_SPACE does not yet: False is its model).
 
     ``tracer`` answers ray queries over the frame's triangles in order (``closest_hit`` and
     ``occluded``); by default a brute-force one, fine for test scenes of a few thousand triangles.
@@ -130,13 +153,18 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         tri_o = mesh.world_positions().reshape(-1, 3, 3)[ti]
         g_o = facing_side(np.cross(tri_o[:, 1] - tri_o[:, 0], tri_o[:, 2] - tri_o[:, 0]), n_o)
         g_o /= np.maximum(np.linalg.norm(g_o, axis=1, keepdims=True), 1e-30)
-        x_i, n_i, area, g_i = sample_surface(mesh, samples)
+        x_i, n_i, area, g_i, tri_i, bary_i = surface_samples(mesh, samples)
+        # The normal field per triangle (a light's cosine is read where its light entered: physics.oblique_entry).
+        shape = oblique_entry.corner_shape_operators(mesh.world_positions().reshape(-1, 3, 3), nors)
         mm = medium.mm_per_unit
         sa, ss = np.asarray(medium.sigma_a, float), np.asarray(medium.sigma_s_prime, float)
         model = profile_model(medium.profile)  # the medium's own profile: this is the discretisation check
         angular = model.angular_table(sa, ss, medium.eta)
-        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale, g_i, angular)
-        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale, g_o, angular)
+        E_i = transmitted_irradiance(frame, x_i, n_i, medium, tracer, scale, g_i, angular,
+                                     np.einsum("nc,ncij->nij", bary_i, shape[tri_i]) if entry_shift else None)
+        bary_o = np.concatenate([1 - uu - vv, uu, vv], axis=1)
+        E_o = transmitted_irradiance(frame, x_o, n_o, medium, tracer, scale, g_o, angular,
+                                     np.einsum("nc,ncij->nij", bary_o, shape[ti]) if entry_shift else None)
         area_mm2 = area * mm * mm
         rho = 2.0 * math.sqrt(float(area_mm2.max()))  # two sample spacings
         reach = max(float(np.max(model.r_max(sa, ss, medium.eta, epsilon))), 2 * rho) / mm

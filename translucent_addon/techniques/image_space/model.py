@@ -24,7 +24,7 @@ import numpy as np
 
 from ...core.frame import FrameInputs, MeshInstance, box_of
 from ...core.lights import DIRECTIONAL, Emitter
-from ...core.physics import angular_law, slab_through
+from ...core.physics import angular_law, oblique_entry, slab_through
 from ...core.physics.dipole import r_max
 from ...core.physics.lut import (
     BLUR_MIN,
@@ -132,11 +132,13 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
     rho_mm, eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm); slab, 2 vec4
     per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``; angular, ``angular_law.SAMPLES`` vec4
     per slot: the medium's profile's angular law; through_exit, 3 vec4 per slot: ``angular_law.through_constants``
-    and 1 for the EXACT profile (the DIPOLE keeps the Lambertian law). Zeros for None."""
+    and 1 for the EXACT profile (the DIPOLE keeps the Lambertian law); entry, 1 vec4 per slot: (``entry_shift_mm``,
+    0). Zeros for None."""
     data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     slab = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     angular = np.zeros((MAX_MATERIALS, angular_law.SAMPLES, 4), np.float32)
     through = np.zeros((MAX_MATERIALS, 3, 4), np.float32)
+    entry = np.zeros((MAX_MATERIALS, 4), np.float32)
     for k, (t, m) in enumerate(zip(p.tables, p.media) if p is not None else ()):
         data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
         data[k, 1, :3] = transmittance_kernel(m.eta)
@@ -148,7 +150,14 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
         if m.profile == "EXACT":
             through[k, :, :3] = angular_law.through_constants(m.sigma_a, m.sigma_s_prime, m.eta)
             through[k, 0, 3] = 1.0
-    return data.tobytes() + slab.tobytes() + angular.tobytes() + through.tobytes()
+        entry[k, :3] = entry_shift_mm(m)
+    return data.tobytes() + slab.tobytes() + angular.tobytes() + through.tobytes() + entry.tobytes()
+
+
+def entry_shift_mm(med) -> np.ndarray:
+    """ell (3,) mm: how far the light entering at an angle moves along its refracted beam before it becomes the
+    profile's source (``oblique_entry.shift_length``)."""
+    return oblique_entry.shift_length(med.sigma_a, med.sigma_s_prime, med.profile, med.layer_thickness_mm is not None)
 
 
 def through_exit_law(med, mu_o: float, ramp: np.ndarray) -> np.ndarray:

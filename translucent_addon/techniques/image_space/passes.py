@@ -47,10 +47,10 @@ SHADER_SPECS = {
     ),
     "is_samples": shaders.ShaderSpec(
         source="is_samples.glsl",
-        libraries=shaders.LIGHT_LIBS + ("translucent_angular.glsl",),
+        libraries=shaders.LIGHT_LIBS + ("translucent_angular.glsl", "translucent_oblique.glsl"),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
-                  ("smooth", "VEC3", "v_tint")),
+                  ("smooth", "VEC3", "v_tint")) + shaders.CURVATURE_OUT,
         uniform_blocks=((1, "ObjectData", "object"), (2, "LightData", "light"), (3, "MaterialsData", "materials")),
         push_constants=(("INT", "face"),),
         fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
