@@ -39,7 +39,6 @@ vec3 near_field(int slot, float M)
 void main()
 {
   vec3 n = normalize(v_normal);
-  /* the facet's plane and the normal field (oblique_cosine); derivatives before any discard */
   vec3 n_g = cross(dFdx(v_world), dFdy(v_world)); /* the facet's plane; derivatives before any discard */
   mat3 S = shape_operator(v_curv_d, v_curv_o); /* the normal field, for oblique_cosine */
   if (!facing_out(object.shading)) {

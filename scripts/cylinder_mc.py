@@ -28,8 +28,9 @@ from translucent_addon.techniques.texture_space.throughput import Material  # no
 BANDS = {"lit centre": (0, 45), "lit flank": (45, 80), "terminator": (80, 95), "dark side": (100, 180)}
 
 
-def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int, bins: int, seed: int = 1):
-    """(bin centres: angle from the entry side's centre in degrees, exitance per unit incident irradiance)."""
+def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int = 100_000, bins: int = 72, seed: int = 1):
+    """(bin centres phi in radians from the beam's exit side, +x; exitance per unit incident irradiance).
+    tests/test_oblique_entry.py measures the methods' model against it too."""
     rng = np.random.default_rng(seed)
     sigma_t = sigma_a + sigma_s
     y = rng.uniform(-R, R, photons)
@@ -55,8 +56,7 @@ def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int, bins: in
         alive = keep[w[keep] > 1e-4]
     edges = np.linspace(-np.pi, np.pi, bins + 1)
     hist, _ = np.histogram(exit_phi, edges, weights=exit_w)
-    centres = 0.5 * (edges[1:] + edges[:-1])
-    return 180.0 - np.degrees(np.abs(centres)), hist / photons * 2 * R / (R * (edges[1] - edges[0]))
+    return 0.5 * (edges[1:] + edges[:-1]), hist / photons * 2 * R / (R * (edges[1] - edges[0]))
 
 
 def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000):
@@ -93,7 +93,8 @@ def main() -> int:
     print("|---|---" + "|---" * len(BANDS) + "|")
     for R in args.radii:
         for c, name in enumerate("RGB"):
-            angle, M = monte_carlo(R, m.sigma_a[c], m.sigma_s_prime[c], args.photons, 72)
+            phi, M = monte_carlo(R, m.sigma_a[c], m.sigma_s_prime[c], args.photons, 72)
+            angle = 180.0 - np.degrees(np.abs(phi))  # from the entry side's centre
             cells = []
             for shift in (0.0, 1.0):
                 B = model(R, m.sigma_a[c], m.sigma_s_prime[c], angle, shift)

@@ -242,8 +242,7 @@ def shape_attributes(mesh: MeshInstance) -> dict:
     ``oblique_entry.corner_shape_operators``) where IMAGE_SPACE shifts light entering at an angle, else 0."""
     n = len(mesh.positions)
     m = mesh.medium
-    if mesh.method != "IMAGE_SPACE" or m is None or not oblique_entry.shift_length(
-            m.sigma_a, m.sigma_s_prime, m.profile, m.layer_thickness_mm is not None).any():
+    if mesh.method != "IMAGE_SPACE" or m is None or not oblique_entry.medium_shift_mm(m).any():
         return {"curv_d": np.zeros((n, 3), np.float32), "curv_o": np.zeros((n, 3), np.float32)}
     S = oblique_entry.corner_shape_operators(mesh.positions.reshape(-1, 3, 3), mesh.normals.reshape(-1, 3, 3))
     S = S.reshape(n, 3, 3)

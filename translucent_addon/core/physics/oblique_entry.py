@@ -32,6 +32,8 @@ corners' mean, interpolated (``corner_shape_operators``).
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -54,6 +56,11 @@ def shift_length(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, profile: str, lay
     if profile != "EXACT" or layered:
         return np.zeros(3)
     return mean_free_path(sigma_a, sigma_s_prime)
+
+
+def medium_shift_mm(medium: Any) -> np.ndarray:
+    """``shift_length`` of a medium description (sigma_a, sigma_s_prime, profile, layer_thickness_mm)."""
+    return shift_length(medium.sigma_a, medium.sigma_s_prime, medium.profile, medium.layer_thickness_mm is not None)
 
 
 def beam_tangent(to_light: ArrayLike, normals: ArrayLike, eta: float) -> np.ndarray:

@@ -93,9 +93,7 @@ def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.n
     p_off = points + facet_normals * 1e-4 * scale
     E = np.zeros((len(points), 3))
     # ell in world units
-    ell = (oblique_entry.shift_length(medium.sigma_a, medium.sigma_s_prime, medium.profile,
-                                      medium.layer_thickness_mm is not None) / medium.mm_per_unit
-           if gradient is not None else np.zeros(3))
+    ell = oblique_entry.medium_shift_mm(medium) / medium.mm_per_unit if gradient is not None else np.zeros(3)
     for E_e, to_light in shadowed_irradiance(frame.emitters, p_off, normals, tracer):
         cos_i = np.einsum("ij,ij->i", normals, to_light)
         facing = np.einsum("ij,ij->i", facet_normals, to_light) > 0

@@ -132,8 +132,8 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
     rho_mm, eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm); slab, 2 vec4
     per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``; angular, ``angular_law.SAMPLES`` vec4
     per slot: the medium's profile's angular law; through_exit, 3 vec4 per slot: ``angular_law.through_constants``
-    and 1 for the EXACT profile (the DIPOLE keeps the Lambertian law); entry, 1 vec4 per slot: (``entry_shift_mm``,
-    0). Zeros for None."""
+    and 1 for the EXACT profile (the DIPOLE keeps the Lambertian law); entry, 1 vec4 per slot:
+    (``oblique_entry.medium_shift_mm``, 0). Zeros for None."""
     data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     slab = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     angular = np.zeros((MAX_MATERIALS, angular_law.SAMPLES, 4), np.float32)
@@ -150,14 +150,9 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
         if m.profile == "EXACT":
             through[k, :, :3] = angular_law.through_constants(m.sigma_a, m.sigma_s_prime, m.eta)
             through[k, 0, 3] = 1.0
-        entry[k, :3] = entry_shift_mm(m)
+        entry[k, :3] = oblique_entry.medium_shift_mm(m)
     return data.tobytes() + slab.tobytes() + angular.tobytes() + through.tobytes() + entry.tobytes()
 
-
-def entry_shift_mm(med) -> np.ndarray:
-    """ell (3,) mm: how far the light entering at an angle moves along its refracted beam before it becomes the
-    profile's source (``oblique_entry.shift_length``)."""
-    return oblique_entry.shift_length(med.sigma_a, med.sigma_s_prime, med.profile, med.layer_thickness_mm is not None)
 
 
 def through_exit_law(med, mu_o: float, ramp: np.ndarray) -> np.ndarray:
