@@ -10,7 +10,9 @@ at the terminator (80-95, where a flat face's law gives the light a cosine near 
 the light through the part), each the ratio of the band's summed exitance. A second row shifts every source
 one mean free path along its refracted beam (Jensen's source on the beam, not below the entry point): the
 model of light entering at an angle that IMAGE_SPACE's EXACT profile takes (``physics.oblique_entry``, there in
-the upstream form, without the light that drifts past the terminator). No Blender; about two minutes a preset.
+the upstream form, without the light that drifts past the terminator). ``--angular``: instead, how the light
+leaving each band is spread over directions against the Lambertian law every method draws it with
+(``exit_radiance``). No Blender; about two minutes a preset.
 """
 from __future__ import annotations
 
@@ -28,16 +30,18 @@ from translucent_addon.techniques.texture_space.throughput import Material  # no
 BANDS = {"lit centre": (0, 45), "lit flank": (45, 80), "terminator": (80, 95), "dark side": (100, 180)}
 
 
-def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int = 100_000, bins: int = 72, seed: int = 1):
-    """(bin centres phi in radians from the beam's exit side, +x; exitance per unit incident irradiance).
-    tests/test_oblique_entry.py measures the methods' model against it too."""
+def trace(R: float, sigma_a: float, sigma_s: float, photons: int = 100_000, seed: int = 1):
+    """Every photon's escape: (phi in radians from the beam's exit side, +x; weight; direction (k, 3), z along
+    the axis; scatterings before leaving). Weight 0 for photons absorbed (dropped below 1e-4)."""
     rng = np.random.default_rng(seed)
     sigma_t = sigma_a + sigma_s
     y = rng.uniform(-R, R, photons)
     p = np.stack([-np.sqrt(R * R - y * y) * (1 - 1e-9), y], 1)
     d = np.tile([1.0, 0.0, 0.0], (photons, 1))
     w = np.ones(photons)
-    exit_phi, exit_w = np.zeros(photons), np.zeros(photons)
+    order = np.zeros(photons, int)
+    exit_phi, exit_w, exit_n = np.zeros(photons), np.zeros(photons), np.zeros(photons, int)
+    exit_d = np.zeros((photons, 3))
     alive = np.arange(photons)
     while len(alive):
         s = -np.log(rng.random(len(alive))) / sigma_t
@@ -47,16 +51,54 @@ def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int = 100_000
         out = (a > 1e-15) & (t_out < s)
         q = P + D * np.where(out, t_out, s)[:, None]
         gone = alive[out]
-        exit_phi[gone], exit_w[gone] = np.arctan2(q[out, 1], q[out, 0]), w[gone]
+        exit_phi[gone], exit_w[gone], exit_d[gone], exit_n[gone] = np.arctan2(q[out, 1], q[out, 0]), w[gone], \
+            d[gone], order[gone]
         keep = alive[~out]
         p[keep] = q[~out]
         w[keep] *= sigma_s / sigma_t
+        order[keep] += 1
         mu, az = rng.random(len(keep)) * 2 - 1, rng.random(len(keep)) * 2 * np.pi
         d[keep] = np.stack([np.sqrt(1 - mu * mu) * np.cos(az), np.sqrt(1 - mu * mu) * np.sin(az), mu], 1)
         alive = keep[w[keep] > 1e-4]
+    return exit_phi, exit_w, exit_d, exit_n
+
+
+def monte_carlo(R: float, sigma_a: float, sigma_s: float, photons: int = 100_000, bins: int = 72, seed: int = 1):
+    """(bin centres phi in radians from the beam's exit side, +x; exitance per unit incident irradiance).
+    tests/test_oblique_entry.py measures the methods' model against it too."""
+    exit_phi, exit_w, _, _ = trace(R, sigma_a, sigma_s, photons, seed)
     edges = np.linspace(-np.pi, np.pi, bins + 1)
     hist, _ = np.histogram(exit_phi, edges, weights=exit_w)
     return 0.5 * (edges[1:] + edges[:-1]), hist / photons * 2 * R / (R * (edges[1] - edges[0]))
+
+
+def exit_radiance(R: float, sigma_a: float, sigma_s: float, photons: int = 300_000, cone_deg: float = 15.0,
+                  mu_o: tuple[float, ...] = (0.2, 0.5)) -> dict:
+    """How the light leaving each band is spread over directions: per band and view cosine mu_o in the
+    cross-section, the radiance towards the dark side (the view's tangential part pointing away from the lit
+    centre) and towards the lit side, each over the Lambertian radiance of the band's own exitance, E mu_o / pi
+    (1 = Lambertian), counted in a cone of ``cone_deg``; and the share of single scattering in the first."""
+    exit_phi, exit_w, exit_d, exit_n = trace(R, sigma_a, sigma_s, photons)
+    normal = np.stack([np.cos(exit_phi), np.sin(exit_phi)], 1)
+    mu = (exit_d[:, :2] * normal).sum(1)
+    # the tangent towards the dark side (phi -> 0): -sign(phi) times d/dphi of the normal
+    towards_dark = -np.sign(exit_phi) * (exit_d[:, :2] * np.stack([-np.sin(exit_phi), np.cos(exit_phi)], 1)).sum(1)
+    angle = 180.0 - np.degrees(np.abs(exit_phi))
+    cone = np.cos(np.radians(cone_deg))
+    solid = 2.0 * np.pi * (1.0 - cone)
+    table = {}
+    for band, (lo, hi) in BANDS.items():
+        inside = (angle >= lo) & (angle < hi) & (exit_w > 0)
+        W = exit_w[inside]
+        for m_o in mu_o:
+            cells = []
+            for side in (1.0, -1.0):
+                seen = mu[inside] * m_o + towards_dark[inside] * side * np.sqrt(1.0 - m_o * m_o) > cone
+                cells.append(W[seen].sum() / solid / (W.sum() * m_o / np.pi))
+                if side > 0:
+                    single = W[seen & (exit_n[inside] == 1)].sum() / max(W[seen].sum(), 1e-30)
+            table[band, m_o] = (cells[0], cells[1], single)
+    return table
 
 
 def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000):
@@ -86,8 +128,22 @@ def main() -> int:
     parser.add_argument("--preset", default="marble")
     parser.add_argument("--radii", type=float, nargs="*", default=[3.0, 5.0, 10.0, 20.0])
     parser.add_argument("--photons", type=int, default=200_000)
+    parser.add_argument("--angular", action="store_true",
+                        help="instead: how each band's light is spread over directions (``exit_radiance``)")
     args = parser.parse_args()
     m = load_presets()[args.preset]
+    if args.angular:
+        print(f"{args.preset}: radiance towards the dark side / towards the lit side over Lambertian, at mu_o "
+              "(single scattering's share of the first)")
+        print("| R mm | channel | mu_o | " + " | ".join(BANDS) + " |")
+        print("|---|---|---" + "|---" * len(BANDS) + "|")
+        for R in args.radii:
+            for c, name in enumerate("RGB"):
+                table = exit_radiance(R, m.sigma_a[c], m.sigma_s_prime[c], args.photons)
+                for m_o in (0.2, 0.5):
+                    print(f"| {R:g} | {name} | {m_o:g} | " + " | ".join(
+                        "{:.2f} / {:.2f} ({:.2f})".format(*table[b, m_o]) for b in BANDS) + " |", flush=True)
+        return 0
     print(f"{args.preset}: model / Monte Carlo per band (sources at the entry point; shifted one mean free path)")
     print("| R mm | channel | " + " | ".join(BANDS) + " |")
     print("|---|---" + "|---" * len(BANDS) + "|")
