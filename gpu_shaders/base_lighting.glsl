@@ -5,7 +5,8 @@
  * surface), and per emitter the near field of the
  * profile F_t(w_o) / pi * E F_t(w_i) V * near(M_d) * M_i (the far field is splatted by
  * IMAGE_SPACE). Subsurface light leaves weighed by the angular law's a(cos_o), and an emitter's enters
- * weighed by a(cos_i) (translucent_angular.glsl; the world's light is diffuse, over which a averages 1).
+ * weighed by a(cos_i) (translucent_angular.glsl; the world's light is diffuse, over which a averages 1); an
+ * emitter's near field leans away from where its light entered (physics/exit_lean.py).
  * The painted mask m blends subsurface (m = 1) and Lambert (m = 0). */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -86,8 +87,16 @@ void main()
     float M = clamp(v_paint.y, 0.25, 1.0);
     /* the light entering at an angle, read where it entered (translucent_oblique.glsl) */
     vec3 E = V * oblique_cosine(n, to_light, eta, materials.entry[slot].xyz / mat.x, S);
-    sss = (1.0 - fresnel_dielectric(cos_o, eta)) / PI * E * (1.0 - fresnel_dielectric(cos_i, eta)) *
-          near_field(slot, M) * angular_weight(slot, cos_i) * angular_weight(slot, cos_o) * modulation;
+    vec3 entering = (1.0 - fresnel_dielectric(cos_i, eta)) * angular_weight(slot, cos_i);
+    /* The near field's light leans away from where it entered (physics/exit_lean.py near_constant): over a disk
+     * lit by E + grad E . (x - x_o) it sends -K (w_o . grad E) more towards the eye, grad E = V S l the surface
+     * gradient of the light's cosine (the normal field's), K per world unit; at most what the disk sends. */
+    vec3 grad_mu = S * to_light;
+    grad_mu -= n * dot(n, grad_mu);
+    vec3 near = E * near_field(slot, M);
+    near = max(near - V * (materials.lean[slot].xyz / mat.x) * dot(to_eye, grad_mu), vec3(0.0));
+    sss = (1.0 - fresnel_dielectric(cos_o, eta)) / PI * near * entering * angular_weight(slot, cos_o) *
+          modulation;
   }
   out_color = vec4(mix(lambert, sss, m), 0.0);
 }

@@ -6,7 +6,8 @@
  * physics/lut.py crossover): with tail_pass set, one quad per tail_block x tail_block block of samples (those
  * of the block's first object: summed power at the power-weighted mean position and blur) carries
  * R_d t out to tail_reach r_max from the tail rows of far_lut (image_space_data.tail_samples is its twin).
- * Pairs across a thin part take the thin-part factor and leave by the diffusion mode's law (translucent_angular.glsl). */
+ * Pairs across a thin part take the thin-part factor and leave by the diffusion mode's law (translucent_angular.glsl);
+ * the others lean away from x_i as they leave (physics/exit_lean.py). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -125,7 +126,7 @@ void main()
   float t = smoothstep(tail_start * mat.y, mat.y, s); /* the tail's share */
   vec3 R;
   if (tail_pass == 1) {
-    R = far_profile(slot + textureSize(far_lut, 0).y / 2, sqrt(s / reach)) * t;
+    R = far_profile(slot + textureSize(far_lut, 0).y / 3, sqrt(s / reach)) * t;
   }
   else {
     R = far_profile(slot, sqrt(s / reach)) * ((world_pass == 1) ? 1.0 : 1.0 - t);
@@ -138,9 +139,21 @@ void main()
    * applies: over the same ramp as the thin-part factor. */
   vec3 ramp;
   vec3 C = through_factor(slot, max(h_mm, 0.0), ramp);
+  vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, xo.xyz);
   if (max(ramp.r, max(ramp.g, ramp.b)) > 0.0) { /* most pairs lie on one face: nothing to weigh */
-    vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, xo.xyz);
     C *= mix(vec3(1.0), through_exit_ratio(slot, dot(n_o, to_eye)), ramp);
+  }
+  /* The light leaving leans away from x_i (physics/exit_lean.py): max(0, 1 + beta(r) to_eye . e) / N(beta), e the
+   * unit part of x_o - x_i along x_o's surface; beta from far_lut's lean rows (0 for DIPOLE and a layer over a
+   * base), outside the thin-part ramp. */
+  vec3 along = (xo.xyz - v_xi) - n_o * dot(n_o, xo.xyz - v_xi);
+  float along_length = length(along);
+  if (along_length > 0.0) {
+    vec3 beta = far_profile(slot + 2 * (textureSize(far_lut, 0).y / 3), sqrt(min(r_mm / mat.y, 1.0))) *
+                (vec3(1.0) - ramp);
+    vec3 x = clamp(beta, vec3(1.0), vec3(2.0)) - vec3(1.0); /* exit_lean.normalisation: the clamp's extra light */
+    C *= max(vec3(1.0) + beta * dot(to_eye, along / along_length), vec3(0.0)) /
+         (vec3(1.0) + x * x * (0.0985 - 0.0181 * x));
   }
   out_color = vec4(R * C * (M * M * w) * v_flux.rgb, 1.0);
 }

@@ -42,6 +42,8 @@ struct MaterialsData {
   vec4 through_exit[96];
   /* per slot k, light entering at an angle (physics/oblique_entry.py): (ell rgb mm, 0), 0 for no shift */
   vec4 entry[32];
+  /* per slot k, the near field's lean (physics/exit_lean.py near_constant): (K rgb mm, 0), 0 for no lean */
+  vec4 lean[32];
 };
 
 struct TemporalData {

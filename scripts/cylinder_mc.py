@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from translucent_addon.core.physics import slab_through  # noqa: E402
+from translucent_addon.core.physics import exit_lean, slab_through  # noqa: E402
 from translucent_addon.core.physics.presets import load_presets  # noqa: E402
 from translucent_addon.techniques.texture_space.throughput import Material  # noqa: E402
 
@@ -101,9 +101,13 @@ def exit_radiance(R: float, sigma_a: float, sigma_s: float, photons: int = 300_0
     return table
 
 
-def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000):
-    """The methods' B at receivers ``angles_deg`` from the entry side's centre; sources moved ``shift_mfp`` mean
-    free paths along the refracted beam (its tangential part, |sin theta_i| at eta 1)."""
+def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000,
+          view: tuple[float, float] | None = None):
+    """The methods' B at receivers ``angles_deg`` (>= 0) from the entry side's centre; sources moved ``shift_mfp``
+    mean free paths along the refracted beam (its tangential part, |sin theta_i| at eta 1). ``view`` (mu_o, side):
+    instead, the radiance towards the view at cosine mu_o in the cross-section, towards the dark side (side 1) or
+    the lit side (-1), over the Lambertian radiance of B: each pair leaning away from its source as IMAGE_SPACE
+    draws it (``physics.exit_lean``, outside the thin-part ramp)."""
     material = Material((sigma_a,) * 3, (sigma_s,) * 3, 1.0)
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, 1.0)
     phi = np.linspace(-np.pi, np.pi, sources + 1)[:-1]  # from the entry side's centre
@@ -119,8 +123,30 @@ def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shif
         r = np.hypot(chord[:, None], z[None, :])
         R_d = material.R_d(r.ravel())[:, 0].reshape(r.shape)
         C = slab_through.factor(h, *slab)[:, 0]
-        out.append(((E * C * R * (phi[1] - phi[0]))[:, None] * R_d * wz[None, :]).sum())
+        pairs = (E * C * R * (phi[1] - phi[0]))[:, None] * R_d * wz[None, :]
+        if view is None:
+            out.append(pairs.sum())
+            continue
+        # In 3-D (z along the axis): the receiver on the side of increasing angle, the view in its cross-section.
+        n_o = np.array([-np.cos(a), np.sin(a), 0.0])
+        towards_dark = np.array([np.sin(a), np.cos(a), 0.0])
+        mu_o, side = view
+        to_eye = mu_o * n_o + side * np.sqrt(1.0 - mu_o * mu_o) * towards_dark
+        x_i = np.stack(np.broadcast_arrays(-R * np.cos(moved)[:, None], R * np.sin(moved)[:, None], z[None, :]), -1)
+        ramp = slab_through.ramp(h, slab[1])[:, 0]
+        beta = exit_lean.beta(r, material.sigma_a, material.sigma_s_prime, 1.0)[..., 0] * (1.0 - ramp[:, None])
+        lean = exit_lean.pair_factor(beta[..., None], x_i, R * n_o, n_o, to_eye)[..., 0]
+        out.append((pairs * lean).sum() / pairs.sum())
     return np.array(out)
+
+
+def band_lean(R: float, sigma_a: float, sigma_s: float, band: tuple[float, float], view: tuple[float, float],
+              shift_mfp: float = 1.0, angles: int = 4) -> float:
+    """The model's radiance towards ``view`` over Lambertian across a band of angles, weighted by B (as
+    ``exit_radiance`` weighs by the band's exitance): what IMAGE_SPACE's lean gives there."""
+    a = np.linspace(*band, angles + 2)[1:-1]
+    B = model(R, sigma_a, sigma_s, a, shift_mfp)
+    return float((B * model(R, sigma_a, sigma_s, a, shift_mfp, view=view)).sum() / B.sum())
 
 
 def main() -> int:
@@ -134,15 +160,18 @@ def main() -> int:
     m = load_presets()[args.preset]
     if args.angular:
         print(f"{args.preset}: radiance towards the dark side / towards the lit side over Lambertian, at mu_o "
-              "(single scattering's share of the first)")
+              "(single scattering's share of the first); the model's lean (physics.exit_lean) towards each")
         print("| R mm | channel | mu_o | " + " | ".join(BANDS) + " |")
         print("|---|---|---" + "|---" * len(BANDS) + "|")
         for R in args.radii:
             for c, name in enumerate("RGB"):
                 table = exit_radiance(R, m.sigma_a[c], m.sigma_s_prime[c], args.photons)
                 for m_o in (0.2, 0.5):
+                    leans = {b: [band_lean(R, m.sigma_a[c], m.sigma_s_prime[c], BANDS[b], (m_o, side))
+                                 for side in (1.0, -1.0)] for b in BANDS}
                     print(f"| {R:g} | {name} | {m_o:g} | " + " | ".join(
-                        "{:.2f} / {:.2f} ({:.2f})".format(*table[b, m_o]) for b in BANDS) + " |", flush=True)
+                        "{:.2f} / {:.2f} ({:.2f}); lean {:.2f} / {:.2f}".format(*table[b, m_o], *leans[b])
+                        for b in BANDS) + " |", flush=True)
         return 0
     print(f"{args.preset}: model / Monte Carlo per band (sources at the entry point; shifted one mean free path)")
     print("| R mm | channel | " + " | ".join(BANDS) + " |")

@@ -39,6 +39,9 @@ class Escapes:
     launched: int  # photons launched (the normalisation: every photon carries 1 / launched of the power)
     entered: float  # share of the launched power that entered the medium (1 - F_dr,ext)
     truncated: int  # photons still inside after max_scatterings
+    # (k,) sin(theta_o) cos(psi) outside: the exit direction's component along the surface away from the entry
+    # point (psi the azimuth from that direction), which ``lean`` averages
+    outward: np.ndarray | None = None
 
 
 def _horizontal(rng: np.random.Generator, mu: np.ndarray) -> np.ndarray:
@@ -85,7 +88,7 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
         n = np.zeros(len(idx), np.int64)
         w = np.ones(len(idx))
         a = None if per_photon is None else per_photon[start:start + k][idx]
-        out_rho, out_n, out_w, out_a = [], [], [], []
+        out_rho, out_n, out_w, out_a, out_o = [], [], [], [], []
         while len(z):
             # Free flight; a path that crosses z = 0 meets the boundary there.
             ell = -np.log1p(-rng.random(len(z)))
@@ -109,7 +112,10 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
                 xy[r] += dxy[r] * rest[:, None]
                 z[r] = rest * mu[r]
                 gone = c[~reflect]
-                out_rho.append(np.hypot(xy[gone, 0], xy[gone, 1]))
+                rho = np.hypot(xy[gone, 0], xy[gone, 1])
+                out_rho.append(rho)
+                # Snell: the horizontal part of the direction is eta times longer outside.
+                out_o.append(eta * (xy[gone] * dxy[gone]).sum(axis=1) / np.maximum(rho, 1e-300))
                 out_n.append(n[gone])
                 out_w.append(w[gone])
                 if a is not None:
@@ -138,11 +144,12 @@ def trace(photons: int, eta: float = 1.0, albedo: ArrayLike | None = None, seed:
         parts.append((np.concatenate(out_rho) if out_rho else np.zeros(0),
                       np.concatenate(out_n) if out_n else np.zeros(0, np.int64),
                       np.concatenate(out_w) if out_w else np.zeros(0),
-                      np.concatenate(out_a) if out_a else None))
+                      np.concatenate(out_a) if out_a else None,
+                      np.concatenate(out_o) if out_o else np.zeros(0)))
     rho = np.concatenate([p[0] for p in parts])
     return Escapes(rho, np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]),
                    None if per_photon is None else np.concatenate([p[3] for p in parts]),
-                   photons, launched_entered / photons, truncated)
+                   photons, launched_entered / photons, truncated, np.concatenate([p[4] for p in parts]))
 
 
 def normalisation(escapes: Escapes, eta: float) -> float:
@@ -164,3 +171,17 @@ def profile(escapes: Escapes, eta: float, edges: ArrayLike, albedo: float | None
     w = escapes.weight if albedo is None else np.power(albedo, escapes.n - (1 if per_albedo else 0))
     power, _ = np.histogram(escapes.rho, bins=edges, weights=w)
     return power * normalisation(escapes, eta) / (np.pi * np.diff(edges**2))
+
+
+def lean(escapes: Escapes, edges: ArrayLike, albedo: float | None = None, per_albedo: bool = False) -> np.ndarray:
+    """beta per annulus between ``edges`` (mean free paths): how the light leaving there leans away from where it
+    entered. Written L(w_o) = L_0 (1 + beta sin(theta_o) cos(psi)) about the Lambertian L_0 (psi the azimuth from
+    the direction away from the entry point), the exiting power's mean of sin(theta_o) cos(psi) is beta / 4
+    (int sin^2 cos^2(psi) cos dw = pi / 4 over int cos dw = pi), so beta = 4 <sin(theta_o) cos(psi)>, weighted
+    as ``profile`` (or by ``albedo``'s reweighting; ``per_albedo``: alpha'^(n-1), the same ratio and defined at
+    alpha' = 0, the first order's). 0 where no photon left."""
+    edges = np.asarray(edges, np.float64)
+    w = escapes.weight if albedo is None else np.power(albedo, escapes.n - (1 if per_albedo else 0))
+    power, _ = np.histogram(escapes.rho, bins=edges, weights=w)
+    moment, _ = np.histogram(escapes.rho, bins=edges, weights=w * escapes.outward)
+    return np.where(power > 0, 4.0 * moment / np.where(power > 0, power, 1.0), 0.0)

@@ -33,7 +33,7 @@ from ..frame import FrameInputs, Medium, MeshInstance  # noqa: F401  (Medium re-
 from ..geometry.camera import pixel_rays
 from ..geometry.mesh_measures import facing_side, subtriangle_centroids
 from ..geometry.raycast import BruteForceTracer
-from ..physics import angular_law, oblique_entry, slab_through
+from ..physics import angular_law, exit_lean, oblique_entry, slab_through
 from ..physics.fresnel import fresnel_dielectric
 from ..physics.lut import near_integral, partition_off_plane, profile_model
 from ..physics.sh_irradiance import irradiance, transmittance_kernel
@@ -112,10 +112,12 @@ def transmitted_irradiance(frame: FrameInputs, points: np.ndarray, normals: np.n
 
 def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 200_000,
                   epsilon: float = 1e-3, tracer: Any = None, max_pairs: int = 20_000_000,
-                  entry_shift: bool = True) -> np.ndarray:
+                  entry_shift: bool = True, lean: bool = True) -> np.ndarray:
     """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
     ``entry_shift``: light entering at an angle is read where it entered (``physics.oblique_entry``, the
-    EXACT profile's, as IMAGE_SPACE draws it; TEXTURE_SPACE does not yet: False is its model).
+    EXACT profile's, as IMAGE_SPACE draws it; TEXTURE_SPACE does not yet: False is its model). ``lean``: the
+    light leaving leans away from where it entered (``physics.exit_lean``, the EXACT profile's, on the pairs
+    outside the thin-part ramp, as IMAGE_SPACE's splats draw it; not TEXTURE_SPACE's: False).
 
     ``tracer`` answers ray queries over the frame's triangles in order (``closest_hit`` and
     ``occluded``); by default a brute-force one, fine for test scenes of a few thousand triangles.
@@ -146,7 +148,8 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         x_o = origins[mine] + t[mine, None] * dirs[mine]
         n_o = (1 - uu - vv) * nors[ti, 0] + uu * nors[ti, 1] + vv * nors[ti, 2]
         n_o /= np.linalg.norm(n_o, axis=1, keepdims=True)
-        cos_o = np.abs(np.einsum("ij,ij->i", n_o, -dirs[mine]))
+        to_eye = -dirs[mine]
+        cos_o = np.abs(np.einsum("ij,ij->i", n_o, to_eye))
         # Emitting points x_i.
         tri_o = mesh.world_positions().reshape(-1, 3, 3)[ti]
         g_o = facing_side(np.cross(tri_o[:, 1] - tri_o[:, 0], tri_o[:, 2] - tri_o[:, 0]), n_o)
@@ -170,6 +173,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
         slab = slab_through.constants(sa, ss, medium.eta, layered=medium.layer_thickness_mm is not None)
         # M(mu_o) / a(mu_o) per receiver: how light across a thin part leaves, over the angular law (EXACT only).
         through = None if medium.profile != "EXACT" else angular_law.through_exit_ratio(sa, ss, medium.eta, cos_o)
+        leans = lean and medium.profile == "EXACT" and medium.layer_thickness_mm is None
         tree_i = cKDTree(x_i)
         # Gather in chunks of receivers so that the pair list stays near max_pairs in memory.
         neighbours = len(x_i) * min(1.0, math.pi * reach**2 / max(float(area.sum()), 1e-30))
@@ -185,13 +189,18 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             # differs from it there, (E_i - E_o)(1 - w) A_i, so a shadow edge inside the disk is
             # resolved on the sample grid (zero for a uniform E, which the disk integral has exactly).
             near_share = area_mm2[cols] - weight
+            depth_mm = np.einsum("ij,ij->i", x_o[start + rows] - x_i[cols], n_o[start + rows]) * mm
+            ramp = slab_through.ramp(depth_mm, slab[1])
             contrib = model.R_d(r_mm[:, None], sa, ss, medium.eta) * (
                 E_i[cols] * area_mm2[cols, None] - E_o[start + rows] * near_share[:, None])
+            if leans:  # the light leaving leans away from x_i: the far part's, and the near part's E_i - E_o (the
+                # disk's E(x_o), even about x_o, leans to nothing; leaning it pair by pair would weigh R_d's
+                # unresolved peak at the nearest samples)
+                contrib *= exit_lean.pair_factor(exit_lean.beta(r_mm, sa, ss, medium.eta) * (1.0 - ramp), x_i[cols],
+                                                 x_o[start + rows], n_o[start + rows], to_eye[start + rows])
             # Light through thin parts, as the methods draw it.
-            depth_mm = np.einsum("ij,ij->i", x_o[start + rows] - x_i[cols], n_o[start + rows]) * mm
             contrib *= slab_through.factor(depth_mm, *slab)
             if through is not None:  # ... and leaves by the diffusion mode's law, not a(mu_o) (angular_law)
-                ramp = slab_through.ramp(depth_mm, slab[1])
                 contrib *= 1.0 + (through[start + rows] - 1.0) * ramp
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)

@@ -24,7 +24,7 @@ import numpy as np
 
 from ...core.frame import FrameInputs, MeshInstance, box_of
 from ...core.lights import DIRECTIONAL, Emitter
-from ...core.physics import angular_law, oblique_entry, slab_through
+from ...core.physics import angular_law, exit_lean, oblique_entry, slab_through
 from ...core.physics.dipole import r_max
 from ...core.physics.lut import (
     BLUR_MIN,
@@ -99,14 +99,24 @@ class ImageSpacePlan:
     epsilon: float = 0.01  # the profile share beyond the splat radius (SamplingSettings.epsilon)
 
     def far_lut(self) -> np.ndarray:
-        """(2 rows per slot, FAR_SAMPLES, 4) float32: rows 0..n-1 the profile to r_max, rows n..2n-1 its tail
-        to TAIL_REACH r_max."""
+        """(3 rows per slot, FAR_SAMPLES, 4) float32: rows 0..n-1 the profile to r_max, rows n..2n-1 its tail
+        to TAIL_REACH r_max, rows 2n..3n-1 the exit lean beta(r) to r_max (``lean_row``)."""
         n = max(1, len(self.tables))
-        out = np.zeros((2 * n, FAR_SAMPLES, 4), np.float32)
+        out = np.zeros((3 * n, FAR_SAMPLES, 4), np.float32)
         for k, t in enumerate(self.tables):
             out[k, :, :3] = t.far
             out[n + k, :, :3] = t.tail
+            out[2 * n + k, :, :3] = self.lean_row(k)
         return out
+
+    def lean_row(self, slot: int) -> np.ndarray:
+        """(FAR_SAMPLES, 3): how the light leaving leans away from where it entered, beta(r) at r = u^2 r_max
+        (``physics.exit_lean``): the EXACT profile's; 0 for DIPOLE and a layer over a base (no lean)."""
+        med = self.media[slot]
+        if med.profile != "EXACT" or med.layer_thickness_mm is not None:
+            return np.zeros((FAR_SAMPLES, 3))
+        u = np.linspace(0.0, 1.0, FAR_SAMPLES)
+        return exit_lean.beta(u * u * self.tables[slot].r_max, med.sigma_a, med.sigma_s_prime, med.eta)
 
     def near_lut(self) -> np.ndarray:
         """(2 rows per slot, NEAR_SAMPLES, 4): rows 0..n-1 the lights' near field near(M) at rho, rows n..2n-1
@@ -133,12 +143,14 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
     per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``; angular, ``angular_law.SAMPLES`` vec4
     per slot: the medium's profile's angular law; through_exit, 3 vec4 per slot: ``angular_law.through_constants``
     and 1 for the EXACT profile (the DIPOLE keeps the Lambertian law); entry, 1 vec4 per slot:
-    (``oblique_entry.medium_shift_mm``, 0). Zeros for None."""
+    (``oblique_entry.medium_shift_mm``, 0); lean, 1 vec4 per slot: (``exit_lean.near_constant`` at the lights' rho,
+    0; zeros where ``lean_row`` is). Zeros for None."""
     data = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     slab = np.zeros((MAX_MATERIALS, 2, 4), np.float32)
     angular = np.zeros((MAX_MATERIALS, angular_law.SAMPLES, 4), np.float32)
     through = np.zeros((MAX_MATERIALS, 3, 4), np.float32)
     entry = np.zeros((MAX_MATERIALS, 4), np.float32)
+    lean = np.zeros((MAX_MATERIALS, 4), np.float32)
     for k, (t, m) in enumerate(zip(p.tables, p.media) if p is not None else ()):
         data[k, 0] = (m.mm_per_unit, t.r_max, t.rho, m.eta)
         data[k, 1, :3] = transmittance_kernel(m.eta)
@@ -151,7 +163,22 @@ def materials_block(p: "ImageSpacePlan | None") -> bytes:
             through[k, :, :3] = angular_law.through_constants(m.sigma_a, m.sigma_s_prime, m.eta)
             through[k, 0, 3] = 1.0
         entry[k, :3] = oblique_entry.medium_shift_mm(m)
-    return data.tobytes() + slab.tobytes() + angular.tobytes() + through.tobytes() + entry.tobytes()
+        lean[k, :3] = near_lean(m, t.rho)
+    return data.tobytes() + slab.tobytes() + angular.tobytes() + through.tobytes() + entry.tobytes() + lean.tobytes()
+
+
+@functools.lru_cache(maxsize=64)
+def _near_lean(sigma_a: tuple, sigma_s_prime: tuple, eta: float, rho_mm: float) -> np.ndarray:
+    return exit_lean.near_constant(sigma_a, sigma_s_prime, eta, rho_mm)
+
+
+def near_lean(med, rho_mm: float) -> np.ndarray:
+    """K (3,) mm of the near field's lean (``exit_lean.near_constant``): the EXACT profile's; 0 for DIPOLE and a
+    layer over a base. Cached: the block is written every frame."""
+    if med.profile != "EXACT" or med.layer_thickness_mm is not None:
+        return np.zeros(3)
+    return _near_lean(tuple(map(float, med.sigma_a)), tuple(map(float, med.sigma_s_prime)), float(med.eta),
+                      float(rho_mm))
 
 
 
@@ -300,6 +327,16 @@ def texel_solid_angle(u, v, grid: int, tan_half: float = 1.0):
     return (2.0 * t / grid) ** 2 / (1.0 + t * t * (u * u + v * v)) ** 1.5
 
 
+def lean_lookup(row: np.ndarray, r_mm, r_max: float) -> np.ndarray:
+    """CPU twin of the shader's lean lookup: beta(r) from ``ImageSpacePlan.lean_row`` by linear interpolation in
+    u = sqrt(r / r_max), held at r_max beyond."""
+    u = np.sqrt(np.clip(np.asarray(r_mm, np.float64) / r_max, 0.0, 1.0)) * (FAR_SAMPLES - 1)
+    i0 = np.minimum(np.floor(u).astype(int), FAR_SAMPLES - 1)
+    i1 = np.minimum(i0 + 1, FAR_SAMPLES - 1)
+    f = (u - i0)[..., None]
+    return (1 - f) * row[i0] + f * row[i1]
+
+
 def far_lookup(table: ImageSpaceTables, s_mm, tail: bool = False):
     """CPU twin of the shader's far lookup: R_d(s) by linear interpolation in u = sqrt(s / reach), reach r_max
     (or TAIL_REACH r_max in the tail's table)."""
@@ -372,7 +409,10 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         # Light through thin parts: x_i below x_o's tangent plane by h (slab_through).
         depth_mm = ((x_o[p] - pos[same]) @ n_o[p]) * med.mm_per_unit
         slab = slab_constants(med)
-        value = value * slab_through.factor(depth_mm, *slab) * through_exit_law(
-            med, float(n_o[p] @ to_eye[p]), slab_through.ramp(depth_mm, slab[1]))
+        ramp = slab_through.ramp(depth_mm, slab[1])
+        value = value * slab_through.factor(depth_mm, *slab) * through_exit_law(med, float(n_o[p] @ to_eye[p]), ramp)
+        # The light leaving leans away from x_i (physics.exit_lean), outside the thin-part ramp.
+        beta = lean_lookup(plan_.lean_row(slot), r_mm, table.r_max) * (1.0 - ramp)
+        value = value * exit_lean.pair_factor(beta, pos[same], x_o[p], n_o[p], to_eye[p])
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out
