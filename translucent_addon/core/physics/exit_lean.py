@@ -42,6 +42,7 @@ from ..data import DATA
 from . import exact_profile
 from .exact_profile import _bracket, _x  # the profile table's interpolation in eta and albedo
 from .lut import partition
+from .quadrature import trapezoid
 
 TABLE = DATA / "half_space_lean.npz"
 ETAS = (1.0, 1.2, 1.3, 1.4, 1.6, 2.0)
@@ -115,4 +116,4 @@ def near_constant(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, rho_
     r = np.geomspace(1e-6, 2.0 * rho_mm, 4001)
     integrand = exact_profile.R_d(r[:, None], sigma_a, sigma_s_prime, eta) * (1.0 - partition(r, rho_mm))[:, None] \
         * beta(r, sigma_a, sigma_s_prime, eta) * (r * r)[:, None]
-    return np.pi * np.trapezoid(integrand, r, axis=0)
+    return np.pi * trapezoid(integrand, r, axis=0)
