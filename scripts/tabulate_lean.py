@@ -36,7 +36,7 @@ def run(eta: float, photons: int, seed: int) -> np.ndarray:
     escapes = half_space_mc.trace(photons, eta, seed=seed, max_scatterings=SCATTERINGS)
     rows = []
     for a in ALBEDOS:
-        w = np.power(a, escapes.n - 1)  # over the first scattering's alpha': 1 at the most, no underflow there
+        w = half_space_mc.weights(escapes, a, per_albedo=True)  # at most 1: no underflow in w * w there
         power, _ = np.histogram(escapes.rho, bins=EDGES, weights=w)
         square, _ = np.histogram(escapes.rho, bins=EDGES, weights=w * w)
         # Clipped at 0: light leaving a half-space does not lean towards its entry point; the outermost annuli of

@@ -159,8 +159,14 @@ def normalisation(escapes: Escapes, eta: float) -> float:
 
 def total(escapes: Escapes, eta: float, albedo: float | None = None) -> float:
     """Total reflectance int R 2 pi r dr of the traced medium (or of ``albedo`` by reweighting an unabsorbed run)."""
-    w = escapes.weight if albedo is None else np.power(albedo, escapes.n)
+    w = weights(escapes, albedo)
     return float(w.sum() * normalisation(escapes, eta))
+
+
+def weights(escapes: Escapes, albedo: float | None = None, per_albedo: bool = False) -> np.ndarray:
+    """Each escape's weight: as traced, or ``albedo``'s by reweighting an unabsorbed run, alpha'^n (``per_albedo``:
+    alpha'^(n-1), over the first scattering's albedo, finite at alpha' = 0)."""
+    return escapes.weight if albedo is None else np.power(albedo, escapes.n - (1 if per_albedo else 0))
 
 
 def profile(escapes: Escapes, eta: float, edges: ArrayLike, albedo: float | None = None,
@@ -168,7 +174,7 @@ def profile(escapes: Escapes, eta: float, edges: ArrayLike, albedo: float | None
     """R^ averaged over the annuli between ``edges`` (mean free paths): per unit area, in units of sigma_t'^2.
     ``per_albedo``: R^ / alpha' (weights alpha'^(n-1)), finite at alpha' = 0 (the first order alone)."""
     edges = np.asarray(edges, np.float64)
-    w = escapes.weight if albedo is None else np.power(albedo, escapes.n - (1 if per_albedo else 0))
+    w = weights(escapes, albedo, per_albedo)
     power, _ = np.histogram(escapes.rho, bins=edges, weights=w)
     return power * normalisation(escapes, eta) / (np.pi * np.diff(edges**2))
 
@@ -181,7 +187,7 @@ def lean(escapes: Escapes, edges: ArrayLike, albedo: float | None = None, per_al
     as ``profile`` (or by ``albedo``'s reweighting; ``per_albedo``: alpha'^(n-1), the same ratio and defined at
     alpha' = 0, the first order's). 0 where no photon left."""
     edges = np.asarray(edges, np.float64)
-    w = escapes.weight if albedo is None else np.power(albedo, escapes.n - (1 if per_albedo else 0))
+    w = weights(escapes, albedo, per_albedo)
     power, _ = np.histogram(escapes.rho, bins=edges, weights=w)
     moment, _ = np.histogram(escapes.rho, bins=edges, weights=w * escapes.outward)
     return np.where(power > 0, 4.0 * moment / np.where(power > 0, power, 1.0), 0.0)

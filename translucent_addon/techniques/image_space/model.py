@@ -393,6 +393,7 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
     out = np.zeros((len(x_o), 3))
     valid = sample_pos_id[:, 3] > 0.5
     pos, ids, flux = sample_pos_id[valid, :3], np.rint(sample_pos_id[valid, 3]).astype(int), sample_flux[valid]
+    leans = [plan_.lean_row(k) for k in range(len(plan_.tables))]  # once, not per pixel
     for p in range(len(x_o)):
         same = ids == int(round(id_o[p]))
         if not same.any() or id_o[p] < 0.5:
@@ -412,7 +413,7 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         ramp = slab_through.ramp(depth_mm, slab[1])
         value = value * slab_through.factor(depth_mm, *slab) * through_exit_law(med, float(n_o[p] @ to_eye[p]), ramp)
         # The light leaving leans away from x_i (physics.exit_lean), outside the thin-part ramp.
-        beta = lean_lookup(plan_.lean_row(slot), r_mm, table.r_max) * (1.0 - ramp)
+        beta = lean_lookup(leans[slot], r_mm, table.r_max) * (1.0 - ramp)
         value = value * exit_lean.pair_factor(beta, pos[same], x_o[p], n_o[p], to_eye[p])
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out
