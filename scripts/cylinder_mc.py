@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from translucent_addon.core.physics import exit_lean, slab_through  # noqa: E402
+from translucent_addon.core.physics import angular_law, exit_lean, slab_through  # noqa: E402
 from translucent_addon.core.physics.presets import load_presets  # noqa: E402
 from translucent_addon.techniques.texture_space.throughput import Material  # noqa: E402
 
@@ -102,12 +102,13 @@ def exit_radiance(R: float, sigma_a: float, sigma_s: float, photons: int = 300_0
 
 
 def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000,
-          view: tuple[float, float] | None = None):
+          view: tuple[float, float] | None = None, through_lean: bool = True):
     """The methods' B at receivers ``angles_deg`` (>= 0) from the entry side's centre; sources moved ``shift_mfp``
     mean free paths along the refracted beam (its tangential part, |sin theta_i| at eta 1). ``view`` (mu_o, side):
     instead, the radiance towards the view at cosine mu_o in the cross-section, towards the dark side (side 1) or
-    the lit side (-1), over the Lambertian radiance of B: each pair leaning away from its source as IMAGE_SPACE
-    draws it (``physics.exit_lean``, outside the thin-part ramp)."""
+    the lit side (-1), over the Lambertian radiance of B, as IMAGE_SPACE draws it: the angular law a(mu_o), the
+    diffusion mode's law M(mu_o) for pairs across the part (over the thin-part ramp), and each pair leaning away
+    from its source (``physics.exit_lean``; ``through_lean`` False: only outside the ramp, as before)."""
     material = Material((sigma_a,) * 3, (sigma_s,) * 3, 1.0)
     slab = slab_through.constants(material.sigma_a, material.sigma_s_prime, 1.0)
     phi = np.linspace(-np.pi, np.pi, sources + 1)[:-1]  # from the entry side's centre
@@ -134,19 +135,24 @@ def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shif
         to_eye = mu_o * n_o + side * np.sqrt(1.0 - mu_o * mu_o) * towards_dark
         x_i = np.stack(np.broadcast_arrays(-R * np.cos(moved)[:, None], R * np.sin(moved)[:, None], z[None, :]), -1)
         ramp = slab_through.ramp(h, slab[1])[:, 0]
-        beta = exit_lean.beta(r, material.sigma_a, material.sigma_s_prime, 1.0)[..., 0] * (1.0 - ramp[:, None])
+        beta = exit_lean.beta(r, material.sigma_a, material.sigma_s_prime, 1.0)[..., 0]
+        if not through_lean:
+            beta = beta * (1.0 - ramp[:, None])
         lean = exit_lean.pair_factor(beta[..., None], x_i, R * n_o, n_o, to_eye)[..., 0]
-        out.append((pairs * lean).sum() / pairs.sum())
+        a_o = angular_law.factor(sigma_s / (sigma_a + sigma_s), 1.0, mu_o)
+        M_o = angular_law.through_exit_ratio(material.sigma_a, material.sigma_s_prime, 1.0, mu_o)[0]
+        law = a_o * (1.0 + (M_o - 1.0) * ramp)[:, None]
+        out.append((pairs * law * lean).sum() / pairs.sum())
     return np.array(out)
 
 
 def band_lean(R: float, sigma_a: float, sigma_s: float, band: tuple[float, float], view: tuple[float, float],
-              shift_mfp: float = 1.0, angles: int = 4) -> float:
+              shift_mfp: float = 1.0, angles: int = 4, through_lean: bool = True) -> float:
     """The model's radiance towards ``view`` over Lambertian across a band of angles, weighted by B (as
-    ``exit_radiance`` weighs by the band's exitance): what IMAGE_SPACE's lean gives there."""
+    ``exit_radiance`` weighs by the band's exitance): what IMAGE_SPACE's angular laws and lean give there."""
     a = np.linspace(*band, angles + 2)[1:-1]
     B = model(R, sigma_a, sigma_s, a, shift_mfp)
-    return float((B * model(R, sigma_a, sigma_s, a, shift_mfp, view=view)).sum() / B.sum())
+    return float((B * model(R, sigma_a, sigma_s, a, shift_mfp, view=view, through_lean=through_lean)).sum() / B.sum())
 
 
 def main() -> int:
@@ -160,7 +166,7 @@ def main() -> int:
     m = load_presets()[args.preset]
     if args.angular:
         print(f"{args.preset}: radiance towards the dark side / towards the lit side over Lambertian, at mu_o "
-              "(single scattering's share of the first); the model's lean (physics.exit_lean) towards each")
+              "(single scattering's share of the first); the model's, as IMAGE_SPACE draws it (angular laws, lean)")
         print("| R mm | channel | mu_o | " + " | ".join(BANDS) + " |")
         print("|---|---|---" + "|---" * len(BANDS) + "|")
         for R in args.radii:
@@ -170,7 +176,7 @@ def main() -> int:
                     leans = {b: [band_lean(R, m.sigma_a[c], m.sigma_s_prime[c], BANDS[b], (m_o, side))
                                  for side in (1.0, -1.0)] for b in BANDS}
                     print(f"| {R:g} | {name} | {m_o:g} | " + " | ".join(
-                        "{:.2f} / {:.2f} ({:.2f}); lean {:.2f} / {:.2f}".format(*table[b, m_o], *leans[b])
+                        "{:.2f} / {:.2f} ({:.2f}); model {:.2f} / {:.2f}".format(*table[b, m_o], *leans[b])
                         for b in BANDS) + " |", flush=True)
         return 0
     print(f"{args.preset}: model / Monte Carlo per band (sources at the entry point; shifted one mean free path)")

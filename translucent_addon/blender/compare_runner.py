@@ -616,7 +616,8 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     # model 5: the angular laws (a(mu) in and out; thin-part pairs leave by the diffusion mode's law)
     # model 6: light entering at an angle read where it entered (IMAGE_SPACE's; TEXTURE_SPACE's lacks it)
     # model 7: the light leaving leans away from where it entered (IMAGE_SPACE's; TEXTURE_SPACE's lacks it)
-    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 7}
+    # model 8: ... across thin parts too
+    desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 8}
     hit = cache.load(cache_dir, desc)
     if hit is not None:
         progress("dipole model reference: from the cache")

@@ -116,8 +116,8 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
     """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
     ``entry_shift``: light entering at an angle is read where it entered (``physics.oblique_entry``, the
     EXACT profile's, as IMAGE_SPACE draws it; TEXTURE_SPACE does not yet: False is its model). ``lean``: the
-    light leaving leans away from where it entered (``physics.exit_lean``, the EXACT profile's, on the pairs
-    outside the thin-part ramp, as IMAGE_SPACE's splats draw it; not TEXTURE_SPACE's: False).
+    light leaving leans away from where it entered (``physics.exit_lean``, the EXACT profile's, on every
+    pair, those across a thin part too, as IMAGE_SPACE's splats draw it; not TEXTURE_SPACE's: False).
 
     ``tracer`` answers ray queries over the frame's triangles in order (``closest_hit`` and
     ``occluded``); by default a brute-force one, fine for test scenes of a few thousand triangles.
@@ -196,7 +196,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             if leans:  # the light leaving leans away from x_i: the far part's, and the near part's E_i - E_o (the
                 # disk's E(x_o), even about x_o, leans to nothing; leaning it pair by pair would weigh R_d's
                 # unresolved peak at the nearest samples)
-                contrib *= exit_lean.pair_factor(exit_lean.beta(r_mm, sa, ss, medium.eta) * (1.0 - ramp), x_i[cols],
+                contrib *= exit_lean.pair_factor(exit_lean.beta(r_mm, sa, ss, medium.eta), x_i[cols],
                                                  x_o[start + rows], n_o[start + rows], to_eye[start + rows])
             # Light through thin parts, as the methods draw it.
             contrib *= slab_through.factor(depth_mm, *slab)

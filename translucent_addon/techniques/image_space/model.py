@@ -412,8 +412,8 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         slab = slab_constants(med)
         ramp = slab_through.ramp(depth_mm, slab[1])
         value = value * slab_through.factor(depth_mm, *slab) * through_exit_law(med, float(n_o[p] @ to_eye[p]), ramp)
-        # The light leaving leans away from x_i (physics.exit_lean), outside the thin-part ramp.
-        beta = lean_lookup(leans[slot], r_mm, table.r_max) * (1.0 - ramp)
+        # The light leaving leans away from x_i (physics.exit_lean), across a thin part too.
+        beta = lean_lookup(leans[slot], r_mm, table.r_max)
         value = value * exit_lean.pair_factor(beta, pos[same], x_o[p], n_o[p], to_eye[p])
         out[p] = (value * flux[same, :3]).sum(axis=0)
     return out
