@@ -4,7 +4,9 @@
  * sees past its object (``sky``: geometry/world_visibility.py; 1 where not baked); mode 1: one
  * emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
- * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's E is
+ * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's light
+ * entering at an angle is read where it entered (translucent_oblique.glsl; ``entry`` the shift per channel in
+ * world units, 0 for none; curv_d, curv_o the texel's shape operator in object space). An emitter's E is
  * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation (``cosine_lerp``), the world's by
  * its last texel (one texel of 1 leaves E; TEXTURE_SPACE's emitters: the angular law, physics/angular_law.py;
  * QUADGRAPH's exitance loss pass: physics/single_scattering.exitance_loss). */
@@ -12,7 +14,11 @@
 void main()
 {
   v_world = (object.model * vec4(pos, 1.0)).xyz;
-  v_normal = normalize(mat3(object.normal_matrix) * nor);
+  v_normal = mat3(object.normal_matrix) * nor;
+  mat3 S = world_shape_operator(mat3(object.normal_matrix), curv_d, curv_o) / max(length(v_normal), 1e-30);
+  v_curv_d = vec3(S[0][0], S[1][1], S[2][2]);
+  v_curv_o = vec3(S[0][1], S[0][2], S[1][2]);
+  v_normal = normalize(v_normal);
   v_facet = mat3(object.normal_matrix) * facet;
   v_sky = sky;
   gl_Position = vec4((texel + 0.5) / atlas_size * 2.0 - 1.0, 0.0, 1.0);
@@ -36,7 +42,8 @@ void main()
   if (cos_i <= 0.0 || dot(v_facet, to_light) <= 0.0) {
     discard;
   }
-  vec3 E = radiance * cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);
+  vec3 E = radiance * oblique_cosine(v_normal, to_light, eta, entry, shape_operator(v_curv_d, v_curv_o)) *
+           (1.0 - fresnel_dielectric(cos_i, eta)) * visibility(v_world, v_normal);
   out_irradiance = vec4(E * cosine_lerp(cosine_table, cos_i), 0.0);
 }
 #endif

@@ -92,10 +92,11 @@ def lit_cube_scene(scene):
     return scene
 
 
-def dipole_model_reference(tr, name: str, width: int, height: int, samples: int = 60_000, entry_shift=True):
+def dipole_model_reference(tr, name: str, width: int, height: int, samples: int = 60_000, lean=True):
     """The CPU dipole model of the current scene with object ``name`` translucent, and the mask of
-    that object's interior pixels: (image, mask). ``entry_shift``: IMAGE_SPACE's model, its entry shift and
-    its lean (False: TEXTURE_SPACE's)."""
+    that object's interior pixels: (image, mask). Light entering at an angle is read where it entered, as both
+    IMAGE_SPACE and TEXTURE_SPACE draw it; ``lean``: IMAGE_SPACE's model, the light leaving leans away from where
+    it entered (False: TEXTURE_SPACE's)."""
     from conftest import ext_module
 
     extract = ext_module(tr, "translucent_addon.blender.extract")
@@ -107,6 +108,5 @@ def dipole_model_reference(tr, name: str, width: int, height: int, samples: int 
     frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
     tracer = tracer_mod.BVHTracer(lambert.scene_triangles(frame)[0])
     medium = next(m.medium for m in frame.meshes if m.name == name)
-    ref = model.render_dipole(frame, {name: medium}, samples=samples, tracer=tracer, entry_shift=entry_shift,
-                               lean=entry_shift)
+    ref = model.render_dipole(frame, {name: medium}, samples=samples, tracer=tracer, lean=lean)
     return ref, runner.interior(runner._mask(frame, tracer, {name}))

@@ -614,7 +614,7 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     # model 4: visibility by facet; the far side of thin parts in the far field; SH environment light;
     # the near disk corrected by the samples' irradiance where it differs from E(x_o)
     # model 5: the angular laws (a(mu) in and out; thin-part pairs leave by the diffusion mode's law)
-    # model 6: light entering at an angle read where it entered (IMAGE_SPACE's; TEXTURE_SPACE's lacks it)
+    # model 6: light entering at an angle read where it entered (IMAGE_SPACE's, TEXTURE_SPACE's since)
     # model 7: the light leaving leans away from where it entered (IMAGE_SPACE's; TEXTURE_SPACE's lacks it)
     # model 8: ... across thin parts too
     desc = {**description, "engine": "CPU_DIPOLE_MODEL", "samples": samples, "model": 8}

@@ -11,11 +11,12 @@ from .targets import clear_target, texture_from_array
 
 
 def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_atlas, mode: int, eta: float,
-                      cosine_table) -> None:
+                      cosine_table, entry=(0.0, 0.0, 0.0)) -> None:
     """The ``ts_illumination`` pass into ``fb``: one point per texel of ``points`` lit at its surface
     point; mode 0 (the world) clears first, mode 1 (one emitter) adds, scaled by ``cosine_table`` at the
-    point's cosine (n x 1 texture; one texel of 1 leaves it). QUADGRAPH uses it for q(n_s) and for the
-    exitance its surface term takes over."""
+    point's cosine (n x 1 texture; one texel of 1 leaves it), its light read where it entered ``entry`` (the
+    shift per channel in world units, ``oblique_entry``; 0: at the point). QUADGRAPH uses it for q(n_s) and for
+    the exitance its surface term takes over."""
     import gpu
 
     with fb.bind():
@@ -30,6 +31,7 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         shader.uniform_float("eta", float(eta))
         shader.uniform_float("world_kernel", tuple(float(x) for x in transmittance_kernel(eta)))
         shader.uniform_float("atlas_size", tuple(float(x) for x in size))
+        shader.uniform_float("entry", tuple(float(x) for x in entry))
         shader.uniform_sampler("cosine_table", cosine_table)
         points.draw(shader)
         gpu.state.blend_set("NONE")

@@ -99,9 +99,10 @@ class BakeInputs:
         extra = {}
         if self.method == "TEXTURE_SPACE":
             # thin_parts: F^0 carries light through thin parts (physics.slab_through); far_field: distant sources
-            # by cluster (texture_space/far_field.py). Bakes before either are stale.
+            # by cluster (texture_space/far_field.py); oblique_entry: the texels' curvature (bake.texel_curvature).
+            # Bakes before any of them are stale.
             extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
-                     "profile": self.profile, "thin_parts": 1, "far_field": 1,
+                     "profile": self.profile, "thin_parts": 1, "far_field": 1, "oblique_entry": 1,
                      "proxy_spacing": round(float(self.proxy_spacing), 4), **stretch}
         elif self.method == "QUADGRAPH":
             material = {}

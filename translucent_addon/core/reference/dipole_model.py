@@ -115,7 +115,7 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
                   entry_shift: bool = True, lean: bool = True) -> np.ndarray:
     """Linear RGBA image: the dipole model on meshes named in ``media``; other meshes as the Lambert base.
     ``entry_shift``: light entering at an angle is read where it entered (``physics.oblique_entry``, the
-    EXACT profile's, as IMAGE_SPACE draws it; TEXTURE_SPACE does not yet: False is its model). ``lean``: the
+    EXACT profile's, as IMAGE_SPACE and TEXTURE_SPACE draw it). ``lean``: the
     light leaving leans away from where it entered (``physics.exit_lean``, the EXACT profile's, on every
     pair, those across a thin part too, as IMAGE_SPACE's splats draw it; not TEXTURE_SPACE's: False).
 

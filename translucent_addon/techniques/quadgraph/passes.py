@@ -136,8 +136,10 @@ class LevelGpu:
         S = t.n_surface
         pos = (t.positions_mm[:S] @ self.stretch_inv.T / self.mm).astype(np.float32)
         nor, facet = (self._object_normals(n) for n in (t.normals, t.facets))
+        flat = np.zeros((S, 3), np.float32)  # no shape operator: QUADGRAPH's light enters where it lands
         self.points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
-            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": facet, "sky": t.sky})
+            "texel": t.surface_texels, "pos": pos, "nor": nor, "facet": facet, "sky": t.sky, "curv_d": flat,
+            "curv_o": flat})
 
     def _object_normals(self, normals_mm: np.ndarray) -> np.ndarray:
         """Unit normals in object space from mm space: normals transform with S (S symmetric)."""

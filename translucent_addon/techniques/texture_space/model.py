@@ -59,6 +59,10 @@ class GpuTables:
     position: np.ndarray
     normal: np.ndarray
     facet: np.ndarray
+    # ... and the normal field's shape operator there in object space (diagonal; xy, xz, yz), for light
+    # entering at an angle (``object_curvature``; zeros for a bake from before it: no shift)
+    curvature_d: np.ndarray
+    curvature_o: np.ndarray
     # Filter points (every texel): the source's texel, kernel row, barycentrics and vertices.
     source_texel: np.ndarray
     row: np.ndarray
@@ -139,6 +143,8 @@ def check(arrays: dict) -> None:
         shaped(arrays, name, shape)
     if "stretch" in arrays:  # bakes from before it was stored have none (identity)
         shaped(arrays, "stretch", (3, 3))
+    if "atlas_curvature" in arrays:  # nor from before light entered at an angle (no shift)
+        shaped(arrays, "atlas_curvature", (N, 6))
     indices(arrays, "atlas_source", (N,), n)
     indices(arrays, "atlas_triangle", (N,), T)
     indices(arrays, "lensch_dual_vertices", (n, 3), V)
@@ -240,6 +246,7 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
     facet /= np.maximum(np.linalg.norm(facet, axis=1, keepdims=True), 1e-30)
     verts = tri[atlas.triangle]
     src = atlas.source
+    curvature = object_curvature(arrays.get("atlas_curvature"), atlas.normal, S, mm_per_unit)
     kernels = np.asarray(arrays["lensch_kernels"], np.float16)
     rows = kernels.reshape(-1, 3)
     return GpuTables(
@@ -248,6 +255,8 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         position=position.astype(np.float32),
         normal=normal.astype(np.float32),
         facet=facet.astype(np.float32),
+        curvature_d=np.ascontiguousarray(curvature[:, :3]),  # a batch reads its attributes as dense rows
+        curvature_o=np.ascontiguousarray(curvature[:, 3:]),
         source_texel=atlas.texel_xy[src].astype(np.float32),
         row=src.astype(np.float32),
         bary=atlas.bary.astype(np.float32),
@@ -271,6 +280,28 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         display_bary=(np.asarray(arrays["display_bary"], np.float32).reshape(-1, 3, 3)
                       if "display_parent" in arrays else None),
     )
+
+
+def object_curvature(packed_mm, normals_mm: np.ndarray, S: np.ndarray, mm_per_unit: float) -> np.ndarray:
+    """(N, 6) float32: the bake's per-texel shape operators (``bake.texel_curvature``, per mm in mm space) in
+    object space, as the vertex stage takes them (``world_shape_operator``). With x = S p mm and the normal
+    n_p = S^T n / |S^T n|: dn_p = P S^T S_mm S dp mm / |S^T n|, P = I - n_p n_p^T (the normalisation's own
+    change), taken on the tangent plane and symmetric (the Weingarten map is). Zeros without them."""
+    if packed_mm is None:
+        return np.zeros((len(normals_mm), 6), np.float32)
+    packed_mm = np.asarray(packed_mm, np.float64)
+    S_mm = np.zeros((len(packed_mm), 3, 3))
+    S_mm[:, [0, 1, 2], [0, 1, 2]] = packed_mm[:, :3]
+    S_mm[:, [0, 0, 1], [1, 2, 2]] = packed_mm[:, 3:]
+    S_mm[:, [1, 2, 2], [0, 0, 1]] = packed_mm[:, 3:]
+    n_p = np.asarray(normals_mm, np.float64) @ S
+    length = np.linalg.norm(n_p, axis=1)
+    n_p /= np.maximum(length, 1e-30)[:, None]
+    P = np.eye(3) - n_p[:, :, None] * n_p[:, None, :]
+    A = np.einsum("ji,njk,kl->nil", S, S_mm, S) * (float(mm_per_unit) / np.maximum(length, 1e-30))[:, None, None]
+    A = P @ A @ P
+    S_p = 0.5 * (A + np.swapaxes(A, 1, 2))
+    return np.concatenate([S_p[:, [0, 1, 2], [0, 1, 2]], S_p[:, [0, 0, 1], [1, 2, 2]]], axis=1).astype(np.float32)
 
 
 def vertex_image(values: np.ndarray, vertex_count: int) -> np.ndarray:

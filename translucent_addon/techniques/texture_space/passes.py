@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from ...core.physics import oblique_entry
 from ...core.physics.lut import profile_model
 from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
@@ -95,7 +96,7 @@ class Resources:
             self.F_data = texture_from_array(t.F_data, "RGBA32F")
         self.illumination_points = batch_for_shader(shaders.get("ts_illumination"), "POINTS", {
             "texel": t.texel, "pos": t.position, "nor": t.normal, "facet": t.facet,
-            "sky": np.ones(len(t.texel), np.float32)})
+            "sky": np.ones(len(t.texel), np.float32), "curv_d": t.curvature_d, "curv_o": t.curvature_o})
         self.gather_points = batch_for_shader(shaders.get("ts_gather"), "POINTS", {
             "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
         self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
@@ -160,9 +161,11 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
     """Add one emitter's (mode 1, weighed by the angular law at its cosine) or the world's (mode 0, clears first;
     diffuse, over which the law averages 1) irradiance to each map."""
     for a in actives:
+        medium = a.mesh.medium
         draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
-                          objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, a.mesh.medium.eta,
-                          angular_texture(a) if mode == 1 else unit_texture(pipeline))
+                          objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, medium.eta,
+                          angular_texture(a) if mode == 1 else unit_texture(pipeline),
+                          oblique_entry.medium_shift_mm(medium) / medium.mm_per_unit)
 
 
 def exit_texture(a: Active):
