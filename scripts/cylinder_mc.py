@@ -117,6 +117,9 @@ def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shif
     u = np.linspace(-1, 1, 401)
     z = np.sinh(u * np.arcsinh(60.0 / 0.003)) * 0.003  # along the axis, fine near the receiver
     wz = np.gradient(z)
+    if view is not None:  # the angular laws at the view's cosine: a(mu_o), and M(mu_o) for pairs across the part
+        a_o = angular_law.factor(sigma_s / (sigma_a + sigma_s), 1.0, view[0])
+        M_o = angular_law.through_exit_ratio(material.sigma_a, material.sigma_s_prime, 1.0, view[0])[0]
     out = []
     for a in np.radians(angles_deg):
         dp = moved - a
@@ -139,8 +142,6 @@ def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shif
         if not through_lean:
             beta = beta * (1.0 - ramp[:, None])
         lean = exit_lean.pair_factor(beta[..., None], x_i, R * n_o, n_o, to_eye)[..., 0]
-        a_o = angular_law.factor(sigma_s / (sigma_a + sigma_s), 1.0, mu_o)
-        M_o = angular_law.through_exit_ratio(material.sigma_a, material.sigma_s_prime, 1.0, mu_o)[0]
         law = a_o * (1.0 + (M_o - 1.0) * ramp)[:, None]
         out.append((pairs * law * lean).sum() / pairs.sum())
     return np.array(out)

@@ -245,9 +245,8 @@ def shape_attributes(mesh: MeshInstance) -> dict:
     if mesh.method != "IMAGE_SPACE" or m is None or not oblique_entry.medium_shift_mm(m).any():
         return {"curv_d": np.zeros((n, 3), np.float32), "curv_o": np.zeros((n, 3), np.float32)}
     S = oblique_entry.corner_shape_operators(mesh.positions.reshape(-1, 3, 3), mesh.normals.reshape(-1, 3, 3))
-    S = S.reshape(n, 3, 3)
-    return {"curv_d": np.ascontiguousarray(np.stack([S[:, 0, 0], S[:, 1, 1], S[:, 2, 2]], 1), dtype=np.float32),
-            "curv_o": np.ascontiguousarray(np.stack([S[:, 0, 1], S[:, 0, 2], S[:, 1, 2]], 1), dtype=np.float32)}
+    packed = oblique_entry.packed_shape(S.reshape(n, 3, 3))
+    return {"curv_d": np.ascontiguousarray(packed[:, :3]), "curv_o": np.ascontiguousarray(packed[:, 3:])}
 
 
 def render_offscreen(pipeline: Pipeline, frame: FrameInputs) -> np.ndarray:

@@ -115,6 +115,22 @@ def corner_shape_operators(positions: ArrayLike, normals: ArrayLike) -> np.ndarr
     return S.reshape(T, 3, 3, 3)
 
 
+def packed_shape(S: ArrayLike) -> np.ndarray:
+    """(N, 6) float32: symmetric shape operators (N, 3, 3) as the shaders take them, the diagonal then the (xy, xz,
+    yz) entries (``curv_d``, ``curv_o``; ``shape_operator`` in translucent_oblique.glsl unpacks them)."""
+    S = np.asarray(S, np.float64)
+    return np.concatenate([S[:, [0, 1, 2], [0, 1, 2]], S[:, [0, 0, 1], [1, 2, 2]]], axis=1).astype(np.float32)
+
+
+def unpacked_shape(packed: ArrayLike) -> np.ndarray:
+    """(N, 3, 3) float64 from ``packed_shape``'s (N, 6)."""
+    packed = np.asarray(packed, np.float64)
+    S = np.zeros((len(packed), 3, 3))
+    S[:, [0, 1, 2], [0, 1, 2]] = packed[:, :3]
+    S[:, [0, 0, 1], [1, 2, 2]] = S[:, [1, 2, 2], [0, 0, 1]] = packed[:, 3:]
+    return S
+
+
 def _corner_groups(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """(3T,) int: one index per distinct (position, normal) of the corners, from a 64-bit key of both quantised
     (positions to 2^-20 of the mesh's extent, normals to 2^-8): one 1-D sort instead of a row sort."""

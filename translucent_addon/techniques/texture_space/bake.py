@@ -12,7 +12,7 @@ import numpy as np
 
 from ...core import native
 from ...core.geometry.mesh_measures import vertex_normals
-from ...core.physics.oblique_entry import corner_shape_operators
+from ...core.physics.oblique_entry import corner_shape_operators, packed_shape
 from . import proxy
 from . import throughput as lensch
 from .atlas import build_atlas, parametrize
@@ -131,5 +131,5 @@ def texel_curvature(atlas, corners: np.ndarray) -> np.ndarray:
     texels' normals come from (``proxy_corner_curvature`` at the proxy's corners, interpolated as the normals
     are), as its diagonal and its (xy, xz, yz) entries: light entering at an angle is read where it entered
     (``oblique_entry``)."""
-    S = np.einsum("nk,nkij->nij", atlas.bary.astype(np.float64), np.asarray(corners, np.float64)[atlas.triangle])
-    return np.concatenate([S[:, [0, 1, 2], [0, 1, 2]], S[:, [0, 0, 1], [1, 2, 2]]], axis=1).astype(np.float32)
+    return packed_shape(np.einsum("nk,nkij->nij", atlas.bary.astype(np.float64),
+                                  np.asarray(corners, np.float64)[atlas.triangle]))

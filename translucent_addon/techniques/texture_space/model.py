@@ -14,6 +14,7 @@ import numpy as np
 from ...core.bake_checks import count, indices, row_pointers, shaped
 from ...core.bake_store import DamagedBakeError
 from ...core.geometry.mesh_measures import facing_side
+from ...core.physics.oblique_entry import packed_shape, unpacked_shape
 from .atlas import TexelAtlas
 from .proxy import carry_corners
 from .throughput import (
@@ -289,19 +290,14 @@ def object_curvature(packed_mm, normals_mm: np.ndarray, S: np.ndarray, mm_per_un
     change), taken on the tangent plane and symmetric (the Weingarten map is). Zeros without them."""
     if packed_mm is None:
         return np.zeros((len(normals_mm), 6), np.float32)
-    packed_mm = np.asarray(packed_mm, np.float64)
-    S_mm = np.zeros((len(packed_mm), 3, 3))
-    S_mm[:, [0, 1, 2], [0, 1, 2]] = packed_mm[:, :3]
-    S_mm[:, [0, 0, 1], [1, 2, 2]] = packed_mm[:, 3:]
-    S_mm[:, [1, 2, 2], [0, 0, 1]] = packed_mm[:, 3:]
+    S_mm = unpacked_shape(packed_mm)
     n_p = np.asarray(normals_mm, np.float64) @ S
     length = np.linalg.norm(n_p, axis=1)
     n_p /= np.maximum(length, 1e-30)[:, None]
     P = np.eye(3) - n_p[:, :, None] * n_p[:, None, :]
     A = np.einsum("ji,njk,kl->nil", S, S_mm, S) * (float(mm_per_unit) / np.maximum(length, 1e-30))[:, None, None]
     A = P @ A @ P
-    S_p = 0.5 * (A + np.swapaxes(A, 1, 2))
-    return np.concatenate([S_p[:, [0, 1, 2], [0, 1, 2]], S_p[:, [0, 0, 1], [1, 2, 2]]], axis=1).astype(np.float32)
+    return packed_shape(0.5 * (A + np.swapaxes(A, 1, 2)))
 
 
 def vertex_image(values: np.ndarray, vertex_count: int) -> np.ndarray:
