@@ -23,6 +23,7 @@ void main()
   vec3 taken = vec3(0.0);
   vec3 taken_world = vec3(0.0);
   vec3 held_world = vec3(0.0);
+  vec3 gain_mix = vec3(0.0);
   for (int j = 0; j < 4; j++) {
     ivec2 t = qg_texel(int(links[j] + 0.5), blocks_per_row);
     vec3 phi_s = texelFetch(phi, t, 0).rgb;
@@ -34,8 +35,10 @@ void main()
     taken_world += world;
     held_world += world * (gain - 1.0);
     factor += link_weights[j] * f;
+    gain_mix += link_weights[j] * gain;
   }
   v_factor = factor;
+  v_gain = gain_mix;
   /* Where light enters, the graph's flat face reflects gain R q (the source held too shallow): the
    * emitters' gain R q goes to the surface term, the world's R q_world to its half-space law, and the
    * rest of the world's, (gain - 1) R q_world, is the graph's own excess, drawn by neither. */
@@ -52,7 +55,7 @@ void main()
  * lies within four pixel widths of this one in depth (alpha holds the eye's distance, 0 where no
  * QUADGRAPH surface is): a rim lit at grazing angles is a band thinner than a pixel, and where the view
  * ray's chord through it changes from pixel to pixel one sample each drew it as dotted lines. */
-vec3 single_scattering(vec3 p)
+vec3 surface_term(vec3 p, out vec3 spread)
 {
   bool ortho = frame.camera_position.w > 0.5;
   float here = eye_distance(frame.camera_position, frame.camera_forward, p);
@@ -60,7 +63,7 @@ vec3 single_scattering(vec3 p)
   float depth = ortho ? 1.0 : -(frame.view * vec4(p, 1.0)).z;
   float tolerance = 8.0 * depth / (frame.proj[1][1] * float(size.y));
   ivec2 c = ivec2(gl_FragCoord.xy);
-  vec3 sum = vec3(0.0);
+  vec3 sum = vec3(0.0), sum_spread = vec3(0.0);
   float weight = 0.0;
   for (int k = 0; k < 9; k++) {
     ivec2 o = ivec2(k % 3 - 1, k / 3 - 1);
@@ -68,9 +71,11 @@ vec3 single_scattering(vec3 p)
     float w = float((2 - abs(o.x)) * (2 - abs(o.y)));
     if (abs(s.a - here) <= tolerance) {
       sum += w * s.rgb;
+      sum_spread += w * texelFetch(spread_target, clamp(c + o, ivec2(0), size - 1), 0).rgb;
       weight += w;
     }
   }
+  spread = weight > 0.0 ? sum_spread / weight : vec3(0.0);
   return weight > 0.0 ? sum / weight : vec3(0.0);
 }
 
@@ -83,8 +88,12 @@ void main()
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float mu_o = max(dot(n, to_eye), 0.0);
   float F_r = fresnel_dielectric(mu_o, eta);
-  vec3 L_single = single_scattering(v_world) * v_factor;
-  vec3 L_diffusion = (1.0 - F_r) / PI * (v_radiosity + table_lerp(world_law, mu_o) * v_world_local);
+  vec3 spread;
+  vec3 L_single = surface_term(v_world, spread) * v_factor;
+  /* B gives up the terminator's spread too where the graph carries it (its lateral links drew the light
+   * that entered beside this point, which the surface term's mu_eff draws again): at most all of B. */
+  vec3 B = max(v_radiosity - spread * v_factor * v_gain, vec3(0.0));
+  vec3 L_diffusion = (1.0 - F_r) / PI * (B + table_lerp(world_law, mu_o) * v_world_local);
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
    * drew single scattering alone, or the local multiple scattering alone) */
   vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;

@@ -17,7 +17,11 @@
  *   flat triangle where that is wider than the kernel (terminator.facet_weight), times the geometry
  *   factor of the eye's chord (single_scattering.chord_factor): the same march's reach of the diffuse
  *   light, exp(-sigma_t t - sigma_tr d), over a flat face's.
- * Both leave through T_o = 1 - F_r(mu_o). sigma_a, sigma_s: rgb per world unit, in vec4s. */
+ * Both leave through T_o = 1 - F_r(mu_o). sigma_a, sigma_s: rgb per world unit, in vec4s.
+ * ``out_spread`` (second attachment, summed over the emitters like the colour): what the graph's diffusion
+ * draws of the light the term's mu_eff spreads past where it entered, R T_i E (mu_eff - max(mu_i, 0)) with
+ * ``R_loss`` = single_scattering.exitance_loss; qg_display takes it from B, which holds it where the
+ * graph's lateral links resolve the kernel (drawn twice before). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -114,8 +118,9 @@ vec3 facet_weight(vec3 edge_distance)
  * rule gave 0.132 -> 0.134, on other bakes); the pixel's own point tested along the light draws jagged
  * streaks. */
 vec3 local_multiple(vec3 p, vec3 n_shade, vec3 mu_i, vec3 mu_o, vec3 E, vec3 to_light, mat3 grad_mu, vec3 chord,
-                    vec3 sigma_t, vec3 sigma_tr, float t_flat)
+                    vec3 sigma_t, vec3 sigma_tr, float t_flat, out vec3 spread)
 {
+  spread = vec3(0.0);
   vec3 sigma_s_prime = sigma_s.rgb * (1.0 - g);
   vec3 alpha_prime = sigma_s_prime / (sigma_a.rgb + sigma_s_prime);
   float rho = max(terminator_rho.r, max(terminator_rho.g, terminator_rho.b));
@@ -157,6 +162,9 @@ vec3 local_multiple(vec3 p, vec3 n_shade, vec3 mu_i, vec3 mu_o, vec3 E, vec3 to_
     float geometry = clamp(chord[c] / flat_reach, 0.0, 4.0);
     L[c] = geometry * vis * T_i * E[c] * alpha_prime[c] * mu_eff * (chandrasekhar_H(mu_it)[c] * chandrasekhar_H(mu_ot)[c] - 1.0) /
            (4.0 * PI * (mu_it + mu_ot));
+    /* What the graph draws of the same spread where it resolves it: its exitance R q for the light that
+     * entered beside this point (``spread``, taken from B by qg_display). */
+    spread[c] = R_loss[c] * vis * T_i * E[c] * (mu_eff - max(mu_i[c], 0.0));
   }
   return L;
 }
@@ -218,6 +226,7 @@ void main()
   float here = eye_distance(frame.camera_position, frame.camera_forward, v_world);
   if (mode == 0) {
     out_color = vec4(0.0, 0.0, 0.0, here);
+    out_spread = vec4(0.0);
     return;
   }
   if (mode == 2) {
@@ -226,6 +235,7 @@ void main()
       discard;
     }
     out_color = vec4(here);
+    out_spread = vec4(0.0);
     return;
   }
   vec3 n = normalize(v_normal);
@@ -285,11 +295,13 @@ void main()
   if ((terms & 1) != 0) {
     L += (1.0 - F_0) * L_1;
   }
+  vec3 spread = vec3(0.0);
   if ((terms & 2) != 0) {
     /* the first escape, and what the boundary reflects back in to leave later (boundary_gain.py) */
     L += boundary_gain.rgb * local_multiple(v_world, n, mu_k, mu_ko, E, to_light, grad_mu, chord, sigma_t,
-                                            sigma_tr, tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)));
+                                            sigma_tr, tau_max / min(sigma_t.r, min(sigma_t.g, sigma_t.b)), spread);
   }
+  out_spread = vec4(spread, 0.0);
   /* out of the medium: Fresnel's transmittance and the radiance's n^2 law (single_scattering.py) */
   out_color = vec4((1.0 - fresnel_dielectric(mu_o, eta)) / (eta * eta) * L, 0.0);
 }

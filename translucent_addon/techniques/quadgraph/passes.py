@@ -16,7 +16,9 @@ Per frame, for each mesh with an up-to-date bake (Wang Fig. 9):
    multiple scattering of a lit half-space at the pixel (L^(ms)), added into it (``qg_single``). The
    diffusion's exitance where light enters stood for that response: the finest level's surface nodes
    sum R q per emitter, R the diffusion's own flat-face reflectance
-   (``single_scattering.exitance_loss``), and the display takes it from B; the world's R q apart;
+   (``single_scattering.exitance_loss``), and the display takes it from B; the world's R q apart; the term
+   also writes what the diffusion draws of the light its effective cosine spreads past the terminator
+   (a second attachment), which the display takes from B too, at most all of it;
 4. display: the original mesh interpolates B = (1 - F_dr) phi_s / (2 (1 + F_dr)) from four surface
    nodes per vertex, less the losses above, and draws L = F_t / pi (B + w(mu_o) R q_world) + L^(1) +
    L^(ms) + F_r L_world over the base pass (``qg_display``): w is a half-space's law under uniform light
@@ -84,11 +86,12 @@ SHADER_SPECS = {
         libraries=("translucent_common.glsl", "qg_common.glsl"),
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC4", "links"), ("VEC4", "link_weights"), ("FLOAT", "mask")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_radiosity"),
-                  ("smooth", "VEC3", "v_world_local"), ("smooth", "FLOAT", "v_mask"), ("smooth", "VEC3", "v_factor")),
+                  ("smooth", "VEC3", "v_world_local"), ("smooth", "FLOAT", "v_mask"), ("smooth", "VEC3", "v_factor"),
+                  ("smooth", "VEC3", "v_gain")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
         samplers=((0, "FLOAT_2D", "phi"), (1, "FLOAT_2D", "q_factor"), (2, "FLOAT_2D", "single"),
                   (3, "FLOAT_2D", "loss"), (4, "FLOAT_2D", "loss_world"), (5, "FLOAT_2D", "world_law"),
-                  (6, "FLOAT_2D", "loss_scale")),
+                  (6, "FLOAT_2D", "loss_scale"), (7, "FLOAT_2D", "spread_target")),
         push_constants=(("INT", "blocks_per_row"), ("FLOAT", "eta"), ("FLOAT", "F_dr"), ("INT", "display_output")),
         fragment_out=((0, "VEC4", "out_color"),),
     ),
@@ -102,8 +105,8 @@ SHADER_SPECS = {
                   (3, "FLOAT_2D", "terminator_table")),
         push_constants=(("INT", "mode"), ("FLOAT", "eta"), ("FLOAT", "g"), ("VEC4", "sigma_a"), ("VEC4", "sigma_s"),
                         ("VEC4", "terminator_rho"), ("INT", "segments"), ("FLOAT", "tau_max"), ("INT", "terms"),
-                        ("VEC4", "boundary_gain")),
-        fragment_out=((0, "VEC4", "out_color"),),
+                        ("VEC4", "boundary_gain"), ("VEC4", "R_loss")),
+        fragment_out=((0, "VEC4", "out_color"), (1, "VEC4", "out_spread")),
     ),
 }
 
@@ -290,6 +293,11 @@ class Resources:
         medium changes."""
         return self.medium_tables.get("loss", medium, ss.exitance_loss)
 
+    def exitance_reflectance(self, medium):
+        """R per channel, (3,): the same loss as numbers, for what ``qg_single`` writes of the
+        terminator's spread as the graph draws it."""
+        return self.medium_tables.get("loss_R", medium, ss.exitance_loss, texture=False)[0]
+
     def chandrasekhar_h(self, medium):
         """H(mu) of the medium's albedo per channel (``single_scattering.h_table``), rebuilt when it changes."""
         return self.medium_tables.get("H", medium,
@@ -366,7 +374,7 @@ def single_target(pipeline, size, name: str = "qg_single"):
     size = tuple(size)
     found = pipeline.targets.get(name)
     if found is None or found[0] != size:
-        found = pipeline.targets[name] = (size, new_target(size, depth=True))
+        found = pipeline.targets[name] = (size, new_target(size, depth=True, attachments=2))
     return found[1]
 
 
@@ -406,6 +414,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 shader.uniform_float("sigma_s", (*map(float, sigma_s * m.mm_per_unit), 0.0))
                 shader.uniform_sampler("h_table", a.resources.chandrasekhar_h(m))
                 shader.uniform_float("boundary_gain", (*map(float, a.resources.boundary_gain(m)), 0.0))
+                shader.uniform_float("R_loss", (*map(float, a.resources.exitance_reflectance(m)), 0.0))
                 table, rho_mm = a.resources.terminator(m)
                 shader.uniform_sampler("terminator_table", table)
                 shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
@@ -512,6 +521,11 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                     record["q"].append(lg.tables.from_image(read_pixels(lg.incident[0], *lg.tables.layout.size)))
             with finest.phi[cur][0].bind():
                 record["phi"] = finest.tables.from_image(read_pixels(finest.phi[cur][0], *size))
+            # "spread": what B gives up of the terminator's spread per pixel (qg_single's second attachment).
+            width, height = frame.camera.width, frame.camera.height
+            term_fb = single_target(pipeline, (width, height))[0]
+            with term_fb.bind():
+                record["spread"] = read_pixels(term_fb, width, height, slot=1)[..., :3]
             pipeline.capture.setdefault("quadgraph", []).append(record)
         t1 = time.perf_counter()
         eta = float(a.mesh.medium.eta)
@@ -531,7 +545,9 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             term = a.mesh.medium.single_scattering
             shader.uniform_sampler("world_law",
                                    a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
-            shader.uniform_sampler("single", single_target(pipeline, (frame.camera.width, frame.camera.height))[1][0])
+            surface_term = single_target(pipeline, (frame.camera.width, frame.camera.height))[1]
+            shader.uniform_sampler("single", surface_term[0])
+            shader.uniform_sampler("spread_target", surface_term[1])
             shader.uniform_int("blocks_per_row", finest.tables.layout.blocks_per_row)
             shader.uniform_float("eta", eta)
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
