@@ -329,6 +329,27 @@ def _sun_lit_slab(tr, scene, thickness_mm: float = 40.0, subdivide: int = 0, sun
     return ob
 
 
+def _side_lit_ball(scene, R: float, levels: int | None = None):
+    """A skin1 ball of radius R (eta = 1, smooth, 20k triangles) baked for QUADGRAPH (``levels`` if given),
+    under a black world and a sun along +x, seen orthographically along +y with the ball 1 / 1.2 of the
+    half-frame: the terminator crosses the middle of the image."""
+    set_world(scene, (0.0, 0.0, 0.0))
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=R, location=(0, 0, 0))
+    ob = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    ob.translucent.preset = "skin1"
+    ob.translucent.eta = 1.0
+    ob.translucent.method = "QUADGRAPH"
+    if levels is not None:
+        ob.translucent.quadgraph_levels = levels
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    add_light(scene, "SUN", (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), energy=SLAB_SUN)
+    cam = add_camera(scene, (0.0, -0.2, 0.0), (0.0, 0.0, 0.0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 2.4 * R
+    return ob
+
+
 def _alpha_prime(m):
     return np.array(m.sigma_s_prime) / (np.array(m.sigma_a) + np.array(m.sigma_s_prime))
 
@@ -512,20 +533,8 @@ def test_past_the_terminator_of_a_ball_the_light_entering_beside_it_still_leaves
     within 5 % in the median (measured: 0.1 %, 380 pixels)."""
     ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
     term = ext_module(tr, "translucent_addon.core.physics.terminator")
-    set_world(scene, (0.0, 0.0, 0.0))
     R = 0.01
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=R, location=(0, 0, 0))
-    ob = bpy.context.active_object
-    bpy.ops.object.shade_smooth()
-    ob.translucent.preset = "skin1"
-    ob.translucent.eta = 1.0
-    ob.translucent.method = "QUADGRAPH"
-    ob.translucent.quadgraph_levels = 1
-    assert bpy.ops.translucent.bake() == {"FINISHED"}
-    add_light(scene, "SUN", (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), energy=SLAB_SUN)
-    cam = add_camera(scene, (0.0, -0.2, 0.0), (0.0, 0.0, 0.0))
-    cam.data.type = "ORTHO"
-    cam.data.ortho_scale = 2.4 * R
+    ob = _side_lit_ball(scene, R, levels=1)
     scene.translucent.quadgraph_output = 3
     n_px = 96
     image = render(scene, n_px, n_px)[..., :3]
@@ -583,20 +592,8 @@ def test_past_the_terminator_the_diffusion_gives_up_the_spread_the_surface_term_
     the subtraction)."""
     ss = ext_module(tr, "translucent_addon.core.physics.single_scattering")
     term = ext_module(tr, "translucent_addon.core.physics.terminator")
-    set_world(scene, (0.0, 0.0, 0.0))
     R = 0.01
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=R, location=(0, 0, 0))
-    ob = bpy.context.active_object
-    bpy.ops.object.shade_smooth()
-    ob.translucent.preset = "skin1"
-    ob.translucent.eta = 1.0
-    ob.translucent.method = "QUADGRAPH"
-    ob.translucent.quadgraph_levels = 1
-    assert bpy.ops.translucent.bake() == {"FINISHED"}
-    add_light(scene, "SUN", (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), energy=SLAB_SUN)
-    cam = add_camera(scene, (0.0, -0.2, 0.0), (0.0, 0.0, 0.0))
-    cam.data.type = "ORTHO"
-    cam.data.ortho_scale = 2.4 * R
+    ob = _side_lit_ball(scene, R, levels=1)
     n_px = 96
     scene.translucent.capture_passes = True
     scene.translucent.quadgraph_output = 1
@@ -640,19 +637,8 @@ def test_on_a_small_balls_lit_side_the_diffusion_gives_up_what_its_held_source_r
     that much where light enters: on the lit side (mu_i > 0.6, seen at mu_o > 0.3) each channel keeps
     under 10 % of what it draws with the term off (measured: red 5.1 %, green 3.1 %, blue 2.0 %; 24-31 %
     when it gave up R q alone; red's light also crosses the ball)."""
-    set_world(scene, (0.0, 0.0, 0.0))
     R = 0.01
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=R, location=(0, 0, 0))
-    ob = bpy.context.active_object
-    bpy.ops.object.shade_smooth()
-    ob.translucent.preset = "skin1"
-    ob.translucent.eta = 1.0
-    ob.translucent.method = "QUADGRAPH"
-    assert bpy.ops.translucent.bake() == {"FINISHED"}
-    add_light(scene, "SUN", (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), energy=SLAB_SUN)
-    cam = add_camera(scene, (0.0, -0.2, 0.0), (0.0, 0.0, 0.0))
-    cam.data.type = "ORTHO"
-    cam.data.ortho_scale = 2.4 * R
+    ob = _side_lit_ball(scene, R)
     n_px = 64
     scene.translucent.quadgraph_output = 1
     kept = render(scene, n_px, n_px)[..., :3]

@@ -37,6 +37,38 @@ def _maps(tr):
     return ts
 
 
+def _shifted_and_plain(tr, scene, ob):
+    """The illumination pass per texel with and without ``oblique_entry``'s shift (its length set to 0 for
+    the second render), the texels' GPU tables, the object's medium and its shift length in world units."""
+    shift = ext_module(tr, "translucent_addon.core.physics.oblique_entry")
+    data = ext_module(tr, "translucent_addon.techniques.texture_space.model")
+    render(scene, 64, 48)
+    ts = _maps(tr)
+    atlas, _ = data.load(ts["arrays"])
+    x, y = atlas.texel_xy[:, 0], atlas.texel_xy[:, 1]
+    shifted = ts["irradiance"][y, x, :3].astype(np.float64)
+    medium_shift = shift.medium_shift_mm
+    try:
+        shift.medium_shift_mm = lambda medium: np.zeros(3)
+        render(scene, 64, 48)
+    finally:
+        shift.medium_shift_mm = medium_shift
+    plain = _maps(tr)["irradiance"][y, x, :3].astype(np.float64)
+    t = data.gpu_tables(ts["arrays"], ob.translucent.mm_per_unit)
+    medium = next(m.medium for m in _capture(tr)["frame"].meshes if m.name == ob.name)
+    return t, shifted, plain, medium, shift.medium_shift_mm(medium) / medium.mm_per_unit
+
+
+def _object_shape_operators(t):
+    """The texels' symmetric shape operators (N, 3, 3) in object space, unpacked here independently of
+    ``oblique_entry.unpacked_shape`` (diagonal, then xy, xz, yz)."""
+    S = np.zeros((len(t.curvature_d), 3, 3))
+    S[:, [0, 1, 2], [0, 1, 2]] = t.curvature_d
+    S[:, [0, 0, 1], [1, 2, 2]] = t.curvature_o
+    S[:, [1, 2, 2], [0, 0, 1]] = t.curvature_o
+    return S
+
+
 def test_gpu_passes_equal_the_cpu_twin_of_the_same_irradiance(tr, scene):
     """Filter (Eq. 15), gather (Eq. 10), sparse product (Eq. 11) and interpolation (Eq. 12) on the GPU
     equal texture_space_data.frame_radiosity on the captured illumination map: 1e-3 relative."""
@@ -70,34 +102,16 @@ def test_light_entering_at_an_angle_is_read_where_it_entered(tr, scene):
     5 cm ball); the shift moves the light by more than that somewhere."""
     ob = _baked_ball(scene, tr)
     shift = ext_module(tr, "translucent_addon.core.physics.oblique_entry")
-    render(scene, 64, 48)
-    ts = _maps(tr)
-    data = ext_module(tr, "translucent_addon.techniques.texture_space.model")
-    atlas, _ = data.load(ts["arrays"])
-    x, y = atlas.texel_xy[:, 0], atlas.texel_xy[:, 1]
-    shifted = ts["irradiance"][y, x, :3].astype(np.float64)
-    medium_shift = shift.medium_shift_mm
-    try:
-        shift.medium_shift_mm = lambda medium: np.zeros(3)
-        render(scene, 64, 48)
-    finally:
-        shift.medium_shift_mm = medium_shift
-    plain = _maps(tr)["irradiance"][y, x, :3].astype(np.float64)
-    t = data.gpu_tables(ts["arrays"], ob.translucent.mm_per_unit)
+    t, shifted, plain, medium, ell = _shifted_and_plain(tr, scene, ob)
     M = np.array(ob.matrix_world)
     world = t.position @ M[:3, :3].T + M[:3, 3]
     normals = t.normal @ np.linalg.inv(M[:3, :3])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    S = np.zeros((len(world), 3, 3))
-    S[:, [0, 1, 2], [0, 1, 2]] = t.curvature_d
-    S[:, [0, 0, 1], [1, 2, 2]] = t.curvature_o
-    S[:, [1, 2, 2], [0, 0, 1]] = t.curvature_o  # object space = world space here up to the translation
+    S = _object_shape_operators(t)  # object space = world space here up to the translation
     light = next(np.array(o.location) for o in bpy.data.objects if o.type == "LIGHT")
     to_light = light - world
     to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
     cos_i = np.sum(to_light * normals, axis=1)
-    medium = next(m.medium for m in _capture(tr)["frame"].meshes if m.name == "Ball")
-    ell = shift.medium_shift_mm(medium) / medium.mm_per_unit
     expected = shift.entering_cosine(to_light, normals, S, ell, medium.eta) / np.maximum(cos_i, 1e-30)[:, None]
     lit = (plain > 0.05 * plain.max()).all(axis=1) & (cos_i > 0.2)
     assert lit.sum() > 500
@@ -128,38 +142,19 @@ def test_light_entering_a_stretched_ball_is_read_with_its_world_curvature(tr, sc
     add_camera(scene, (0.0, -0.08, 0.01), (0, 0, 0), lens=50)
     scene.translucent.capture_passes = True
     shift = ext_module(tr, "translucent_addon.core.physics.oblique_entry")
-    render(scene, 64, 48)
-    ts = _maps(tr)
-    data = ext_module(tr, "translucent_addon.techniques.texture_space.model")
-    atlas, _ = data.load(ts["arrays"])
-    x, y = atlas.texel_xy[:, 0], atlas.texel_xy[:, 1]
-    shifted = ts["irradiance"][y, x, :3].astype(np.float64)
-    medium_shift = shift.medium_shift_mm
-    try:
-        shift.medium_shift_mm = lambda medium: np.zeros(3)
-        render(scene, 64, 48)
-    finally:
-        shift.medium_shift_mm = medium_shift
-    plain = _maps(tr)["irradiance"][y, x, :3].astype(np.float64)
-    t = data.gpu_tables(ts["arrays"], ob.translucent.mm_per_unit)
+    t, shifted, plain, medium, ell = _shifted_and_plain(tr, scene, ob)
     M = np.array(ob.matrix_world)[:3, :3]
     N = np.linalg.inv(M).T
     world = t.position @ M.T + np.array(ob.matrix_world)[:3, 3]
     Nn = t.normal @ N.T
     length = np.linalg.norm(Nn, axis=1)
     normals = Nn / length[:, None]
-    S = np.zeros((len(world), 3, 3))  # object space
-    S[:, [0, 1, 2], [0, 1, 2]] = t.curvature_d
-    S[:, [0, 0, 1], [1, 2, 2]] = t.curvature_o
-    S[:, [1, 2, 2], [0, 0, 1]] = t.curvature_o
-    unprojected = np.einsum("ij,njk,lk->nil", N, S, N) / length[:, None, None]
+    unprojected = np.einsum("ij,njk,lk->nil", N, _object_shape_operators(t), N) / length[:, None, None]
     P = np.eye(3)[None] - normals[:, :, None] * normals[:, None, :]
     S_world = P @ unprojected @ P
     to_light = np.array(light.location) - world
     to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
     cos_i = np.sum(to_light * normals, axis=1)
-    medium = next(m.medium for m in _capture(tr)["frame"].meshes if m.name == "Ball")
-    ell = shift.medium_shift_mm(medium) / medium.mm_per_unit
     over = np.maximum(cos_i, 1e-30)[:, None]
     expected = shift.entering_cosine(to_light, normals, S_world, ell, medium.eta) / over
     without_P = shift.entering_cosine(to_light, normals, unprojected, ell, medium.eta) / over
