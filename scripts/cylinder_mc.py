@@ -12,7 +12,8 @@ one mean free path along its refracted beam (Jensen's source on the beam, not be
 model of light entering at an angle that IMAGE_SPACE's EXACT profile takes (``physics.oblique_entry``, there in
 the upstream form, without the light that drifts past the terminator). ``--angular``: instead, how the light
 leaving each band is spread over directions against the Lambertian law every method draws it with
-(``exit_radiance``). No Blender; about two minutes a preset.
+(``exit_radiance``). ``--slab-laws``: instead, the dark side in finer bands under the thin-part factor as drawn
+and under candidate per-pair laws for curved parts (``SLAB_LAWS``). No Blender; about two minutes a preset.
 """
 from __future__ import annotations
 
@@ -28,6 +29,18 @@ from translucent_addon.core.physics.presets import load_presets  # noqa: E402
 from translucent_addon.techniques.texture_space.throughput import Material  # noqa: E402
 
 BANDS = {"lit centre": (0, 45), "lit flank": (45, 80), "terminator": (80, 95), "dark side": (100, 180)}
+DARK_BANDS = ((80, 95), (95, 110), (110, 125), (125, 140), (140, 160), (160, 180))
+# Candidate per-pair laws for the thin-part factor C on curved parts, measured against Monte Carlo (--slab-laws),
+# none drawn by a method: each maps (n_i . n_o, h, R) to the depth C is read at and the share of its excess
+# kept. "as drawn": C(h); "opposed": the excess weighed by -n_i . n_o; "half-opposed": by (1 - n_i . n_o) / 2,
+# 1 on a flat slab's far face and 0 on the source's own face; "depth at R": C read at min(h, R), the radius of
+# curvature (no cap on a flat slab).
+SLAB_LAWS = {
+    "as drawn": lambda c, h, R: (h, 1.0),
+    "opposed": lambda c, h, R: (h, np.clip(-c, 0.0, 1.0)),
+    "half-opposed": lambda c, h, R: (h, np.clip(0.5 - 0.5 * c, 0.0, 1.0)),
+    "depth at R": lambda c, h, R: (np.minimum(h, R), 1.0),
+}
 
 
 def trace(R: float, sigma_a: float, sigma_s: float, photons: int = 100_000, seed: int = 1):
@@ -102,7 +115,7 @@ def exit_radiance(R: float, sigma_a: float, sigma_s: float, photons: int = 300_0
 
 
 def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shift_mfp: float, sources: int = 2000,
-          view: tuple[float, float] | None = None, through_lean: bool = True):
+          view: tuple[float, float] | None = None, through_lean: bool = True, slab_law: str = "as drawn"):
     """The methods' B at receivers ``angles_deg`` (>= 0) from the entry side's centre; sources moved ``shift_mfp``
     mean free paths along the refracted beam (its tangential part, |sin theta_i| at eta 1). ``view`` (mu_o, side):
     instead, the radiance towards the view at cosine mu_o in the cross-section, towards the dark side (side 1) or
@@ -126,7 +139,8 @@ def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shif
         chord, h = 2 * R * np.abs(np.sin(dp / 2)), R * (1 - np.cos(dp))
         r = np.hypot(chord[:, None], z[None, :])
         R_d = material.R_d(r.ravel())[:, 0].reshape(r.shape)
-        C = slab_through.factor(h, *slab)[:, 0]
+        depth, kept = SLAB_LAWS[slab_law](np.cos(dp), h, R)  # n_i . n_o = cos(dp) on the circle
+        C = 1.0 + (slab_through.factor(depth, *slab)[:, 0] - 1.0) * kept
         pairs = (E * C * R * (phi[1] - phi[0]))[:, None] * R_d * wz[None, :]
         if view is None:
             out.append(pairs.sum())
@@ -163,8 +177,25 @@ def main() -> int:
     parser.add_argument("--photons", type=int, default=200_000)
     parser.add_argument("--angular", action="store_true",
                         help="instead: how each band's light is spread over directions (``exit_radiance``)")
+    parser.add_argument("--slab-laws", action="store_true",
+                        help="instead: the dark side in finer bands under each of SLAB_LAWS (sources shifted)")
     args = parser.parse_args()
     m = load_presets()[args.preset]
+    if args.slab_laws:
+        print(f"{args.preset}: model / Monte Carlo per band of the angle from the lit centre, per law of the "
+              "thin-part factor (sources shifted one mean free path)")
+        print("| R mm | channel | law | " + " | ".join(f"{lo}-{hi}" for lo, hi in DARK_BANDS) + " |")
+        print("|---|---|---" + "|---" * len(DARK_BANDS) + "|")
+        for R in args.radii:
+            for c, name in enumerate("RGB"):
+                phi, M = monte_carlo(R, m.sigma_a[c], m.sigma_s_prime[c], args.photons, 72)
+                angle = 180.0 - np.degrees(np.abs(phi))
+                for law in SLAB_LAWS:
+                    B = model(R, m.sigma_a[c], m.sigma_s_prime[c], angle, 1.0, slab_law=law)
+                    print(f"| {R:g} | {name} | {law} | " + " | ".join(
+                        f"{B[(angle >= lo) & (angle < hi)].sum() / M[(angle >= lo) & (angle < hi)].sum():.2f}"
+                        for lo, hi in DARK_BANDS) + " |", flush=True)
+        return 0
     if args.angular:
         print(f"{args.preset}: radiance towards the dark side / towards the lit side over Lambertian, at mu_o "
               "(single scattering's share of the first); the model's, as IMAGE_SPACE draws it (angular laws, lean)")
