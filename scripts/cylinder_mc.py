@@ -192,9 +192,12 @@ def main() -> int:
                 angle = 180.0 - np.degrees(np.abs(phi))
                 for law in SLAB_LAWS:
                     B = model(R, m.sigma_a[c], m.sigma_s_prime[c], angle, 1.0, slab_law=law)
-                    print(f"| {R:g} | {name} | {law} | " + " | ".join(
-                        f"{B[(angle >= lo) & (angle < hi)].sum() / M[(angle >= lo) & (angle < hi)].sum():.2f}"
-                        for lo, hi in DARK_BANDS) + " |", flush=True)
+                    cells = []
+                    for lo, hi in DARK_BANDS:
+                        band = (angle >= lo) & (angle < hi)
+                        # a band no photon reached (skin's far side of a thick part) has no ratio
+                        cells.append(f"{B[band].sum() / M[band].sum():.2f}" if M[band].sum() > 0 else "-")
+                    print(f"| {R:g} | {name} | {law} | " + " | ".join(cells) + " |", flush=True)
         return 0
     if args.angular:
         print(f"{args.preset}: radiance towards the dark side / towards the lit side over Lambertian, at mu_o "
