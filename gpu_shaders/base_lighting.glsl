@@ -14,7 +14,7 @@ void main()
   vec4 world = object.model * vec4(pos, 1.0);
   v_world = world.xyz;
   v_normal = mat3(object.normal_matrix) * nor;
-  mat3 S = world_shape_operator(mat3(object.normal_matrix), v_normal, curv_d, curv_o) / max(length(v_normal), 1e-30);
+  mat3 S = world_shape_operator(mat3(object.normal_matrix), v_normal, curv_d, curv_o);
   v_curv_d = vec3(S[0][0], S[1][1], S[2][2]);
   v_curv_o = vec3(S[0][1], S[0][2], S[1][2]);
   v_color = col;

@@ -34,14 +34,14 @@ mat3 shape_operator(vec3 diagonal, vec3 off)
   return mat3(diagonal.x, off.x, off.y, off.x, diagonal.y, off.z, off.y, off.z, diagonal.z);
 }
 
-/* An object-space S in world space, times |N n| (the caller divides by it; ``normal_world`` is N n): dP_w =
- * M dP, M^-1 = N^T (N the normal matrix), and the unit normal n_w = N n / |N n| changes by
- * P N dN / |N n| to first order, P = I - n_w n_w^T (N dN leaves the world tangent plane where the scale is not
- * uniform), so S_w = P N S N^T P / |N n| (symmetric; the P on the right drops the normal's component of a
- * displacement, which S ignores). */
+/* An object-space S in world space (``normal_world`` is N n): dP_w = M dP, M^-1 = N^T (N the normal matrix),
+ * and the unit normal n_w = N n / |N n| changes by P N dN / |N n| to first order, P = I - n_w n_w^T (N dN
+ * leaves the world tangent plane where the scale is not uniform), so S_w = P N S N^T P / |N n| (symmetric;
+ * the P on the right drops the normal's component of a displacement, which S ignores). */
 mat3 world_shape_operator(mat3 normal_matrix, vec3 normal_world, vec3 diagonal, vec3 off)
 {
-  vec3 n = normal_world / max(length(normal_world), 1e-30);
+  float length_n = max(length(normal_world), 1e-30);
+  vec3 n = normal_world / length_n;
   mat3 P = mat3(1.0) - outerProduct(n, n);
-  return P * normal_matrix * shape_operator(diagonal, off) * transpose(normal_matrix) * P;
+  return P * normal_matrix * shape_operator(diagonal, off) * transpose(normal_matrix) * P / length_n;
 }
