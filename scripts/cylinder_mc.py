@@ -161,6 +161,13 @@ def model(R: float, sigma_a: float, sigma_s: float, angles_deg: np.ndarray, shif
     return np.array(out)
 
 
+def band_ratio(B: np.ndarray, M: np.ndarray, angle: np.ndarray, band: tuple[float, float]) -> str:
+    """The model's summed exitance over Monte Carlo's in a band of angles, for the tables; '-' where no photon
+    left through the band (the far side of a thick, absorbing part)."""
+    inside = (angle >= band[0]) & (angle < band[1])
+    return f"{B[inside].sum() / M[inside].sum():.2f}" if M[inside].sum() > 0 else "-"
+
+
 def band_lean(R: float, sigma_a: float, sigma_s: float, band: tuple[float, float], view: tuple[float, float],
               shift_mfp: float = 1.0, angles: int = 4, through_lean: bool = True) -> float:
     """The model's radiance towards ``view`` over Lambertian across a band of angles, weighted by B (as
@@ -192,12 +199,8 @@ def main() -> int:
                 angle = 180.0 - np.degrees(np.abs(phi))
                 for law in SLAB_LAWS:
                     B = model(R, m.sigma_a[c], m.sigma_s_prime[c], angle, 1.0, slab_law=law)
-                    cells = []
-                    for lo, hi in DARK_BANDS:
-                        band = (angle >= lo) & (angle < hi)
-                        # a band no photon reached (skin's far side of a thick part) has no ratio
-                        cells.append(f"{B[band].sum() / M[band].sum():.2f}" if M[band].sum() > 0 else "-")
-                    print(f"| {R:g} | {name} | {law} | " + " | ".join(cells) + " |", flush=True)
+                    print(f"| {R:g} | {name} | {law} | " + " | ".join(band_ratio(B, M, angle, band)
+                                                                        for band in DARK_BANDS) + " |", flush=True)
         return 0
     if args.angular:
         print(f"{args.preset}: radiance towards the dark side / towards the lit side over Lambertian, at mu_o "
@@ -224,10 +227,8 @@ def main() -> int:
             cells = []
             for shift in (0.0, 1.0):
                 B = model(R, m.sigma_a[c], m.sigma_s_prime[c], angle, shift)
-                cells.append([B[(angle >= lo) & (angle < hi)].sum() / M[(angle >= lo) & (angle < hi)].sum()
-                              for lo, hi in BANDS.values()])
-            print(f"| {R:g} | {name} | " + " | ".join(f"{a:.2f} / {b:.2f}" for a, b in zip(*cells)) + " |",
-                  flush=True)
+                cells.append([band_ratio(B, M, angle, band) for band in BANDS.values()])
+            print(f"| {R:g} | {name} | " + " | ".join(f"{a} / {b}" for a, b in zip(*cells)) + " |", flush=True)
     return 0
 
 
