@@ -1,5 +1,5 @@
 /* Uniform blocks shared by every pass (std140). Packed on the CPU by
- * translucent_addon/render/blocks.py and render/methods/image_space_data.py: keep them in step. */
+ * translucent_addon/gpu/blocks.py and techniques/image_space/model.py (materials_block): keep them in step. */
 struct FrameData {
   mat4 view_proj;
   mat4 view;

@@ -319,7 +319,7 @@ def test_multipole_layer_renders_and_differs_from_the_dipole(tr, scene):
     assert np.all(total(layered) > total(skin))
 
 
-def test_too_thin_multipole_layer_falls_back_to_the_dipole_with_a_warning(tr, scene):
+def test_too_thin_multipole_layer_falls_back_to_its_top_layer_with_a_warning(tr, scene):
     ob = _back_lit_ball(scene)
     ob.translucent.profile = "MULTIPOLE"
     ob.translucent.layer_thickness = 0.00005  # 0.05 mm; skin1's mean free path is 1.3 mm in red
@@ -327,7 +327,13 @@ def test_too_thin_multipole_layer_falls_back_to_the_dipole_with_a_warning(tr, sc
     assert np.isfinite(img).all()
     warnings = _capture(tr)["frame"].warnings
     assert any("'Ball': layer thickness 0.05 mm is thinner than the layer's mean free path" in w
-               and w.endswith("drawn with the dipole") for w in warnings), warnings
+               and w.endswith("drawn as the top layer alone, without its base") for w in warnings), warnings
+    # What the warning says is what is drawn: the top layer as a homogeneous medium, pixel for pixel.
+    ob.translucent.profile = "EXACT"
+    homogeneous = render(scene, 32, 24)
+    on = _capture(tr)["gbuffer"][..., 3] > 0.5
+    assert on.sum() > 50 and homogeneous[on][:, :3].max() > 0.0
+    np.testing.assert_allclose(img[on][:, :3], homogeneous[on][:, :3], rtol=1e-5, atol=1e-7)
 
 
 # -- World light: spherical harmonics and depth peeling (Shah 6.4.2) ---------------------------

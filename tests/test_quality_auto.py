@@ -220,6 +220,36 @@ def test_the_frame_k_follows_the_camera_and_the_largest_need():
     assert none is manual and asked_none == {}
 
 
+def test_k_capped_by_the_pixel_is_reported_as_drawn():
+    """The note names the k that is drawn: the pixel's cap, or the range's least k where the cap falls below it."""
+    from translucent_addon.techniques.image_space import quality as isa
+
+    lo, _ = qa.SPLAT_OVERLAP_RANGE
+    box = _box_mesh("Box", 0.025, 0.05)
+    for distance in (3.0, 30.0):  # 10 mm and 104 mm a pixel against r_max 17.7 mm: k_pixel 13.6 and 1.4
+        view = isa.object_view(box, _camera(distance))
+        k_pixel = qa.PIXEL_SAMPLES * view.r_max_mm / view.pixel_mm
+        k, notes = qa.splat_overlap_for(view, 0.05)
+        assert len(notes) == 1 and "an eighth of a pixel" in notes[0], notes
+        if k_pixel < lo:
+            assert distance == 30.0 and k == lo and notes[0].endswith(f"k at its least, {lo:g}")
+        else:
+            assert distance == 3.0 and k == round(k_pixel, 1) and notes[0].endswith(f"k capped at {k:.1f}")
+
+
+def test_image_space_past_its_material_slots_says_which_objects_it_leaves_out():
+    from translucent_addon.core.frame import FrameInputs
+    from translucent_addon.techniques.image_space.model import MAX_MATERIALS, plan
+
+    boxes = [_box_mesh(f"Box{i:02d}", 0.01, None) for i in range(MAX_MATERIALS + 2)]
+    frame = FrameInputs(boxes, [], _camera(1.0), np.zeros(3))
+    p = plan(frame)
+    assert sorted(p.slot_of) == list(range(MAX_MATERIALS))
+    assert frame.warnings == [f"IMAGE_SPACE draws at most {MAX_MATERIALS} objects a frame: 'Box32', 'Box33' drawn "
+                              "without subsurface light (give them another method)"]
+    assert plan(FrameInputs(boxes[:MAX_MATERIALS], [], _camera(1.0), np.zeros(3))) is not None
+
+
 # Blender: the operator and the bake.
 
 def test_auto_quality_operator_and_bake(tr, scene):

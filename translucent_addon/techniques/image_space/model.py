@@ -69,7 +69,7 @@ class WorldSampling:
     grid: int
     texel_area: float  # world units^2
     layers: int
-    depth_epsilon: float  # NDC depth a layer must lie beyond the previous one
+    depth_epsilon: float  # window depth ([0, 1]) a layer must lie beyond the previous one
     rho_mm: list  # the world splats' partition radius per material slot
 
 
@@ -208,7 +208,7 @@ def world_sampling(meshes: list[MeshInstance], media, tables, settings: Sampling
                       for axis, up in zip(np.eye(3), np.roll(np.eye(3), -1, axis=0))])
     texel = 2.0 * radius / grid
     rho_mm = [partition_radius(2.0 * texel) * med.mm_per_unit for med in media]
-    # One part in 2^14 of the depth range: far below a texel, far above float32 depth noise.
+    # One part in 2^13 of the window depth range: far below a texel, far above float32 depth noise.
     return WorldSampling(faces, grid, texel * texel, int(settings.world_layers), 2.0 / 16384.0, rho_mm)
 
 
@@ -220,18 +220,23 @@ def _bounds(meshes: list[MeshInstance]):
 def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) -> ImageSpacePlan | None:
     """Material slots, sampling grids and partition radii for the IMAGE_SPACE meshes of a frame."""
     idx = [k for k, m in enumerate(frame.meshes) if m.method == "IMAGE_SPACE" and m.medium is not None]
+    if len(idx) > MAX_MATERIALS:  # one material slot per mesh in the shaders' uniform block
+        dropped = ", ".join(f"'{frame.meshes[k].name}'" for k in idx[MAX_MATERIALS:])
+        frame.warnings.append(f"IMAGE_SPACE draws at most {MAX_MATERIALS} objects a frame: {dropped} "
+                              "drawn without subsurface light (give them another method)")
     idx = idx[:MAX_MATERIALS]
     if not idx:
         return None
     meshes = [frame.meshes[k] for k in idx]
     media = [m.medium for m in meshes]
-    # A layer the multipole cannot model falls back to the dipole, and the frame says so.
+    # A layer the multipole cannot model is drawn as the top layer alone (a homogeneous medium with the
+    # profile the other methods take for a layer), and the frame says so.
     for j, (mesh, med) in enumerate(zip(meshes, media)):
         if med.layer_thickness_mm is not None:
             try:
                 material_tables(med, 1.0, settings.epsilon)
             except ValueError as err:
-                frame.warnings.append(f"'{mesh.name}': {err}; drawn with the dipole")
+                frame.warnings.append(f"'{mesh.name}': {err}; drawn as the top layer alone, without its base")
                 media[j] = dataclasses.replace(med, layer_thickness_mm=None)
     # Splat radius per material: r_max of its profile (rho does not change it).
     radii_mm = [material_tables(med, 1.0, settings.epsilon).r_max for med in media]
@@ -269,7 +274,7 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
                 samplings.append(EmitterSampling(e, faces, origin, 6, grid, (2.0 / grid) ** 2, 1.0))
     rho_world = []
     for m in meshes:
-        c_m, r_m = _bounds([m])
+        c_m = _bounds([m])[0]
         spacing = spacing_world
         for s in samplings:
             if s.emitter.kind == DIRECTIONAL:
@@ -309,22 +314,15 @@ def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
                                   NEAR_SAMPLES, med.profile)
 
     # The grid follows the materials: cells a quarter of the layer's shortest mean free path, wide
-    # enough for the base's profile (1.5 r_max), at most 2048 cells a side.
+    # enough for the base's profile as far as the tail splats reach (TAIL_REACH r_max), at most 2048 cells a side.
     z_r = min(1.0 / (a + s) for a, s in zip(med.sigma_a, med.sigma_s_prime))
-    extent = 1.5 * float(np.max(r_max(np.asarray(med.base_sigma_a, float), np.asarray(med.base_sigma_s_prime, float),
+    extent = TAIL_REACH * float(np.max(r_max(np.asarray(med.base_sigma_a, float), np.asarray(med.base_sigma_s_prime, float),
                                       med.eta, epsilon)))
     h = max(z_r / 4.0, extent / 1024.0)
     radii, profile = multipole_profile(tuple(med.sigma_a), tuple(med.sigma_s_prime), float(med.layer_thickness_mm),
                                        tuple(med.base_sigma_a), tuple(med.base_sigma_s_prime), float(med.eta),
                                        extent_mm=round(extent, 3), h_mm=round(h, 4))
     return profile_tables(radii, profile, rho_mm, epsilon, FAR_SAMPLES, NEAR_SAMPLES)
-
-
-def texel_solid_angle(u, v, grid: int, tan_half: float = 1.0):
-    """Solid angle of a texel of a square perspective face of half angle atan(tan_half), at face coordinates
-    (u, v) in [-1, 1]: (2 t / n)^2 / (1 + t^2 (u^2 + v^2))^1.5 with t = tan_half."""
-    t = tan_half
-    return (2.0 * t / grid) ** 2 / (1.0 + t * t * (u * u + v * v)) ** 1.5
 
 
 def lean_lookup(row: np.ndarray, r_mm, r_max: float) -> np.ndarray:

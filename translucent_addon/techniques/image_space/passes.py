@@ -1,13 +1,13 @@
 """IMAGE_SPACE: image-space subsurface scattering by splatting (Shah ch. 6-7) on the GPU.
 
-Per frame: material tables (``image_space_data.plan``); the base pass adds the near field of the
+Per frame: material tables (``model.plan``); the base pass adds the near field of the
 profile; then a camera-view G-buffer of positions and object slots (pass 2), and per emitter the
 light-view samples (pass 1, a 3x2 cube atlas for point emitters) and one camera-facing splat per
 sample (pass 3) accumulating the far field into a scatter texture; world light the same way from
 depth-peeled samples along the three axes (Shah 6.4.2, ``_draw_world``); with temporal coherence on, the
 far field is blended with the previous frame's, reprojected through each object's motion
 (``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects.
-Blender-facing (``gpu``), the maths is in ``image_space_data`` and the GLSL in ``gpu_shaders/is_*.glsl``.
+Blender-facing (``gpu``), the maths is in ``model`` and the GLSL in ``gpu_shaders/is_*.glsl``.
 """
 from __future__ import annotations
 
@@ -404,8 +404,8 @@ class ImageSpace(Technique):
     )
     shader_specs = SHADER_SPECS
     id, label, method_number, timing = "IMAGE_SPACE", "Image Space", 1, "IMAGE_SPACE"
-    description = "Image-space splatting of the dipole (Shah 2007): no bake, deforming objects"
-    no_bake_reason = "IMAGE_SPACE needs no bake: it splats the dipole every frame"
+    description = "Image-space splatting of the profile (Shah 2007): no bake, deforming objects"
+    no_bake_reason = "IMAGE_SPACE needs no bake: it splats the profile every frame"
     scene_properties = ("splat_threshold", "splat_overlap", "splat_max_grid", "splat_world_layers",
                         "splat_world_overlap")
 

@@ -48,12 +48,13 @@ def splat_overlap_for(view: ObjectView, target: float, curves: str = str(CURVES_
     curve = image_space_curve(curves)
     k = 1.0 / curve.inverse(target)
     notes = []
+    lo, hi = SPLAT_OVERLAP_RANGE
     if view.pixel_mm > 0:
         k_pixel = PIXEL_SAMPLES * view.r_max_mm / view.pixel_mm
         if k_pixel < k:
             k = k_pixel
-            notes.append(f"samples finer than an eighth of a pixel would not show: k capped at {k_pixel:.1f}")
-    lo, hi = SPLAT_OVERLAP_RANGE
+            notes.append("samples finer than an eighth of a pixel would not show: "
+                         + (f"k capped at {k_pixel:.1f}" if k_pixel >= lo else f"k at its least, {lo:g}"))
     if k > hi:
         notes.append(f"the target needs k = {k:.0f}; k stops at {hi:g}")
     return float(np.clip(round(k, 1), lo, hi)), notes
