@@ -1,6 +1,8 @@
 """Files from earlier versions open with the look they were saved with (bpy-facing, thin).
 
-Every save stamps the scenes with ``FILE_VERSION`` (save_pre). A file without the stamp was saved by 0.1, where
+The scenes carry ``FILE_VERSION``: stamped when a file is opened (after what follows), when the extension is
+enabled and on every save, so that a file Blender writes without a save handler (autosave, quit.blend) keeps it too.
+A file without the stamp was saved by 0.1, where
 
 * each object's medium was its own: its materials would now convert their Principled BSDF instead, so a
   material of an object with a translucency method that has no medium source stored is set to *Per object*,
@@ -33,9 +35,14 @@ def stamp(*_args) -> None:
 
 @bpy.app.handlers.persistent
 def version_loaded(*_args) -> None:
-    """load_post: a file from before the medium moved to the Material keeps each object's medium."""
-    if _stamped():
-        return
+    """load_post: a file from before the medium moved to the Material keeps each object's medium; then the
+    file is stamped, as it now is in this version's terms."""
+    if not _stamped():
+        _from_0_1()
+    stamp()
+
+
+def _from_0_1() -> None:
     for ob in bpy.data.objects:
         if ob.library is None and ob.translucent.keys():  # settings stored: the file's, not the defaults
             _scale_from_mm(ob.translucent, medium_source.unit_mm(bpy.context.scene))
@@ -67,6 +74,8 @@ def _scale_from_mm(settings, unit_mm: float) -> None:
 def register() -> None:
     bpy.app.handlers.save_pre.append(stamp)
     bpy.app.handlers.load_post.append(version_loaded)
+    if isinstance(bpy.data, bpy.types.BlendData):  # enabled in a session (at start-up the data is not open yet)
+        version_loaded()
 
 
 def unregister() -> None:
