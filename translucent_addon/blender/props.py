@@ -218,7 +218,8 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         default=2,
     )
     file_version: bpy.props.IntProperty(
-        name="File version", description="The extension's file layout this file is in (stamped on opening, enabling and saving)",
+        name="File version",
+        description="The extension's file layout this file is in (stamped on opening, enabling and saving)",
         default=0, options={"HIDDEN"},
     )
     capture_passes: bpy.props.BoolProperty(

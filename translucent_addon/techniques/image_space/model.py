@@ -316,8 +316,8 @@ def material_tables(med, rho_mm: float, epsilon: float) -> ImageSpaceTables:
     # The grid follows the materials: cells a quarter of the layer's shortest mean free path, wide
     # enough for the base's profile as far as the tail splats reach (TAIL_REACH r_max), at most 2048 cells a side.
     z_r = min(1.0 / (a + s) for a, s in zip(med.sigma_a, med.sigma_s_prime))
-    extent = TAIL_REACH * float(np.max(r_max(np.asarray(med.base_sigma_a, float), np.asarray(med.base_sigma_s_prime, float),
-                                      med.eta, epsilon)))
+    extent = TAIL_REACH * float(np.max(r_max(np.asarray(med.base_sigma_a, float),
+                                             np.asarray(med.base_sigma_s_prime, float), med.eta, epsilon)))
     h = max(z_r / 4.0, extent / 1024.0)
     radii, profile = multipole_profile(tuple(med.sigma_a), tuple(med.sigma_s_prime), float(med.layer_thickness_mm),
                                        tuple(med.base_sigma_a), tuple(med.base_sigma_s_prime), float(med.eta),
