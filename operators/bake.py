@@ -13,7 +13,7 @@ import bpy
 
 from ..translucent_addon.blender import bake_files
 from ..translucent_addon.blender.bake_inputs import gather, serves_others
-from ..translucent_addon.blender.quality_apply import apply_auto
+from ..translucent_addon.blender.quality_apply import apply_auto, restore
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
 from . import polls
@@ -26,8 +26,10 @@ class ModalJob:
     """A long job on the active object as a generator of (fraction, text): modal with a progress bar and
     Esc in the UI, blocking with progress lines in background mode. Subclasses give ``_prepare``
     (context -> (object, inputs) or None, having reported why), ``_job_for`` (inputs -> generator) and
-    ``_finish`` (object, inputs, result), which alone writes to the object."""
+    ``_finish`` (object, inputs, result), which alone writes to the object; what ``_prepare`` had to write
+    first it undoes in ``_undo_prepare``. One job runs at a time (``running``): the progress bar is the window's."""
 
+    running: set = set()  # the modal jobs in progress (their operators)
     _timer = None
     _job = None
     _inputs = None
@@ -57,9 +59,16 @@ class ModalJob:
         except StopIteration as done:
             self._finish(ob, inputs, done.value)
         except self._errors as err:  # found by a step (e.g. tetrahedra): one line, object unchanged
+            self._undo_prepare(ob)
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
+        except BaseException:
+            self._undo_prepare(ob)
+            raise
         return {"FINISHED"}
+
+    def _undo_prepare(self, ob) -> None:
+        """Put back what ``_prepare`` wrote: the job did not finish."""
 
     def invoke(self, context, event):
         if bpy.app.background:
@@ -74,11 +83,13 @@ class ModalJob:
         wm.progress_begin(0, 100)
         self._timer = wm.event_timer_add(0.05, window=context.window)
         wm.modal_handler_add(self)
+        ModalJob.running.add(self)
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
-        if event.type == "ESC":
+        if event.type == "ESC" and event.value == "PRESS":
             self._job.close()  # runs the job's cleanup (restores what a step changed) now
+            self._undo_prepare(self._object)
             self._end(context, f"'{self._object.name}': {self._what} cancelled, nothing changed")
             return {"CANCELLED"}
         if event.type != "TIMER":
@@ -89,24 +100,35 @@ class ModalJob:
             try:
                 self._finish(self._object, self._inputs, done.value)
             except Exception as err:  # storing the result failed: the modal still ends, and says why
+                self._undo_prepare(self._object)
                 self._end(context, f"'{self._object.name}': {self._what} could not be stored: {err}", level="ERROR")
                 return {"CANCELLED"}
             self._end(context, None)
             return {"FINISHED"}
         except Exception as err:  # a failing stage must not leave the modal running
+            self._undo_prepare(self._object)
             self._end(context, f"'{self._object.name}': {self._what} failed: {err}", level="ERROR")
             return {"CANCELLED"}
         context.window_manager.progress_update(int(100 * fraction))
         context.workspace.status_text_set(f"{self._title}: {100 * fraction:.0f} % {text} (Esc to cancel)")
         return {"RUNNING_MODAL"}
 
+    def cancel(self, context):
+        """Blender ends the modal without an event (a file opened, Blender closed): the job stops and the next
+        one may start. The object is left alone: its file may be on its way out."""
+        if self in ModalJob.running:
+            self._job.close()
+            self._end(context, None)
+
     def _end(self, context, message, level="WARNING"):
+        ModalJob.running.discard(self)
         wm = context.window_manager
         if self._timer is not None:
             wm.event_timer_remove(self._timer)
             self._timer = None
         wm.progress_end()
-        context.workspace.status_text_set(None)
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
         if message:
             self.report({level}, message)
 
@@ -120,17 +142,17 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return polls.bakeable(cls, context)
+        return polls.idle(cls, ModalJob.running) and polls.bakeable(cls, context)
 
     def _prepare(self, context):
         ob, error = _active_mesh(context)
         if error:
             self.report({"ERROR"}, error)
             return None
+        self._previous = {}
         if ob.translucent.quality == "AUTO" and ob.translucent.method in BAKED_AUTO:
-
             try:
-                choice = apply_auto(context, ob)
+                choice = apply_auto(context, ob, self._previous)
             except registry.BakeInputError as err:
                 self.report({"ERROR"}, str(err))
                 return None
@@ -141,11 +163,15 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             for warning in registry.validate(inputs):
                 self.report({"WARNING"}, warning)
         except registry.BakeInputError as err:
+            self._undo_prepare(ob)
             self.report({"ERROR"}, str(err))
             return None
         if ob.modifiers:
             self.report({"INFO"}, f"'{ob.name}': baked with its modifiers applied; editing them marks the bake stale")
         return ob, inputs
+
+    def _undo_prepare(self, ob) -> None:
+        restore(ob, self._previous)  # the Auto resolutions written for the bake
 
     def _finish(self, ob, inputs, result):
         arrays, meta = result

@@ -33,7 +33,7 @@ class TRANSLUCENT_OT_bake_grass_btf(ModalJob, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return polls.ground(cls, context)
+        return polls.idle(cls, ModalJob.running) and polls.ground(cls, context)
     _title = "Translucent grass BTF"
 
     def _prepare(self, context):
@@ -95,15 +95,18 @@ class TRANSLUCENT_OT_add_grass_field(bpy.types.Operator):
         if max(normals) <= 0.0:
             self.report({"WARNING"}, f"'{ob.name}': no face points up (+Z in object space); grass grows "
                                      f"along the normals, so it grows downward here")
-        ob.translucent.grass = True
         status, detail = grass_status(ob)
         if status == "INVALID":
             self.report({"ERROR"}, f"'{ob.name}': {detail}")
             return {"CANCELLED"}
         if status == "OK":
+            ob.translucent.grass = True
             self.report({"INFO"}, f"'{ob.name}': grass field on (its BTF is current)")
             return {"FINISHED"}
-        return bpy.ops.translucent.bake_grass_btf(how)
+        # The bake turns the field on when it stores the BTF (a cancelled one leaves the object as it was); in
+        # the UI it goes on as its own modal operator, and this one is done.
+        result = bpy.ops.translucent.bake_grass_btf(how)
+        return {"FINISHED"} if "RUNNING_MODAL" in result else result
 
 
 classes = (TRANSLUCENT_OT_bake_grass_btf, TRANSLUCENT_OT_add_grass_field)

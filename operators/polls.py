@@ -32,6 +32,11 @@ def mesh(cls, context, what: str) -> bool:
     return _mesh_that(cls, context, what)
 
 
+def idle(cls, running) -> bool:
+    """No long job in progress (one at a time: the progress bar and the status line are the window's)."""
+    return not running or refuse(cls, "a bake is in progress: wait for it, or press Esc to cancel it")
+
+
 def bakeable(cls, context) -> bool:
     """An active mesh whose method bakes something."""
     return _mesh_that(cls, context, "bake", lambda ob: None if registry.needs_bake(ob.translucent.method) else

@@ -30,7 +30,7 @@ class TRANSLUCENT_OT_set_physical_size(bpy.types.Operator):
 
     def invoke(self, context, event):
         ob = context.active_object
-        if ob is not None and max(ob.dimensions) > 0:
+        if ob is not None and max(ob.dimensions) > 0 and ob.translucent.scattering_scale > 0:
             self.size = max(ob.dimensions) / ob.translucent.scattering_scale
         return context.window_manager.invoke_props_dialog(self)
 
@@ -99,22 +99,25 @@ class TRANSLUCENT_OT_auto_quality(bpy.types.Operator):
         return context.scene is not None or polls.refuse(cls, "no scene")
 
     def execute(self, context):
-        if self.all_objects:
-            objects = [o for o in context.scene.objects if o.type == "MESH" and o.translucent.quality == "AUTO"]
+        if self.all_objects:  # those with something to choose: a method, or a grass field
+            objects = [o for o in context.scene.objects if o.type == "MESH" and o.translucent.quality == "AUTO"
+                       and (o.translucent.method != "OFF" or o.translucent.grass)]
         else:
             ob = context.active_object
             objects = [ob] if ob is not None and ob.type == "MESH" else []
         if not objects:
             self.report({"ERROR"}, "no mesh to choose resolutions for: select one, or set an object's Quality to Auto")
             return {"CANCELLED"}
-        for ob in objects:
+        chosen = 0
+        for ob in objects:  # one object's problem is reported and the others still get theirs
             try:
                 choice = apply_auto(context, ob)
             except BakeInputError as err:
-                self.report({"ERROR"}, str(err))
-                return {"CANCELLED"}
+                self.report({"ERROR"} if not self.all_objects else {"WARNING"}, str(err))
+                continue
+            chosen += 1
             self.report({"INFO"}, f"'{ob.name}' {choice.method}: {choice.summary()}")
-        return {"FINISHED"}
+        return {"FINISHED"} if chosen else {"CANCELLED"}
 
 
 def _medium_group(context):

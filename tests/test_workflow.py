@@ -87,6 +87,41 @@ def test_a_stage_failure_reports_one_line_and_changes_nothing(tr, scene):
     assert store.read_meta(sheet, "QUADGRAPH") is None
 
 
+def _settings(ob) -> dict:
+    s = ob.translucent
+    return {p.identifier: (tuple(v) if hasattr(v := getattr(s, p.identifier), "__len__") and not isinstance(v, str)
+                           else v) for p in s.bl_rna.properties if not p.is_readonly}
+
+
+def test_an_auto_bake_that_fails_leaves_every_setting_as_it_was(tr, scene):
+    """Auto writes its resolutions before the bake reads them; a bake that then fails puts them back."""
+    sheet = add_mesh(scene, "Sheet", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2, 3)])
+    _select(sheet)
+    sheet.translucent.method = "QUADGRAPH"
+    sheet.translucent.quality = "AUTO"
+    sheet.translucent.quadgraph_K = 0.77  # not what Auto would choose
+    before = _settings(sheet)
+    with pytest.raises(RuntimeError, match="'Sheet'"):
+        bpy.ops.translucent.bake()
+    assert _settings(sheet) == before
+    # Choose Resolutions writes them (so the failing bake did have something to put back).
+    assert bpy.ops.translucent.auto_quality() == {"FINISHED"}
+    assert sheet.translucent.quadgraph_K != pytest.approx(0.77) and sheet.translucent.auto_summary
+    # ... and what it chose is forgotten once the method or the target changes.
+    sheet.translucent.target_error = 0.1
+    assert sheet.translucent.auto_summary == ""
+
+
+def test_choose_resolutions_for_every_auto_object_passes_over_those_with_nothing_to_choose(tr, scene):
+    cubes = [add_cube(scene, size=0.05, location=(0.1 * i, 0, 0)) for i in range(3)]
+    for cube, method in zip(cubes, ("TEXTURE_SPACE", "OFF", "QUADGRAPH")):
+        cube.translucent.method = method
+        cube.translucent.quality = "AUTO"
+    _select(cubes[0])
+    assert bpy.ops.translucent.auto_quality(all_objects=True) == {"FINISHED"}
+    assert [bool(c.translucent.auto_summary) for c in cubes] == [True, False, True]
+
+
 def test_user_presets_are_saved_listed_applied_and_removed(tr, scene):
     cube = add_cube(scene)
     _select(cube)
@@ -204,3 +239,12 @@ def test_stale_bake_and_modifiers_are_said_in_full(tr, scene, capfd):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, 16, 16))
     assert "'Stale cube': GEOCUBE bake is stale; drawn with its base colour. Press Bake" in frame.warnings
+
+
+def test_add_grass_field_with_settings_it_cannot_grow_leaves_the_field_off(tr, scene):
+    ground = add_mesh(scene, "Ground", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)])
+    _select(ground)
+    ground.translucent.grass_blade_height = 0.99 * ground.translucent.grass_tile  # blades taller than 60 %
+    with pytest.raises(RuntimeError, match="'Ground': blade height must be 5-60 % of the tile"):
+        bpy.ops.translucent.add_grass_field()
+    assert not ground.translucent.grass

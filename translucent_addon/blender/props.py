@@ -80,8 +80,15 @@ def _on_coefficients(self, context):
         self.preset = "CUSTOM"
 
 
+def _forget_auto_choice(self, context):
+    """What Auto chose last no longer answers the setting just changed: the panel says it will choose again."""
+    self.auto_summary = ""
+
+
 def _on_method(self, context):
-    """A method chosen: its resolutions at the preferences' default quality."""
+    """A method chosen: its resolutions at the preferences' default quality (Auto's last choice was another
+    method's)."""
+    _forget_auto_choice(self, context)
 
     prefs = preferences.get(context)
     if prefs is not None and prefs.default_quality != "STANDARD":
@@ -196,7 +203,7 @@ class TranslucentObjectSettings(bpy.types.PropertyGroup):
         name="Target error",
         description="Auto: the discretisation error to reach, relative RMSE against the method's own model "
                     "(0.05: 5 %)",
-        min=0.005, max=0.5, default=0.05, precision=3, step=0.5,
+        min=0.005, max=0.5, default=0.05, precision=3, step=0.5, update=_forget_auto_choice,
     )
     auto_summary: bpy.props.StringProperty(
         name="Auto choice", description="What Auto chose last, its predicted error and cost, and why",

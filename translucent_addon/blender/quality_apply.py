@@ -6,11 +6,11 @@ from ..techniques.registry import BakeInputError
 from .bake_inputs import object_view
 
 
-def apply_auto(context, ob) -> quality_auto.Choice:
+def apply_auto(context, ob, previous: dict | None = None) -> quality_auto.Choice:
     """AUTO quality on one object: choose its method's resolutions and write them. IMAGE_SPACE's one
     resolution, the scene's splat overlap, is not written: the engine chooses it again every frame from the
     camera that draws it (``render.methods.image_space_auto``); the summary says what the scene camera
-    needs now."""
+    needs now. ``previous``, if given, receives the values it overwrites (``restore`` puts them back)."""
     s = ob.translucent
     view = object_view(ob.evaluated_get(context.evaluated_depsgraph_get()))
     tile_mm = s.grass_tile * s.mm_per_unit if s.grass else None
@@ -24,9 +24,17 @@ def apply_auto(context, ob) -> quality_auto.Choice:
             choice = quality_auto.choose(s.method, view, s.target_error, grass_tile_mm=tile_mm)
         except ValueError as err:
             raise BakeInputError(f"'{ob.name}': {err}") from err
+    if previous is not None:
+        previous.update({name: getattr(s, name) for name in (*choice.settings, "auto_summary")})
     for name, value in choice.settings.items():
         setattr(s, name, value)
     if choice.method == "IMAGE_SPACE":
         choice.notes.append("at the scene camera; chosen again every frame from the camera that draws it")
     s.auto_summary = choice.summary()
     return choice
+
+
+def restore(ob, previous: dict) -> None:
+    """Put back what ``apply_auto`` overwrote (a bake that did not finish changes nothing)."""
+    for name, value in previous.items():
+        setattr(ob.translucent, name, value)
