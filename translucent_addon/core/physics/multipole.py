@@ -31,12 +31,19 @@ def _pair_terms(r, z, sigma_tr):
     return (sigma_tr * d + 1.0) * np.exp(-sigma_tr * d) / d**3
 
 
-def _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None):
+MAX_PAIRS = 500  # mirror pairs at most (a medium that does not absorb converges algebraically, not in e^-x)
+PAIR_DEPTH_TR = 8.0  # the farthest pair lies this many diffusion lengths 1 / sigma_tr beyond the reach
+
+
+def _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_bottom=None, reach=0.0):
     """alpha', sigma_tr and the depths (z_r,i, z_v,i) of the mirrored dipole pairs of a slab.
 
     eta is the relative index at the top boundary, eta_bottom (default eta) at the bottom one; each
     boundary has its own extrapolation distance z_b = 2 A D, and the period of the mirrored pairs is
-    l = d + z_b,top + z_b,bottom (Donner & Jensen 2005).
+    l = d + z_b,top + z_b,bottom (Donner & Jensen 2005). The pairs' contributions fall off as
+    e^{-sigma_tr 2 i l} (their disk totals), so by default they reach PAIR_DEPTH_TR diffusion lengths beyond the
+    largest radius asked for (``reach``): a count of mean free paths instead (Donner & Jensen's ~10 z_r) left a
+    1 mm slab of whole milk 25 % too bright in red, where the diffusion length is 11 times the slab.
     """
     sigma_t_prime = sigma_a + sigma_s_prime
     alpha_prime = sigma_s_prime / sigma_t_prime
@@ -47,8 +54,8 @@ def _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs=None, eta_botto
     z_b_bottom = 2.0 * A(eta if eta_bottom is None else eta_bottom) * D
     ell = thickness + z_b + z_b_bottom
     if n_pairs is None:
-        # Enough mirror pairs that the farthest is many diffusion lengths away (Donner & Jensen use ~10).
-        n_pairs = int(np.clip(np.ceil(10.0 * z_r / max(thickness, 1e-9)), 2, 50))
+        depth = max(10.0 * z_r, reach + PAIR_DEPTH_TR / max(float(sigma_tr), 1e-300))
+        n_pairs = int(max(2.0, min(np.ceil(depth / (2.0 * ell)), MAX_PAIRS)))
     pairs = [(2.0 * i * ell + z_r, 2.0 * i * ell - z_r - 2.0 * z_b) for i in range(-n_pairs, n_pairs + 1)]
     return alpha_prime, sigma_tr, pairs
 
@@ -57,8 +64,9 @@ def slab_profiles(r: ArrayLike, sigma_a: float, sigma_s_prime: float, eta: float
                   n_pairs: int | None = None,
                   eta_bottom: float | None = None) -> tuple[np.ndarray | float, np.ndarray | float]:
     """R(r) and T(r) [mm^-2] of a homogeneous slab of the given thickness [mm] (scalar coefficients)."""
-    alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom)
     r = np.asarray(r, dtype=np.float64)
+    alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom,
+                                                reach=float(np.max(r, initial=0.0)))
     R = np.zeros_like(r)
     T = np.zeros_like(r)
     for z_ri, z_vi in pairs:
@@ -82,8 +90,9 @@ def slab_disk_integrals(radius: ArrayLike, sigma_a: float, sigma_s_prime: float,
                         n_pairs: int | None = None,
                         eta_bottom: float | None = None) -> tuple[np.ndarray | float, np.ndarray | float]:
     """Integrals of R and T of ``slab_profiles`` over a disk of the given radius [mm] (closed form)."""
-    alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom)
     radius = np.asarray(radius, dtype=np.float64)
+    alpha_prime, sigma_tr, pairs = _slab_images(sigma_a, sigma_s_prime, eta, thickness, n_pairs, eta_bottom,
+                                                reach=float(np.max(radius, initial=0.0)))
     R = np.zeros_like(radius)
     T = np.zeros_like(radius)
     for z_ri, z_vi in pairs:
