@@ -128,6 +128,29 @@ def test_quadgraph_geocube_and_grass_choices():
     assert qa.choose("TEXTURE_SPACE", v, 0.1, grass_tile_mm=100.0).settings["grass_resolution"] == "128"
 
 
+@pytest.mark.parametrize("method", ["IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"])
+def test_auto_chooses_for_a_medium_that_does_not_absorb(method):
+    """sigma_a = 0 is a medium (spectralon): its diffusion length is out of reach, not a division by zero."""
+    from translucent_addon.techniques.image_space import quality as isa
+
+    view = isa.object_view(_box_mesh("Box", 0.025, 0.05), _camera(0.3))
+    for sigma_a in ((0.0021, 0.0041, 0.0), (0.0, 0.0, 0.0)):
+        choice = qa.choose(method, dataclasses.replace(view, sigma_a=sigma_a), 0.05)
+        assert all(np.isfinite(v) for v in choice.settings.values()), choice.settings
+
+
+def test_the_splat_radius_auto_plans_with_is_the_drawn_profile_s():
+    from translucent_addon.core.physics import dipole, exact_profile
+    from translucent_addon.techniques.image_space import quality as isa
+
+    view = isa.object_view(_box_mesh("Box", 0.025, 0.05, preset="spectralon"), _camera(0.3))
+    m = PRESETS["spectralon"]
+    for profile, model in (("EXACT", exact_profile), ("DIPOLE", dipole)):
+        r = dataclasses.replace(view, profile=profile).r_max_mm
+        assert r == pytest.approx(float(np.max(model.r_max(np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta))))
+    assert view.r_max_mm < 0.8 * dataclasses.replace(view, profile="DIPOLE").r_max_mm  # 18.5 against 23.6 mm
+
+
 def test_auto_refuses_bad_input():
     with pytest.raises(ValueError, match="target error must be positive"):
         qa.choose("IMAGE_SPACE", view(), 0.0)

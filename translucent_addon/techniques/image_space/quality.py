@@ -107,7 +107,7 @@ def object_view(mesh: MeshInstance, camera: CameraView) -> ObjectView:
     return ObjectView(diagonal_mm=diagonal, area_mm2=area,
                       screen_pixels=screen_diagonal(corners, camera.view_proj, camera.width, camera.height),
                       sigma_a=tuple(m.sigma_a), sigma_s_prime=tuple(m.sigma_s_prime), eta=float(m.eta),
-                      triangles=len(mesh.positions) // 3)
+                      triangles=len(mesh.positions) // 3, profile=m.profile)
 
 
 def frame_sampling(frame: FrameInputs, manual: SamplingSettings) -> tuple[SamplingSettings, dict]:

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from ...core.physics import slab_through
 from ...core.physics.dipole import dipole_parameters
 from ...core.physics.presets import load_presets
 from ...core.quality_model import CURVES_JSON, Choice, ObjectView, PowerLaw, load_curves
@@ -129,8 +130,10 @@ def texture_space_candidate(view: ObjectView, atlas: int, spacing: float, curves
 
 
 def sigma_tr(view: ObjectView) -> np.ndarray:
-    """Effective transport coefficient per channel, sqrt(3 sigma_a sigma_t') (Shah Eq. 6.6)."""
-    return dipole_parameters(view.sigma_a, view.sigma_s_prime, view.eta)[1]
+    """Effective transport coefficient per channel, sqrt(3 sigma_a sigma_t') (Shah Eq. 6.6), at least
+    ``slab_through.SIGMA_TR_MIN``: a channel that does not absorb (spectralon) has a diffusion length out of reach,
+    not a division by zero."""
+    return np.maximum(dipole_parameters(view.sigma_a, view.sigma_s_prime, view.eta)[1], slab_through.SIGMA_TR_MIN)
 
 
 # Entries (near pairs and far clusters, ``far_field``) a receiving vertex keeps: grows with the octaves of the
