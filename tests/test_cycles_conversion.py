@@ -48,16 +48,19 @@ def test_volume_inputs_reproduce_our_coefficients_per_blender_unit():
     assert (v.ior, v.anisotropy) == (1.4, 0.5)
 
 
-def test_random_walk_inputs_match_diffuse_albedo_and_diffusion_length():
+@pytest.mark.parametrize("g", [0.0, 0.3, 0.8])
+def test_random_walk_inputs_match_diffuse_albedo_and_diffusion_length(g):
     m = load_presets()["skin1"]
-    rw = conversion.random_walk_inputs(m.sigma_a, m.sigma_s_prime, m.eta, 0.0, 1000.0)
+    rw = conversion.random_walk_inputs(m.sigma_a, m.sigma_s_prime, m.eta, g, 1000.0)
     rho = (total_diffuse_reflectance(np.array(m.sigma_a), np.array(m.sigma_s_prime), m.eta)
            * hemispherical_transmittance(m.eta))
     np.testing.assert_allclose(rw.target_albedo, rho)
-    # Cycles' medium has the same diffusion length 1/sigma_tr as ours.
-    alpha_c = conversion.cycles_single_scattering_albedo(np.array(rw.base_color))
-    sigma_t_c = 1.0 / (np.array(rw.radius) * 1000.0)
-    sigma_tr_c = sigma_t_c * np.sqrt(3 * (1 - alpha_c))
+    # Cycles' medium (subsurface_random_walk_remap: sigma_t = 1 / (d (1 - g)), single-scattering albedo alpha_c,
+    # phase g) has the same diffusion length 1 / sigma_tr as ours, sigma_tr = sqrt(3 sigma_a sigma_t').
+    alpha_c = conversion.cycles_single_scattering_albedo(np.array(rw.base_color), g)
+    sigma_t_c = 1.0 / (np.array(rw.radius) * 1000.0 * (1.0 - g))
+    sigma_a_c, sigma_s_prime_c = sigma_t_c * (1 - alpha_c), sigma_t_c * alpha_c * (1 - g)
+    sigma_tr_c = np.sqrt(3 * sigma_a_c * (sigma_a_c + sigma_s_prime_c))
     sigma_tr = np.sqrt(3 * np.array(m.sigma_a) * (np.array(m.sigma_a) + np.array(m.sigma_s_prime)))
     np.testing.assert_allclose(sigma_tr_c, sigma_tr, rtol=1e-9)
 

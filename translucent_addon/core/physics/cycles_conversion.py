@@ -18,7 +18,9 @@ So we match the two things a viewer sees instead:
   256 steps), so A comes from inverting rho_eff(A, eta), measured in Cycles by
   scripts/calibrate_random_walk.py (data/cycles_random_walk_albedo.csv) and re-checked by a test;
 * the diffusion length 1 / sigma_tr, sigma_tr = sqrt(3 sigma_a sigma_t'): Cycles' medium has
-  sigma_tr,c = sigma_t',c sqrt(3 (1 - alpha_c)), so d = sqrt(3 (1 - alpha_c)) / sigma_tr.
+  sigma_t = 1 / (d (1 - g)) and single-scattering albedo alpha_c, so sigma_a = sigma_t (1 - alpha_c),
+  sigma_t' = sigma_t (1 - alpha_c g) and sigma_tr,c = sqrt(3 (1 - alpha_c) (1 - alpha_c g)) / (d (1 - g)):
+  d = ``walk_length(alpha_c, g)`` / sigma_tr (sqrt(3 (1 - alpha_c)) / sigma_tr at g = 0).
 """
 from __future__ import annotations
 
@@ -33,6 +35,13 @@ from .dipole import dipole_parameters, total_diffuse_reflectance
 from .fresnel import hemispherical_transmittance
 
 CALIBRATION_CSV = DATA / "cycles_random_walk_albedo.csv"
+
+
+def walk_length(alpha_c: ArrayLike, g: float) -> np.ndarray:
+    """sigma_tr d of Cycles' random-walk medium for radius d: sqrt(3 (1 - alpha_c) (1 - alpha_c g)) / (1 - g) (module
+    doc; Cycles ``subsurface_random_walk_remap`` takes sigma_t = 1 / (d (1 - g)))."""
+    alpha_c = np.asarray(alpha_c, dtype=np.float64)
+    return np.sqrt(3.0 * (1.0 - alpha_c) * (1.0 - alpha_c * g)) / (1.0 - g)
 
 
 def _poly(g, coeffs):
@@ -137,7 +146,7 @@ def random_walk_inputs(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float,
     alpha_c = cycles_single_scattering_albedo(A, g)
     _, sigma_tr, _, _ = dipole_parameters(sa, ss, eta)
     with np.errstate(divide="ignore", invalid="ignore"):
-        radius_mm = np.where(sigma_tr > 0, np.sqrt(3.0 * (1.0 - alpha_c)) / sigma_tr, 1.0 / (sa + ss))
+        radius_mm = np.where(sigma_tr > 0, walk_length(alpha_c, g) / sigma_tr, 1.0 / (sa + ss))
     return RandomWalkInputs(tuple(A), tuple(radius_mm / mm_per_unit), float(eta), float(g), tuple(rho))
 
 
@@ -200,14 +209,14 @@ def medium_from_random_walk(base_color: ArrayLike, radius: ArrayLike, ior: float
     ``random_walk_inputs``. ``radius``: Subsurface Radius x Subsurface Scale, in Blender units.
 
     The medium keeps what a viewer sees of Cycles' material: its diffuse albedo rho = rho_eff(A, eta) (as
-    Cycles renders Base Color A, measured) and its diffusion length d = sqrt(3 (1 - alpha_c)) / sigma_tr with
+    Cycles renders Base Color A, measured) and its diffusion length: d sigma_tr = ``walk_length(alpha_c, g)`` with
     Cycles' single-scattering albedo alpha_c = f(A, g). Our alpha' follows from rho (``reduced_albedo_for``),
     then sigma_t' = sigma_tr / sqrt(3 (1 - alpha')) (sigma_tr = sqrt(3 sigma_a sigma_t'), Jensen 2001),
     sigma_s' = alpha' sigma_t' and sigma_a = sigma_t' - sigma_s'."""
     A = np.clip(np.asarray(base_color, dtype=np.float64), 0.0, 1.0)
     d_mm = np.maximum(np.asarray(radius, dtype=np.float64) * float(mm_per_unit), SHORTEST_RADIUS_MM)
     alpha_c = cycles_single_scattering_albedo(A, anisotropy)
-    sigma_tr = np.sqrt(3.0 * (1.0 - alpha_c)) / d_mm
+    sigma_tr = walk_length(alpha_c, anisotropy) / d_mm
     alpha_prime = np.minimum(reduced_albedo_for(random_walk_albedo(A, ior), ior), MAX_REDUCED_ALBEDO)
     sigma_t_prime = sigma_tr / np.sqrt(3.0 * (1.0 - alpha_prime))
     sigma_s_prime = alpha_prime * sigma_t_prime
