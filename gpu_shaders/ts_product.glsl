@@ -1,9 +1,9 @@
 /* TEXTURE_SPACE global response at the vertices (Lensch Eq. 9, 11, 13): for vertex j,
- * B_j = B^d_j + sum_i F^0_ij E^g_i + sum_P G_jP E_P over row j of the sparse matrix (CSR in integer textures;
+ * B_j = B^d_j + sum_i F^0_ij E^g_i + sum_P G_jP E_P over row j of the sparse matrix (CSR in float textures;
  * a source index past the vertices is a far cluster P, its power E_P in E_cluster: techniques/texture_space/
  * far_field.py), divided by the surface texture at the vertex, T_p(v_j). One fragment per vertex. Indices are
  * stored as exact floats (below 2^24); a row start as two of them, hi * row_split + lo
- * (texture_space_data.ROW_SPLIT), so that F may hold more than 2^24 entries. */
+ * (techniques/texture_space/model.py ROW_SPLIT), so that F may hold more than 2^24 entries. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {

@@ -353,6 +353,20 @@ def test_a_finer_proxy_spacing_refines_and_decimates_to_shorter_edges():
     assert inputs.hash() != dataclasses.replace(inputs, proxy_spacing=2.5).hash()
 
 
+def test_an_atlas_whose_kernels_would_not_fit_the_gpu_table_is_refused(monkeypatch):
+    """The kernel table holds KERNEL_TEXELS_MAX texels (5.4M surface texels of 49 taps); here made small so that
+    a 64-texel atlas of a sphere passes it: one line naming the setting to lower, nothing baked."""
+    v, f = sphere()
+    inputs = registry.BakeInputs(name="Ball", method="TEXTURE_SPACE", vertices=v.astype(np.float32),
+                                 triangles=f.astype(np.int32), mm_per_unit=1.0, sigma_a=(0.1,) * 3,
+                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0, atlas_resolution=64)
+    monkeypatch.setattr(tsd, "KERNEL_TEXELS_MAX", 49 * 100)
+    with pytest.raises(registry.BakeInputError, match=r"'Ball': the atlas at 64 texels has [\d,]+ surface texels; "
+                                                      r"the GPU's kernel table holds 100: lower Atlas resolution"):
+        for _ in registry.run(inputs):
+            pass
+
+
 def test_refinement_caps_the_triangle_count():
     v, f = sphere()
     r = proxy.refine_for_atlas(v, f, 4096)
@@ -418,7 +432,8 @@ def test_gpu_tables_wrap_every_entry_where_the_shaders_look(plate_bake):
     np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", t.facet, facet)), 1.0, atol=1e-5)
     assert np.all(np.einsum("ij,ij->i", t.facet, t.normal) > 0)
     e = 123 * 49 + 17
-    np.testing.assert_array_equal(t.kernels[e // tsd.TABLE_WIDTH, e % tsd.TABLE_WIDTH, :3],
+    assert t.kernels.shape[1] == tsd.KERNEL_WIDTH
+    np.testing.assert_array_equal(t.kernels[e // tsd.KERNEL_WIDTH, e % tsd.KERNEL_WIDTH, :3],
                                   bake.kernels[123, 17].astype(np.float16))
     j = 77
     hi, lo = t.F_indptr[j // tsd.TABLE_WIDTH, j % tsd.TABLE_WIDTH]
@@ -518,3 +533,11 @@ def test_the_light_that_crossed_a_part_is_told_apart_from_the_light_that_came_ba
     assert np.all(np.diff(M[:, 0]) > 0)  # the diffusion mode leaves more towards the normal than at grazing
     np.testing.assert_array_equal(profile_model("DIPOLE").through_exit_table(SKIN.sigma_a, SKIN.sigma_s_prime,
                                                                              SKIN.eta), 1.0)
+
+
+def test_a_stored_bake_with_the_near_depths_but_not_the_far_ones_is_refused(stored_sphere):
+    """The through share reads both depths: without the far ones the CPU product drew NaN, the GPU zeros."""
+    assert "lensch_G_depth" in stored_sphere and "lensch_F_depth" in stored_sphere
+    damaged = {k: v for k, v in stored_sphere.items() if k != "lensch_G_depth"}
+    with pytest.raises(store.DamagedBakeError, match="its array 'lensch_G_depth' is missing"):
+        tsd.load(damaged)

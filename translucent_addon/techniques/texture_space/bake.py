@@ -16,6 +16,7 @@ from ...core.physics.oblique_entry import corner_shape_operators, packed_shape
 from . import proxy
 from . import throughput as lensch
 from .atlas import build_atlas, parametrize
+from .model import check_kernel_table
 
 # A display corner may lie off its proxy triangle (the two meshes differ); its atlas position is
 # extrapolated at most this many texels past the triangle, into the chart's border.
@@ -60,6 +61,7 @@ def bake(inputs):
                                    {"resolution": int(inputs.atlas_resolution)}, what="xatlas",
                                    timeout=native.time_limit(120.0, len(proxy_t), 1e-3), fraction=0.05, text=text)
     atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n, charts=charts)
+    check_kernel_table(atlas.surface_count, len(lensch.LOCAL_OFFSETS), inputs.atlas_resolution)
     t_atlas = time.perf_counter() - t_atlas
     material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta), inputs.profile)
     job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)

@@ -1,6 +1,6 @@
 """TEXTURE_SPACE: the bake's arrays laid out for the GPU passes, and the CPU twin of a frame (pure).
 
-The passes (``texture_space.py``) draw points: one per texel for the illumination map and the
+The passes (``passes.py``) draw points: one per texel for the illumination map and the
 filter, three per surface texel for the vertex gather. Tables that are longer than a texture row
 (kernels, the sparse throughput matrix) are wrapped into images ``TABLE_WIDTH`` texels wide;
 entry e sits at (e % width, e // width). Vertex quantities live in images ``VERTEX_WIDTH`` wide.
@@ -35,6 +35,21 @@ TABLE_WIDTH = 4096
 ROW_SPLIT = 1 << 12
 GPU_PRODUCT_LIMIT = TABLE_WIDTH * 16384
 VERTEX_WIDTH = 256
+# The local kernels (49 taps a surface texel) fill a table of the least guaranteed side both ways: 5.4M surface
+# texels, an atlas of about 3300 texels a side. The bake refuses a larger one (``KernelTableError``).
+KERNEL_WIDTH = 16384
+KERNEL_TEXELS_MAX = KERNEL_WIDTH * 16384
+
+
+class KernelTableError(ValueError):
+    """The atlas has more surface texels than the GPU's kernel table holds; the message says what to lower."""
+
+
+def check_kernel_table(surface_texels: int, taps: int, resolution: int) -> None:
+    """KernelTableError unless the kernels of ``surface_texels`` fit ``KERNEL_TEXELS_MAX``."""
+    if surface_texels * taps > KERNEL_TEXELS_MAX:
+        raise KernelTableError(f"the atlas at {resolution} texels has {surface_texels:,} surface texels; the GPU's "
+                               f"kernel table holds {KERNEL_TEXELS_MAX // taps:,}: lower Atlas resolution")
 
 
 def wrap(table: np.ndarray, width: int = TABLE_WIDTH, channels: int = 4) -> np.ndarray:
@@ -163,7 +178,7 @@ def check(arrays: dict) -> None:
         entries = len(indices(arrays, "lensch_G_indices", (None,), slots))
         row_pointers(arrays, "lensch_G_indptr", V, entries)
         shaped(arrays, "lensch_G_data", (entries, 3))
-        if "lensch_G_depth" in arrays:
+        if "lensch_G_depth" in arrays or "lensch_F_depth" in arrays:  # the through share reads both
             shaped(arrays, "lensch_G_depth", (entries,))
     if "lensch_F_depth" in arrays:  # the through share's depths (bakes from before them have none)
         shaped(arrays, "lensch_F_depth", (len(arrays["lensch_F_indices"]),))
@@ -266,7 +281,7 @@ def gpu_tables(arrays: dict, mm_per_unit: float) -> GpuTables:
         gather_target=lensch.dual_vertices.reshape(-1).astype(np.float32),
         gather_dual=lensch.dual_weights.reshape(-1).astype(np.float32),
         gather_blend=lensch.blend_weights.reshape(-1, 3).astype(np.float32),
-        kernels=wrap(rows),
+        kernels=wrap(rows, width=KERNEL_WIDTH),
         local_half=local_half(kernels),
         F_indptr=wrap(split_rows(F_indptr), channels=2) if gpu_product else None,
         F_indices=wrap(F_indices.astype(np.int32), channels=1) if gpu_product else None,

@@ -14,7 +14,7 @@ Per frame, for each mesh with an up-to-date bake (Lensch Fig. 3):
    point per texel (``ts_filter``);
 5. display (Eq. 1, 14): the displayed mesh reads both maps through its atlas coordinates
    (``ts_display``), over the base pass.
-The maths and layouts are in ``texture_space_data.py``, the GLSL in ``gpu_shaders/ts_*.glsl``.
+The maths and layouts are in ``model.py``, the GLSL in ``gpu_shaders/ts_*.glsl``.
 """
 from __future__ import annotations
 
@@ -344,7 +344,7 @@ class TextureSpace(Technique):
     id, label, method_number, timing = "TEXTURE_SPACE", "Texture Space", 2, "TEXTURE_SPACE"
     description = "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects"
     scene_properties = ("texture_product",)
-    bake_stages = ("texture_space",)
+    bake_stages, bake_errors = ("texture_space",), (tsd.KernelTableError,)
 
     def bake(self, inputs, stage: str):
         return texture_space_bake.bake(inputs)
