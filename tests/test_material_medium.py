@@ -194,3 +194,21 @@ def test_a_scattering_scale_a_file_holds_at_zero_is_not_drawn(tr, scene):
     warnings = []
     assert extract.medium_of(ob, "IMAGE_SPACE", warnings) == ("OFF", None)
     assert any("'Scaled': scattering scale 0.0, must be a positive number" in w for w in warnings), warnings
+
+
+def test_a_layer_over_a_base_reaches_only_the_method_that_draws_it(tr, scene):
+    """The other methods draw the top layer with the exact profile: their medium has no layer, so they take
+    that profile's entry shift (a layered medium keeps the multipole's, none)."""
+    oblique_entry = ext_module(tr, "translucent_addon.core.physics.oblique_entry")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    ob = add_cube(scene, "Layered")
+    ob.translucent.preset = "skin1"
+    ob.translucent.profile = "MULTIPOLE"
+    ob.translucent.layer_thickness = 0.002
+    _, layered = extract.medium_of(ob, "IMAGE_SPACE", [])
+    assert layered.layer_thickness_mm == pytest.approx(2.0) and layered.profile == "EXACT"
+    assert not oblique_entry.medium_shift_mm(layered).any()
+    _, top = extract.medium_of(ob, "TEXTURE_SPACE", [])
+    assert top.layer_thickness_mm is None and top.profile == "EXACT"
+    np.testing.assert_allclose(oblique_entry.medium_shift_mm(top),
+                               1.0 / (np.array(top.sigma_a) + np.array(top.sigma_s_prime)))

@@ -413,7 +413,7 @@ def medium_of(original, method: str, frame_warnings, scene=None) -> tuple[str, M
         frame_warnings.append(Lost(f"{err}; drawn with its base colour"))
         return "OFF", None
     layer = {}
-    if m.profile == "MULTIPOLE":
+    if m.profile == "MULTIPOLE" and method == "IMAGE_SPACE":  # the one method that draws a layer over a base
         layer = dict(layer_thickness_mm=m.layer_thickness * m.mm_per_unit, base_sigma_a=m.base_sigma_a,
                      base_sigma_s_prime=m.base_sigma_s_prime)
     if method == "QUADGRAPH":
