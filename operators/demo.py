@@ -6,19 +6,21 @@ from ..translucent_addon.blender.demo import build_caustics_scene, build_default
 
 
 class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
-    """Add a new scene with a back-lit marble Stanford bunny rendered by Translucent"""
+    """Add a new scene with a demo rendered by Translucent"""
 
     bl_idname = "translucent.add_demo_scene"
     bl_label = "Add Demo Scene"
     bl_options = {"REGISTER", "UNDO"}
 
-    kind: bpy.props.EnumProperty(
-        name="Scene", description="Which demo scene to add",
-        items=(("BUNNY", "Marble bunny", "A back-lit marble Stanford bunny on a ground plane"),
-               ("CAUSTICS", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
-               ("CAUSTICS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics")),
-        default="BUNNY",
-    )
+    KINDS = (("BUNNY", "Marble bunny", "A back-lit marble Stanford bunny on a ground plane"),
+             ("CAUSTICS", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
+             ("CAUSTICS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics"))
+    kind: bpy.props.EnumProperty(name="Scene", description="Which demo scene to add", items=KINDS, default="BUNNY")
+
+    @classmethod
+    def description(cls, context, properties):
+        """The tooltip of the button: what its scene holds."""
+        return "Add a new scene: " + next(d for k, _, d in cls.KINDS if k == properties.kind).lower()
 
     @classmethod
     def poll(cls, context):

@@ -8,6 +8,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_helpers import add_camera, add_cube  # noqa: E402
+from conftest import ext_module  # noqa: E402
 
 ENGINE = "TRANSLUCENT_RT"
 # What the Render tab holds for our engine: ours, and of Blender's what the engine reads.
@@ -144,8 +145,6 @@ class _Layout:
 def test_the_panels_draw_the_medium_where_it_is_set(tr, scene):
     """The Object panel says where the object's medium comes from and edits it there (the material's group or
     the object's); the Material panel shows each source; every property and operator drawn exists."""
-    from conftest import ext_module
-
     ui = ext_module(tr, "translucent_addon.blender.ui")
     ctx = bpy.context
     ob = add_cube(scene, color=None)
@@ -182,3 +181,28 @@ def test_the_panels_draw_the_medium_where_it_is_set(tr, scene):
     assert not [p for p in layout.props() if p[1] == "sigma_a"]  # set on the Principled BSDF, not here
     for draw in (ui._scene_general, *(draw for _, draw in ui.SCENE_SECTIONS)):
         drawn(draw)
+
+
+def test_the_demo_button_says_which_scene_it_adds(tr, scene):
+    import types
+
+    cls = bpy.types.TRANSLUCENT_OT_add_demo_scene
+    assert cls.description(bpy.context, types.SimpleNamespace(kind="BUNNY")) == (
+        "Add a new scene: a back-lit marble stanford bunny on a ground plane")
+    assert "glass ball" in cls.description(bpy.context, types.SimpleNamespace(kind="CAUSTICS"))
+
+
+def test_a_job_in_progress_greys_out_the_bake_buttons(tr, scene):
+    bake = ext_module(tr, "operators.bake")
+    cube = add_cube(scene)
+    bpy.context.view_layer.objects.active = cube
+    cube.translucent.method = "TEXTURE_SPACE"
+    assert _poll("bake")
+    bake.ModalJob.running.add(object())  # a bake started from the UI, not finished
+    try:
+        assert not _poll("bake") and not _poll("bake_grass_btf")
+        with pytest.raises(RuntimeError, match="a bake is in progress: wait for it, or press Esc to cancel it"):
+            bpy.ops.translucent.bake()
+    finally:
+        bake.ModalJob.running.clear()
+    assert _poll("bake")

@@ -210,6 +210,8 @@ def _grass_box(layout, ob) -> None:
     status, detail = grass_status(ob)
     if status == "INVALID":
         box.label(text=detail, icon="ERROR")
+    elif status == "STALE":  # the grass's own settings changed, not the object
+        box.label(text="Grass BTF is stale: the grass settings changed since it was baked", icon=_STATUS_ICON[status])
     else:
         box.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
     meta = bake_files.read_meta(ob, grass_btf.BAKE_KEY)
