@@ -143,6 +143,7 @@ class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
 
     bl_idname = "translucent.save_preset"
     bl_label = "Save Preset"
+    bl_options = {"REGISTER", "UNDO"}
 
     name: bpy.props.StringProperty(name="Name", default="My material", description="The preset's name in the list")
 
@@ -184,6 +185,7 @@ class TRANSLUCENT_OT_remove_preset(bpy.types.Operator):
 
     bl_idname = "translucent.remove_preset"
     bl_label = "Remove Preset"
+    bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
     def poll(cls, context):

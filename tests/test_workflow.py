@@ -145,6 +145,35 @@ def test_user_presets_are_saved_listed_applied_and_removed(tr, scene):
         bpy.ops.translucent.save_preset(name="  ")
 
 
+def test_saving_a_preset_leaves_the_one_another_object_shows(tr, scene):
+    """Files store an enum's number: a user preset's was its position in the list, so saving 'Apple' moved the
+    object showing 'Zebra' to whatever came next. Now it is a number of the preset's name."""
+    props = ext_module(tr, "translucent_addon.blender.props")
+    cube = add_cube(scene)
+    _select(cube)
+    s = cube.translucent
+    s.sigma_a, s.sigma_s_prime = (0.5, 0.5, 0.5), (1.0, 1.0, 1.0)
+    assert bpy.ops.translucent.save_preset(name="Zebra test") == {"FINISHED"}
+    assert s.preset == "USER:Zebra test" and s.get("preset") == props.user_preset_number("Zebra test")
+    other = add_cube(scene, name="Other")
+    _select(other)
+    other.translucent.sigma_a = (0.1, 0.1, 0.1)
+    assert bpy.ops.translucent.save_preset(name="Apple test") == {"FINISHED"}
+    assert s.preset == "USER:Zebra test" and tuple(s.sigma_a) == pytest.approx((0.5, 0.5, 0.5))
+    assert other.translucent.preset == "USER:Apple test"
+    assert bpy.ops.translucent.remove_preset() == {"FINISHED"}
+    assert s.preset == "USER:Zebra test"
+    # A file stamped before the numbers stored the position: reopened, it names the preset at that position.
+    versioning = ext_module(tr, "translucent_addon.blender.versioning")
+    users = sorted(n for n in [i[0] for i in props._preset_items(None, None)] if n.startswith("USER:"))
+    s["preset"] = versioning.FIRST_USER_POSITION + users.index("USER:Zebra test")
+    scene.translucent.file_version = 2
+    versioning.version_loaded()
+    assert s.preset == "USER:Zebra test" and scene.translucent.file_version == versioning.FILE_VERSION
+    _select(cube)
+    assert bpy.ops.translucent.remove_preset() == {"FINISHED"}
+
+
 def test_user_presets_file_skips_entries_that_are_not_media(tmp_path):
     """A hand-edited presets file with a bad entry still lists the good ones (pure)."""
     import json

@@ -1,6 +1,8 @@
 """Properties: ``Object.translucent`` (method, quality, its own medium), ``Material.translucent`` (the medium its
 objects share), ``Scene.translucent`` and ``Light.translucent``."""
 
+import zlib
+
 import bpy
 
 from .. import techniques
@@ -20,17 +22,26 @@ def user_presets_path():
     return Path(bpy.utils.user_resource("CONFIG", path="translucent")) / "presets.json"
 
 
+USER_PRESET_NUMBERS = 1 << 16  # user presets' enum numbers start here: 0 Custom, 1-12 the measured ones
+
+
+def user_preset_number(name: str) -> int:
+    """The number a user preset is stored as in files: from its name, so that saving or removing another
+    preset does not change which one an object shows (a list position did)."""
+    return USER_PRESET_NUMBERS + zlib.crc32(name.encode()) % (2**31 - 1 - USER_PRESET_NUMBERS)
+
+
 def refresh_preset_items() -> None:
     """Rebuild the preset list (after a user preset is saved or removed). Blender keeps pointers into these
-    strings: the list object stays the same and stays alive."""
+    strings: the list object stays the same and stays alive. Each item keeps its number (files store it)."""
 
     _PRESET_ITEMS.clear()
-    _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand"))
-    for name in sorted(load_presets()):
-        _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)"))
+    _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand", 0))
+    for number, name in enumerate(sorted(load_presets()), start=1):
+        _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)", number))
     problems: list[str] = []
     for name in sorted(load_user_presets(user_presets_path(), problems)):
-        _PRESET_ITEMS.append((USER_PREFIX + name, name, f"Your preset '{name}'"))
+        _PRESET_ITEMS.append((USER_PREFIX + name, name, f"Your preset '{name}'", user_preset_number(name)))
     if problems != PRESET_PROBLEMS:
         for line in problems:
             print(f"Translucent: {line}")

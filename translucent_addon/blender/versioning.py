@@ -2,6 +2,8 @@
 
 The scenes carry ``FILE_VERSION``: stamped when a file is opened (after what follows), when the extension is
 enabled and on every save, so that a file Blender writes without a save handler (autosave, quit.blend) keeps it too.
+A file stamped 2 stored a user preset as its position in the list (the 13th item on), which saving or removing
+another preset moved: it now names the preset its position named in this user's list (``_user_preset_numbers``).
 A file without the stamp was saved by 0.1, where
 
 * each object's medium was its own: its materials would now convert their Principled BSDF instead, so a
@@ -15,14 +17,18 @@ from __future__ import annotations
 
 import bpy
 
-from . import medium_source
+from ..core.physics.presets import load_user_presets
+from . import medium_source, props
 
-FILE_VERSION = 2  # 1 (no stamp): the medium on the Object, lengths in mm; 2: on the Material, scene units
+FILE_VERSION = 3  # 1 (no stamp): the medium on the Object, lengths in mm; 2: on the Material, scene units;
+# 3: user presets stored by a number of their name
+FIRST_USER_POSITION = 13  # before 3: Custom, the 12 measured presets, then the user's, numbered by position
 MM_LENGTHS = (("veins_scale", 20.0), ("caustics_distance", 50.0), ("layer_thickness", 1.0))  # 0.1's, defaults
 
 
-def _stamped() -> bool:
-    return any(scene.translucent.get("file_version", 0) >= FILE_VERSION for scene in bpy.data.scenes)
+def _file_version() -> int:
+    """The stamp of the file (0: none, a file from 0.1)."""
+    return max((int(scene.translucent.get("file_version", 0)) for scene in bpy.data.scenes), default=0)
 
 
 @bpy.app.handlers.persistent
@@ -37,9 +43,25 @@ def stamp(*_args) -> None:
 def version_loaded(*_args) -> None:
     """load_post: a file from before the medium moved to the Material keeps each object's medium; then the
     file is stamped, as it now is in this version's terms."""
-    if not _stamped():
+    version = _file_version()
+    if version < 2:
         _from_0_1()
+    if version < 3:
+        _user_preset_numbers()
     stamp()
+
+
+def _user_preset_numbers() -> None:
+    """Presets stored as a position past the measured ones: the user preset at that position of the list."""
+    names = sorted(load_user_presets(props.user_presets_path()))
+    for owner in (*bpy.data.objects, *bpy.data.materials):
+        group = owner.translucent
+        stored = group.get("preset")
+        if owner.library is not None or not isinstance(stored, int) or not (
+                FIRST_USER_POSITION <= stored < props.USER_PRESET_NUMBERS):
+            continue
+        k = stored - FIRST_USER_POSITION
+        group["preset"] = props.user_preset_number(names[k]) if k < len(names) else 0  # gone: Custom
 
 
 def _from_0_1() -> None:
