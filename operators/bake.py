@@ -12,7 +12,7 @@ import time
 import bpy
 
 from ..translucent_addon.blender import bake_files
-from ..translucent_addon.blender.bake_inputs import gather, serves_others
+from ..translucent_addon.blender.bake_inputs import gather, make_proxies, serves_others
 from ..translucent_addon.blender.quality_apply import apply_auto, restore
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
@@ -159,7 +159,7 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"INFO"}, f"'{ob.name}' Auto: {choice.summary()}")
         depsgraph = context.evaluated_depsgraph_get()
         try:
-            inputs = gather(ob.evaluated_get(depsgraph), for_bake=True)
+            inputs = gather(ob.evaluated_get(depsgraph), for_bake=True, proxies=False)  # the job makes them
             for warning in registry.validate(inputs):
                 self.report({"WARNING"}, warning)
         except registry.BakeInputError as err:
@@ -172,6 +172,9 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
 
     def _undo_prepare(self, ob) -> None:
         restore(ob, self._previous)  # the Auto resolutions written for the bake
+
+    def _job_for(self, inputs):
+        return _proxies_then_bake(inputs)
 
     def _finish(self, ob, inputs, result):
         arrays, meta = result
@@ -186,6 +189,14 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"WARNING"}, why)
         bake_cache.forget(ob.name)
         self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
+
+
+def _proxies_then_bake(inputs):
+    """The bake's job: the proxies (``make_proxies``: the status line says which, Esc stops between them), then
+    its stages (the progress bar counts those)."""
+    for _, text in make_proxies(inputs):
+        yield 0.0, text
+    return (yield from registry.run(inputs))
 
 
 class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):

@@ -449,3 +449,21 @@ def test_linked_duplicates_that_differ_keep_their_own_bakes(tr, scene):
     small.scale = (1.5, 1.5, 1.5)
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     assert _status(tr, small) == "OK" and _status(tr, third) == "OK"
+
+
+def test_the_bake_makes_its_proxy_as_a_step_of_its_job(tr, scene, capfd):
+    """Blender's decimation (a minute or two on a large mesh) ran before the progress bar, with no word and no
+    Esc: it is now the job's first step, said before it runs, and the bake stores what it made."""
+    store = ext_module(tr, "translucent_addon.blender.bake_files")
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=0.5)
+    ball = bpy.context.object
+    ball.translucent.method = "TEXTURE_SPACE"
+    ball.translucent.atlas_resolution = 96
+    ball.translucent.mm_per_unit = 20.0
+    _select(ball)
+    capfd.readouterr()
+    assert bpy.ops.translucent.bake() == {"FINISHED"}
+    out = capfd.readouterr().out
+    decimating = out.find("TEXTURE_SPACE: decimating 5,120 triangles to ")
+    assert 0 <= decimating < out.find("TEXTURE_SPACE: atlas of "), out
+    assert 0 < store.read_meta(ball, "TEXTURE_SPACE")["proxy_vertices"] < 2562  # the sphere's vertices

@@ -19,12 +19,13 @@ from .demo import mesh_from_arrays
 from .props import bounded
 
 
-def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: str = "VIEWPORT",
-           read=None) -> BakeInputs:
+def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, proxies: bool = True,
+           mode: str = "VIEWPORT", read=None) -> BakeInputs:
     """Inputs of a bake from an evaluated object (modifiers applied).
 
-    ``for_bake``: also make what only the bake itself needs (TEXTURE_SPACE: the decimated proxy),
-    which the per-frame status check must not pay for.
+    ``for_bake``: check what only a bake refuses and, with ``proxies``, make what only the bake itself needs
+    (``make_proxies``), which the per-frame status check must not pay for. The Bake operator makes the proxies
+    as its job's first steps instead, under its progress bar.
     """
     original = ob_eval.original
     if ob_eval.type != "MESH":
@@ -62,16 +63,30 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, mode: 
         check_physical_size(inputs)
     if for_bake and inputs.method == "GEOCUBE" and inputs.geocube_resolution == 0:
         inputs.screen_pixels = screen_pixels(ob_eval)  # the automatic cube resolution follows it
-    if for_bake and inputs.method == "TEXTURE_SPACE" and len(inputs.triangles):
+    if for_bake and proxies:
+        for _ in make_proxies(inputs):
+            pass
+    return inputs
+
+
+def make_proxies(inputs: BakeInputs):
+    """Generator of (fraction, text): the proxies the bake needs, written into ``inputs`` (TEXTURE_SPACE: the
+    mesh decimated by Blender to the atlas's spacing; QUADGRAPH: one surface per level). Each is one call into
+    Blender, a minute or two on a large mesh: the text says what comes before it runs."""
+    n = len(inputs.triangles)
+    if inputs.method == "TEXTURE_SPACE" and n:
         target = target_triangles(surface_area(inputs.vertices * inputs.mm_per_unit, inputs.triangles),
                                   inputs.atlas_resolution, inputs.proxy_spacing)
-        if target < 0.8 * len(inputs.triangles):
+        if target < 0.8 * n:
+            yield 0.0, f"TEXTURE_SPACE: decimating {n:,} triangles to {target:,} for the atlas"
             inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
-    if for_bake and inputs.method == "QUADGRAPH" and len(inputs.triangles):
-        inputs.proxy_levels = [proxy_surface(inputs.vertices, inputs.triangles, n)
-                               for n in proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels,
-                                                        len(inputs.triangles))]
-    return inputs
+    if inputs.method == "QUADGRAPH" and n:
+        counts = proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels, n)
+        levels = []
+        for k, count in enumerate(counts):
+            yield k / len(counts), f"QUADGRAPH: proxy surface {k + 1} of {len(counts)} ({count:,} triangles)"
+            levels.append(proxy_surface(inputs.vertices, inputs.triangles, count))
+        inputs.proxy_levels = levels
 
 
 def homogeneous_profile(setting: str) -> str:
