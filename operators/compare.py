@@ -23,7 +23,7 @@ class TRANSLUCENT_OT_compare_cycles(ModalJob, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return polls.camera(cls, context)
+        return polls.idle(cls, ModalJob.running) and polls.camera(cls, context)
 
     output_dir: bpy.props.StringProperty(name="Output folder", subtype="DIR_PATH", default="//translucent_compare",
                                          description="Where the report, images and chart are written (an unsaved "

@@ -34,7 +34,7 @@ def mesh(cls, context, what: str) -> bool:
 
 def idle(cls, running) -> bool:
     """No long job in progress (one at a time: the progress bar and the status line are the window's)."""
-    return not running or refuse(cls, "a bake is in progress: wait for it, or press Esc to cancel it")
+    return not running or refuse(cls, "a bake or comparison is in progress: wait for it, or press Esc to cancel it")
 
 
 def bakeable(cls, context) -> bool:

@@ -197,11 +197,12 @@ def test_a_job_in_progress_greys_out_the_bake_buttons(tr, scene):
     cube = add_cube(scene)
     bpy.context.view_layer.objects.active = cube
     cube.translucent.method = "TEXTURE_SPACE"
-    assert _poll("bake")
+    add_camera(scene, (0, -4, 1), (0, 0, 0))
+    assert _poll("bake") and _poll("bake_grass_btf") and _poll("compare_cycles")
     bake.ModalJob.running.add(object())  # a bake started from the UI, not finished
     try:
-        assert not _poll("bake") and not _poll("bake_grass_btf")
-        with pytest.raises(RuntimeError, match="a bake is in progress: wait for it, or press Esc to cancel it"):
+        assert not _poll("bake") and not _poll("bake_grass_btf") and not _poll("compare_cycles")
+        with pytest.raises(RuntimeError, match="a bake or comparison is in progress: wait for it, or press Esc"):
             bpy.ops.translucent.bake()
     finally:
         bake.ModalJob.running.clear()
