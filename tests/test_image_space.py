@@ -466,3 +466,26 @@ def test_world_splats_equal_the_cpu_sum_of_the_same_samples(tr, scene):
                          cap["gbuffer_normal"][pixels[:, 0], pixels[:, 1], :3], _to_eye(scene, x_o), world=True)
     assert cpu.max() > 0
     np.testing.assert_allclose(scatter[pixels[:, 0], pixels[:, 1], :3], cpu, rtol=1e-4, atol=1e-6 * cpu.max())
+
+
+def test_an_object_switched_to_image_space_gets_its_shape_operators(tr):
+    """The base batch is cached by geometry; its shape operators follow the method and the medium too: an
+    object drawn Off first, then IMAGE_SPACE with the same corners, drew a zero shape operator."""
+    import dataclasses
+
+    pipeline_mod = ext_module(tr, "translucent_addon.pipeline")
+    frame_mod = ext_module(tr, "translucent_addon.core.frame")
+    t = np.linspace(0.0, math.pi, 9)
+    ring = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], 1) * 0.01
+    tri = np.array([[ring[i], ring[i + 1], [0.0, 0.0, 0.01]] for i in range(8)], np.float32).reshape(-1, 3)
+    normals = tri / np.linalg.norm(tri, axis=1, keepdims=True)
+    medium = frame_mod.Medium((0.032, 0.17, 0.48), (0.74, 0.88, 1.01), 1.3, 1000.0)
+    off = frame_mod.MeshInstance("k", "Dome", tri, normals, np.full_like(tri, 0.8), np.eye(4), method="OFF",
+                                 medium=medium)
+    drawn = dataclasses.replace(off, method="IMAGE_SPACE")
+    pipeline = pipeline_mod.Pipeline()
+    assert not pipeline._shape(off)["curv_d"].any()
+    curved = pipeline._shape(drawn)["curv_d"]
+    np.testing.assert_allclose(curved, pipeline_mod.shape_attributes(drawn)["curv_d"])
+    assert np.abs(curved).max() > 10.0  # a 1 cm dome: curvature of order 1 / radius
+    assert pipeline_mod.shapes_drawn(drawn) and not pipeline_mod.shapes_drawn(off)

@@ -374,3 +374,26 @@ def test_counts_a_file_holds_out_of_range_are_clamped_in_the_frame_and_on_load(t
     assert f"Translucent: object 'Cube': Max steps was {2**31 - 1}, outside 1-{steps}; set to {steps}" in out, out
     assert f"Translucent: scene 'Scene': Shadow resolution was {10**6}, outside 64-{texels}; set to {texels}" in out
     bpy.ops.wm.read_homefile(use_empty=True)
+
+
+def test_f12_fills_the_image_blender_sizes(tr, scene, tmp_path):
+    """Blender sizes the image resolution x percentage // 100: 50 px at 58 % is 29 (the float product 28.99...
+    truncated to 28 left the top row empty)."""
+    from blender_helpers import lit_cube_scene
+
+    lit_cube_scene(scene)
+    r = scene.render
+    r.resolution_x = r.resolution_y = 50
+    r.resolution_percentage = 58
+    r.image_settings.file_format = "OPEN_EXR"
+    r.filepath = str(tmp_path / "f12.exr")
+    bpy.ops.render.render(write_still=True, scene=scene.name)
+    image = bpy.data.images.load(r.filepath)
+    try:
+        assert tuple(image.size) == (29, 29)
+        px = np.empty(len(image.pixels), np.float32)
+        image.pixels.foreach_get(px)
+    finally:
+        bpy.data.images.remove(image)
+    rows = px.reshape(29, 29, 4)[..., :3].sum(axis=(1, 2))
+    assert np.all(rows > 0.0), rows  # every row drawn, the top one too (the world is not black)

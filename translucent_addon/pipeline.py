@@ -32,8 +32,8 @@ class Pipeline:
     """GPU resources that outlive one frame: vertex batches and the shadow atlas."""
 
     def __init__(self):
-        self._batches: dict[str, tuple] = {}
-        self._shapes: dict[str, tuple] = {}  # mesh name -> (corner positions, shape_attributes) when computed
+        self._batches: dict[tuple, tuple] = {}  # (mesh key, shape operators on) -> (base batch, shadow batch)
+        self._shapes: dict[str, tuple] = {}  # mesh name -> (corner positions, on, shape_attributes) when computed
         self._atlas = None  # (texels, color texture, depth texture, framebuffer)
         self.targets: dict = {}  # method render targets by (name, size), reused across frames
         self.last_timings: dict[str, float] = {}
@@ -48,7 +48,7 @@ class Pipeline:
     def forget(self, keys_alive: set[str], names_alive: set[str] | None = None) -> None:
         """Drop batches of meshes that are no longer drawn (and the shape operators of names no longer drawn)."""
         for key in list(self._batches):
-            if key not in keys_alive:
+            if key[0] not in keys_alive:
                 del self._batches[key]
         for name in list(self._shapes) if names_alive is not None else ():
             if name not in names_alive:
@@ -56,8 +56,10 @@ class Pipeline:
 
     # -- resources ---------------------------------------------------------
     def _batch(self, mesh: MeshInstance):
-        """(base batch, shadow batch) of a mesh, built once per geometry key."""
-        cached = self._batches.get(mesh.key)
+        """(base batch, shadow batch) of a mesh, built once per geometry key and whether its shape operators are
+        drawn (they follow the method and the medium, which the key does not cover)."""
+        key = (mesh.key, shapes_drawn(mesh))
+        cached = self._batches.get(key)
         if cached is None:
             from gpu_extras.batch import batch_for_shader
 
@@ -75,19 +77,20 @@ class Pipeline:
                 },
             )
             shadow = batch_for_shader(shaders.get("shadow_distance"), "TRIS", {"pos": pos})
-            cached = self._batches[mesh.key] = (base, shadow)
+            cached = self._batches[key] = (base, shadow)
         return cached
 
     def _shape(self, mesh: MeshInstance) -> dict:
         """``shape_attributes`` of a mesh, reused for a new geometry of the same name (a deforming mesh: a new
         batch every frame) while its corners have moved less than ``SHAPE_REUSE`` of its size in the mean."""
         known = self._shapes.get(mesh.name)
-        if known is not None and len(known[0]) == len(mesh.positions):
+        on = shapes_drawn(mesh)
+        if known is not None and len(known[0]) == len(mesh.positions) and known[1] == on:
             size = float(np.ptp(mesh.positions, axis=0).max()) if len(mesh.positions) else 0.0
             if float(np.abs(mesh.positions - known[0]).mean()) <= SHAPE_REUSE * size:
-                return known[1]
+                return known[2]
         attributes = shape_attributes(mesh)
-        self._shapes[mesh.name] = (np.array(mesh.positions, np.float32), attributes)
+        self._shapes[mesh.name] = (np.array(mesh.positions, np.float32), on, attributes)
         return attributes
 
     def _shadow_atlas(self, texels: int):
@@ -237,12 +240,18 @@ class Pipeline:
 SHAPE_REUSE = 0.01  # a deforming mesh keeps its shape operators while its corners move less than this (mean)
 
 
+def shapes_drawn(mesh: MeshInstance) -> bool:
+    """Whether IMAGE_SPACE shifts the light entering this mesh at an angle (its base batch carries the corners'
+    shape operators)."""
+    return mesh.method == "IMAGE_SPACE" and mesh.medium is not None and bool(
+        oblique_entry.medium_shift_mm(mesh.medium).any())
+
+
 def shape_attributes(mesh: MeshInstance) -> dict:
     """The base batch's curv_d and curv_o: each corner's shape operator (object space, diagonal and xy, xz, yz;
     ``oblique_entry.corner_shape_operators``) where IMAGE_SPACE shifts light entering at an angle, else 0."""
     n = len(mesh.positions)
-    m = mesh.medium
-    if mesh.method != "IMAGE_SPACE" or m is None or not oblique_entry.medium_shift_mm(m).any():
+    if not shapes_drawn(mesh):
         return {"curv_d": np.zeros((n, 3), np.float32), "curv_o": np.zeros((n, 3), np.float32)}
     S = oblique_entry.corner_shape_operators(mesh.positions.reshape(-1, 3, 3), mesh.normals.reshape(-1, 3, 3))
     packed = oblique_entry.packed_shape(S.reshape(n, 3, 3))

@@ -103,8 +103,7 @@ def cycles_rate(scene) -> tuple[float, float]:
     """Cycles' cost on this scene and machine: (seconds a render costs whatever its samples, seconds per sample
     at the scene's resolution), from renders of a quarter of its pixels (1 and 5 samples after a first one, the
     random walk as the scene stands; about a second), kept for the session."""
-    scale = scene.render.resolution_percentage / 100
-    width, height = max(1, int(scene.render.resolution_x * scale)), max(1, int(scene.render.resolution_y * scale))
+    width, height = extract.output_size(scene.render)
     key = (scene.name, width, height)
     if key not in _CYCLES_RATE:
         small = (max(1, width // 2), max(1, height // 2))
@@ -356,8 +355,7 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     objects = list(objects) if objects is not None else translucent_objects(scene)
     if not objects:
         raise CompareError("no visible object has a translucency method (Object > Translucent > Method)")
-    scale = scene.render.resolution_percentage / 100
-    width, height = max(1, int(scene.render.resolution_x * scale)), max(1, int(scene.render.resolution_y * scale))
+    width, height = extract.output_size(scene.render)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
     tris, _, _ = scene_triangles(frame)
@@ -635,8 +633,7 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
 def _model_setup(scene, objects, samples: int, cache_dir, progress):
     """The scene's size, the objects' interior mask and the CPU dipole model image (cached):
     (width, height, mask, model image, model seconds)."""
-    scale = scene.render.resolution_percentage / 100
-    width, height = int(scene.render.resolution_x * scale), int(scene.render.resolution_y * scale)
+    width, height = extract.output_size(scene.render)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
     tracer = BVHTracer(scene_triangles(frame)[0])

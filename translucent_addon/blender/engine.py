@@ -143,9 +143,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
     # -- F12 and batch -----------------------------------------------------
     def render(self, depsgraph):
         scene = depsgraph.scene
-        scale = scene.render.resolution_percentage / 100.0
-        width = max(1, int(scene.render.resolution_x * scale))
-        height = max(1, int(scene.render.resolution_y * scale))
+        width, height = extract.output_size(scene.render)
         try:
             self._render_frame(depsgraph, width, height)
         except BaseException:

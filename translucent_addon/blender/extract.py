@@ -550,6 +550,12 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
     )
 
 
+def output_size(render) -> tuple[int, int]:
+    """The F12 image's pixels, as Blender sizes it: resolution x percentage // 100 (at least 1)."""
+    pct = int(render.resolution_percentage)
+    return max(1, render.resolution_x * pct // 100), max(1, render.resolution_y * pct // 100)
+
+
 def render_camera(depsgraph, width: int, height: int) -> CameraView:
     """The scene camera as seen by F12 (pixel aspect included)."""
     scene = depsgraph.scene
