@@ -89,6 +89,23 @@ def test_scene_without_lights_is_lit_by_the_world_and_says_so(tr, scene, capfd):
     assert frame.warnings == ["the scene has no lights: objects are lit by the world only"]
 
 
+def test_a_light_scaled_to_nothing_is_left_out_and_one_flattened_still_shines(tr, scene):
+    """A light scaled to 0 (a way to hide it in animation) failed every frame ('degenerate orientation'); now it
+    is left out with a word. An area light flattened along Z (its scale there 0) still faces its X x Y normal."""
+    lit_cube_scene(scene)
+    lit = render(scene, 24, 24)
+    hidden = add_light(scene, "POINT", (0.5, -0.5, 2.0), energy=500.0)
+    hidden.scale = (0.0, 0.0, 0.0)
+    img = render(scene, 24, 24)
+    np.testing.assert_allclose(img, lit, atol=1e-6)
+    frame = _frame_of(tr, scene, 24, 24)
+    assert f"'{hidden.name}': the light is scaled to nothing; not drawn" in frame.warnings
+    flat = add_light(scene, "AREA", (0.0, 0.0, 3.0), energy=200.0)
+    flat.scale = (1.0, 1.0, 0.0)
+    brighter = render(scene, 24, 24)
+    assert np.isfinite(brighter).all() and brighter[..., :3].sum() > 1.01 * lit[..., :3].sum()
+
+
 def test_scene_without_camera_is_a_clear_error(scene):
     add_cube(scene)
     with pytest.raises(RuntimeError, match="no camera"):

@@ -518,6 +518,9 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 meshes.append(MeshInstance(model=np.array(inst.matrix_world, dtype=np.float64), **parts))
         elif ob.type == "LIGHT":
             light = ob.data
+            if not np.isfinite(np.array(inst.matrix_world)).all() or not np.array(inst.matrix_world)[:3, :3].any():
+                warnings.append(f"'{ob.original.name}': the light is scaled to nothing; not drawn")
+                continue
             lit = emitters_from_light(
                 ob.original.name,
                 light.type,

@@ -94,7 +94,10 @@ def emitters_from_light(
     m = np.asarray(matrix_world, dtype=np.float64).reshape(4, 4)
     rgb = np.asarray(color, dtype=np.float64)[:3] * float(energy)
     position = m[:3, 3]
-    axis = _normalized(-m[:3, 2])
+    # The light points along its -Z; a light flattened along Z (an area light scaled to 0 there) still faces
+    # the normal of its X and Y. Scaled to nothing: ValueError (``_normalized``).
+    z = -m[:3, 2] if np.linalg.norm(m[:3, 2]) > 0 else -np.cross(m[:3, 0], m[:3, 1])
+    axis = _normalized(z)
     if light_type == "SUN":
         return [Emitter(DIRECTIONAL, tuple(position), tuple(axis), tuple(rgb), source=name)]
     if light_type in ("POINT", "SPOT"):
