@@ -24,11 +24,11 @@ void link_factors(vec3 x, out vec3 e1, out vec3 e2)
       e1[c] = 1.0 - t * t / 6.0;
       e2[c] = 1.0 + t * t / 3.0;
     }
-    else {
+    else { /* x / sinh x and x coth x, the hyperbolics held at t = min(x, 80) (coth is 1 there) */
       float ex = exp(-t);
       float sh = 0.5 * (1.0 / ex - ex);
-      e1[c] = t / sh;
-      e2[c] = t * (0.5 * (1.0 / ex + ex)) / sh;
+      e1[c] = x[c] / sh;
+      e2[c] = x[c] * (0.5 * (1.0 / ex + ex)) / sh;
     }
   }
 }

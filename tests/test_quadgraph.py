@@ -245,6 +245,10 @@ def test_fitted_surface_link_reduces_to_eq_9_for_fine_graphs():
     assert e1[0] == e2[0] == 1.0 and e1[1] == pytest.approx(1.0, abs=1e-8)
     assert e1[2] == pytest.approx(0.5 / np.sinh(0.5)) and e2[2] == pytest.approx(0.5 / np.tanh(0.5))
     assert e1[3] < 1e-15 and e2[3] == pytest.approx(40.0)
+    # Past where the hyperbolics are held (300 here, 80 in qg_relax), x coth x is still x.
+    e1, e2 = df.link_factors(np.array([299.0, 400.0, 2000.0]))
+    np.testing.assert_allclose(e2, [299.0, 400.0, 2000.0], rtol=1e-12)
+    assert (e1 < 1e-100).all()
 
 
 def test_multiresolution_start_needs_fewer_iterations(sphere_graph):
@@ -388,3 +392,28 @@ def test_stored_counts_and_indices_out_of_range_are_refused_before_anything_is_a
         arrays["qg1_up_index"][0, 0] = 10**6
     with pytest.raises(ValueError, match=r"level 1 surface node count|'qg1_neighbours'|'qg1_up_index'"):
         level_tables(arrays, 1, coarse)
+
+
+@pytest.mark.parametrize("damage", ["tets", "display_index", "rest_triangles"])
+def test_stored_arrays_that_do_not_fit_their_counts_are_refused(damage):
+    """An inner node's tetrahedron short, a displayed corner lit by an inner node, a rest pose a triangle short:
+    ``load`` passed them, and every frame then failed (broadcast errors in the deformation, outside the bake
+    cache's check) or read an inner node as a surface one. Now DamagedBakeError names the array."""
+    from translucent_addon.core.bake_store import DamagedBakeError
+    from translucent_addon.techniques.quadgraph.model import load
+
+    (arrays, _), _ = _run(_inputs())
+    arrays = dict(arrays)
+    load(arrays)  # as baked
+    if damage == "tets":
+        arrays["qg1_tets"], arrays["qg1_inner_bary"] = arrays["qg1_tets"][:-1], arrays["qg1_inner_bary"][:-1]
+        why = "'qg1_tets' has shape"
+    elif damage == "display_index":
+        arrays["qg_display_index"] = arrays["qg_display_index"].copy()
+        arrays["qg_display_index"][0, 0] = int(arrays["qg1_n_surface"][0]) + 5
+        why = "'qg_display_index' holds indices outside"
+    else:
+        arrays["qg_rest_triangles"] = arrays["qg_rest_triangles"][:-1]
+        why = "'qg_rest_triangles' has shape"
+    with pytest.raises(DamagedBakeError, match=why):
+        load(arrays)

@@ -271,6 +271,21 @@ def test_painted_mask_shows_the_base_colour_and_blocks_the_light_where_painted(t
     assert np.abs(ratio - 1.0).max() < 0.01
 
 
+def test_painted_blur_rebuilds_the_held_source_gain(tr, scene):
+    """The display's held-source gain is made of kappa and mu, which a painted blur scales: painting blur kept
+    the gain of before (its cache key, the medium, came back unchanged)."""
+    ob = _front_lit_ball(scene)
+    render(scene, 32, 24)
+    (rec,) = _capture(tr)["quadgraph"]
+    res = rec["resources"]
+    before = res._loss_scale[2]
+    _paint_group(ob, "translucent_blur", lambda co: (co[:, 2] < 0.0).astype(float))
+    render(scene, 32, 24)
+    (rec,) = _capture(tr)["quadgraph"]
+    assert rec["resources"] is res and res.M_d[-1].min() < 0.5  # the same bake, now blurred
+    assert res._loss_scale[2] is not before
+
+
 def test_painted_blur_and_tint_reach_the_gpu_solve(tr, scene):
     """Blur (both coefficients x M_d per node) below, glow and tint above: the GPU relaxation equals the
     direct solution of the painted system (q x mask x glow x tint, kappa and mu from the carried blur)."""

@@ -322,3 +322,17 @@ def test_auto_quality_operator_and_bake(tr, scene):
     cube.translucent.method = "OFF"
     with pytest.raises(RuntimeError, match="no translucency method"):
         bpy.ops.translucent.auto_quality()
+
+
+def test_quadgraph_auto_plans_with_the_mesh_s_own_triangles():
+    """A mesh under 5,000 triangles is its own proxy at K = 1 (refined by K as 5k is): Auto's spacing is the
+    bake's, not a 5k proxy's (a 12-triangle box at K = 1: its own 12 triangles)."""
+    from translucent_addon.techniques.image_space import quality as isa
+    from translucent_addon.techniques.quadgraph.quality import quadgraph_surface_spacing_mm
+
+    view = isa.object_view(_box_mesh("Box", 0.025, 0.05), _camera(0.3))
+    assert view.triangles == 12
+    choice = qa.choose("QUADGRAPH", view, 0.05)
+    spacing = choice.cost["proxy_triangles_spacing_mm"]
+    assert spacing == round(quadgraph_surface_spacing_mm(view, choice.settings["quadgraph_K"], 12), 2)
+    assert spacing > 5 * quadgraph_surface_spacing_mm(view, 1.0)  # a 5,000-triangle proxy's

@@ -166,12 +166,13 @@ def box_transfer(sigma_a: float, sigma_s_prime: float, eta: float, width: float,
 
 
 def link_factors(x: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """(e1, e2) = (x / sinh x, x / tanh x), with their series near 0."""
+    """(e1, e2) = (x / sinh x, x / tanh x), with their series near 0 (the hyperbolics held at 300, where
+    x / sinh x is 0 to double precision and tanh 1)."""
     x = np.asarray(x, np.float64)
     small = x < 1e-3
     xs = np.where(small, 1.0, np.minimum(x, 300.0))
-    e1 = np.where(small, 1.0 - x * x / 6.0, xs / np.sinh(xs))
-    e2 = np.where(small, 1.0 + x * x / 3.0, xs / np.tanh(xs))
+    e1 = np.where(small, 1.0 - x * x / 6.0, x / np.sinh(xs))
+    e2 = np.where(small, 1.0 + x * x / 3.0, x / np.tanh(xs))
     return e1, e2
 
 

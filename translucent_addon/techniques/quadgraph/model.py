@@ -189,11 +189,15 @@ def load(arrays: dict) -> list[LevelTables]:
     for h in range(count(shaped(arrays, "qg_levels", (1,))[0], "level count", 1, MAX_LEVELS)):
         levels.append(level_tables(arrays, h, levels[-1] if levels else None))
         points = shaped(arrays, f"qg{h}_points", (None, 3))
-        tets = indices(arrays, f"qg{h}_tets", (None, 4), len(points))
+        inner = levels[-1].count - levels[-1].n_surface  # one tetrahedron holds each inner node
+        tets = indices(arrays, f"qg{h}_tets", (inner, 4), len(points))
         shaped(arrays, f"qg{h}_inner_bary", (len(tets), 4))
-    corners = len(indices(arrays, "qg_display_index", (None, 4), levels[-1].count))
+    # A displayed corner is lit by surface nodes of the finest level, and the rest pose has one per corner.
+    corners = len(indices(arrays, "qg_display_index", (None, 4), levels[-1].n_surface))
     shaped(arrays, "qg_display_weight", (corners, 4))
-    indices(arrays, "qg_rest_triangles", (None, 3), len(shaped(arrays, "qg_rest_vertices", (None, 3))))
+    indices(arrays, "qg_rest_triangles", (corners // 3, 3), len(shaped(arrays, "qg_rest_vertices", (None, 3))))
+    if corners % 3:
+        raise DamagedBakeError(f"its display has {corners} corners, not three a triangle")
     return levels
 
 

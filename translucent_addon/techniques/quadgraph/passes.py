@@ -206,7 +206,8 @@ class Resources:
                 self.M_d[h], self.q_factors[h] = qgd.node_paint(self.embeddings[h], mesh.paint, mesh.tint)
             lg.set_q_factor(self.q_factors[h])
         self.paint = tuple(np.array(a) for a in paint)
-        self.material_key = None  # the blur changes kappa and mu
+        self.material_key = None  # the blur changes kappa and mu ...
+        self._loss_scale = None  # ... and the held-source gain made of them (set_material keeps its key)
 
     def loss_scale(self):
         """The finest level's surface nodes' held_source_gain as a texture (1 at inner nodes), which

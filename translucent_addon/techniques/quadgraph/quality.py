@@ -26,10 +26,10 @@ def auto(view: ObjectView, target: float, curves: str) -> Choice:
     notes = ["measured against exact transport: "
              f"{', '.join(f'K {k:g} {100 * e:.1f} %' for k, e in sorted(model.items(), reverse=True))}"
              " (the model's error, which finer K does not reduce)"]
-    if view.pixel_mm > 0 and quadgraph_surface_spacing_mm(view, 2.0) < view.pixel_mm:
+    if view.pixel_mm > 0 and quadgraph_surface_spacing_mm(view, 2.0, view.triangles) < view.pixel_mm:
         K = 2.0
         notes.append("K = 2: its surface nodes are already finer than a pixel of the object")
     if model.get(1.0, 0.0) > target:
         notes.append(f"the target {100 * target:g} % is below this model's measured error")
     return Choice("QUADGRAPH", {"quadgraph_K": K}, {}, None,
-                  {"proxy_triangles_spacing_mm": round(quadgraph_surface_spacing_mm(view, K), 2)}, notes)
+                  {"proxy_triangles_spacing_mm": round(quadgraph_surface_spacing_mm(view, K, view.triangles), 2)}, notes)
