@@ -31,5 +31,5 @@ def auto(view: ObjectView, target: float, curves: str) -> Choice:
         notes.append("K = 2: its surface nodes are already finer than a pixel of the object")
     if model.get(1.0, 0.0) > target:
         notes.append(f"the target {100 * target:g} % is below this model's measured error")
-    return Choice("QUADGRAPH", {"quadgraph_K": K}, {}, None,
-                  {"proxy_triangles_spacing_mm": round(quadgraph_surface_spacing_mm(view, K, view.triangles), 2)}, notes)
+    spacing = quadgraph_surface_spacing_mm(view, K, view.triangles)
+    return Choice("QUADGRAPH", {"quadgraph_K": K}, {}, None, {"proxy_triangles_spacing_mm": round(spacing, 2)}, notes)
