@@ -30,7 +30,7 @@ from ..core.frame import (
 from ..core.geometry.mesh_measures import uv_tangents
 from ..core.geometry.orientation import outward_normals, turned
 from ..core.lights import emitters_from_light
-from ..core.physics.lut import BLUR_MIN
+from ..core.physics.lut import BLUR_MIN, layer_problem
 from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
@@ -414,8 +414,13 @@ def medium_of(original, method: str, frame_warnings, scene=None) -> tuple[str, M
         return "OFF", None
     layer = {}
     if m.profile == "MULTIPOLE" and method == "IMAGE_SPACE":  # the one method that draws a layer over a base
-        layer = dict(layer_thickness_mm=m.layer_thickness * m.mm_per_unit, base_sigma_a=m.base_sigma_a,
-                     base_sigma_s_prime=m.base_sigma_s_prime)
+        thickness_mm = m.layer_thickness * m.mm_per_unit
+        problem = layer_problem(m.sigma_a, m.sigma_s_prime, thickness_mm)
+        if problem:  # every pass then draws the top layer alone, the entry shift of the base pass included
+            frame_warnings.append(f"'{name}': {problem}; drawn as the top layer alone, without its base")
+        else:
+            layer = dict(layer_thickness_mm=thickness_mm, base_sigma_a=m.base_sigma_a,
+                         base_sigma_s_prime=m.base_sigma_s_prime)
     if method == "QUADGRAPH":
         layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale) * m.mm_per_unit,
                      single_scattering=bool(s.single_scattering))

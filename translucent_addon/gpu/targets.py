@@ -30,6 +30,24 @@ def new_target(size, depth: bool = False, attachments: int = 1):
     return fb, colors, depth_tex
 
 
+SIZES_KEPT = 4  # sizes of one named target kept (per-emitter atlases of a frame; the last viewport sizes)
+
+
+def cached_target(pipeline, name: str, size, depth: bool = False, attachments: int = 1):
+    """``new_target`` kept in ``pipeline.targets`` across frames under (name, size, ...), the SIZES_KEPT sizes of
+    a name used last: a viewport dragged through many sizes (or F12 at several) does not keep a full-screen
+    target for each (70 MB at 1080p for IMAGE_SPACE's G-buffer and scatter)."""
+    key = (name, tuple(size), depth, attachments)
+    found = pipeline.targets.pop(key, None)  # put back last: the dict's order is the order of use
+    if found is None:
+        found = new_target(tuple(size), depth, attachments)
+        older = [k for k in pipeline.targets if isinstance(k, tuple) and k[0] == name and len(k) == 4]
+        for k in older[:max(0, len(older) - (SIZES_KEPT - 1))]:
+            del pipeline.targets[k]
+    pipeline.targets[key] = found
+    return found
+
+
 def screen_quad(pipeline, shader_name: str):
     """Two triangles covering the target (attribute ``corner``), built once per pipeline and pass."""
     key = ("screen_quad", shader_name)

@@ -170,6 +170,16 @@ def profile_tables(radii: ArrayLike, profile: ArrayLike, rho_mm: float, epsilon:
                             float(rho_mm), total)
 
 
+def layer_problem(top_sigma_a, top_sigma_s_prime, thickness_mm: float) -> str | None:
+    """Why the multipole cannot model this layer (thinner than its source depth z_r = 1 / sigma_t' in some
+    channel: the first source lies outside it), or None."""
+    z_r = max(1.0 / (a + s) for a, s in zip(top_sigma_a, top_sigma_s_prime))
+    if thickness_mm < z_r:
+        return (f"layer thickness {thickness_mm:g} mm is thinner than the layer's mean free path {z_r:.3g} mm: "
+                "the multipole needs at least one")
+    return None
+
+
 @functools.lru_cache(maxsize=16)
 def multipole_profile(top_sigma_a: tuple, top_sigma_s_prime: tuple, thickness_mm: float, base_sigma_a: tuple,
                       base_sigma_s_prime: tuple, eta: float, extent_mm: float = 60.0,
@@ -181,10 +191,9 @@ def multipole_profile(top_sigma_a: tuple, top_sigma_s_prime: tuple, thickness_mm
     thinner, the multipole's first source lies outside the layer and the model breaks down.
     """
 
-    z_r = max(1.0 / (a + s) for a, s in zip(top_sigma_a, top_sigma_s_prime))
-    if thickness_mm < z_r:
-        raise ValueError(f"layer thickness {thickness_mm:g} mm is thinner than the layer's mean free path "
-                         f"{z_r:.3g} mm: the multipole needs at least one")
+    problem = layer_problem(top_sigma_a, top_sigma_s_prime, thickness_mm)
+    if problem:
+        raise ValueError(problem)
 
     n = int(2 * extent_mm / h_mm) // 2 * 2
     grid = Grid(n=n, h=h_mm)

@@ -28,7 +28,7 @@ from ...core.geometry.mesh_checks import check_mesh
 from ...core.properties import Prop
 from ...gpu import blocks, shaders
 from ...gpu.frame_context import FrameContext
-from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad
+from ...gpu.targets import cached_target, clear_target, read_pixels, screen_quad
 from ..protocol import Technique
 from .model import CausticError, caster_grid
 
@@ -133,11 +133,7 @@ def prepare(frame: FrameInputs) -> Plan | None:
 
 
 def _target(pipeline, name: str, size, depth: bool = False, attachments: int = 1):
-    key = (name, tuple(size))
-    t = pipeline.targets.get(key)
-    if t is None:
-        t = pipeline.targets[key] = new_target(tuple(size), depth=depth, attachments=attachments)
-    return t
+    return cached_target(pipeline, name, size, depth, attachments)
 
 
 def _batch(pipeline, shader_name: str, mesh: MeshInstance, with_normals: bool):

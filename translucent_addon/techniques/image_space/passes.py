@@ -19,7 +19,7 @@ from ...core.physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
 from ...core.properties import Prop
 from ...gpu import blocks, shaders
 from ...gpu.frame_context import FrameContext
-from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
+from ...gpu.targets import cached_target, clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
 from . import quality as image_space_quality
 from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
@@ -124,11 +124,7 @@ def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):
     The depth texture is kept in the cache too: a GPUTexture that Python frees is silently
     detached from the framebuffer, which then draws without a depth test.
     """
-    key = (name, tuple(size), depth, attachments)
-    found = pipeline.targets.get(key)
-    if found is None:
-        found = pipeline.targets[key] = new_target(size, depth, attachments)
-    return found[:2]
+    return cached_target(pipeline, name, size, depth, attachments)[:2]
 
 
 TEMPORAL_BLEND = 0.3  # weight of the current frame in the accumulated far field
