@@ -1,6 +1,6 @@
 /* Caustics pass 5 (Shah 5.3.2, last step): receivers seen from the light add rho / pi * E_c, E_c the
  * caustic flux per texel (bilinear in the atlas) over the receiver area that texel covers
- * (caustic_mapping.receiver_patch_area). A point the light does not see directly (another receiver
+ * (techniques/caustics/model.py receiver_patch_area). A point the light does not see directly (another receiver
  * lies in front of it in the receiver atlas) gets none. Additive over the base pass. */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -22,10 +22,7 @@ void main()
   if (!light_atlas_uv(v_world, texels, face, uv)) {
     discard;
   }
-  vec3 n = normalize(v_normal);
-  if (!facing_out(object.shading)) {
-    n = -n;
-  }
+  vec3 n = normalize(v_normal); /* either face: |n . l| below, and the atlas test keeps the one the light sees */
   bool is_point = light.position_kind.w > 0.5;
   vec3 rel = v_world - light.position_kind.xyz;
   float r = length(rel);

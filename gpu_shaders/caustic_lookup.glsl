@@ -1,4 +1,4 @@
-/* Light-atlas addressing shared by the caustics passes (geometry/caustic_mapping.py atlas_texels is
+/* Light-atlas addressing shared by the caustics passes (techniques/caustics/model.py atlas_texels is
  * the NumPy twin): the cube face by the major axis of p - light (point) or the single orthographic
  * face (directional), its clip-space projection, and the texel in the 3 x 2 atlas. */
 bool light_atlas_uv(vec3 p, int texels, out int face, out vec2 uv)

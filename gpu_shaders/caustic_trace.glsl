@@ -2,7 +2,7 @@
  * vertex; with dispersion three tiles, one per channel and index), refract (or mirror) the light,
  * find where the ray leaves the caster (back-face map) and meets the receivers (receiver atlas) by
  * the intersection estimate, and write the landing point and the flux it carries.
- * NumPy twin: geometry/caustic_mapping.py. */
+ * NumPy twin: techniques/caustics/model.py. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -106,7 +106,7 @@ void main()
   vec3 v = front.xyz;
   vec3 n = normalize(texelFetch(front_normal, t, 0).xyz);
   /* Flux through the texel: the light's irradiance times the texel's area across the beam, or its
-   * intensity times the texel's solid angle (caustic_mapping.CasterGrid.texel_flux_factor). */
+   * intensity times the texel's solid angle (caustics/model.py CasterGrid.texel_flux_factor). */
   float a = 2.0 * caustic.grid.y / float(G);
   vec3 d;
   vec3 flux;

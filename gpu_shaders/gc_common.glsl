@@ -1,5 +1,5 @@
 /* GEOCUBE (Chan & Wang 2005): bordered cube atlases and the cone-propelled exit search.
- * Twin of render/methods/geocube_data.py, line by line (the atlas lookups are in cube_atlas.glsl).
+ * Twin of techniques/geocube/model.py, line by line (the atlas lookups are in cube_atlas.glsl).
  * Needs: samplers gc_cones (d, cos A, cos B, R_C), gc_normals (N), gc_centres (O, D per cube) and
  * env_atlas; the GeocubeData block `gc`. */
 
@@ -54,7 +54,7 @@ bool gc_inside(int cube, vec3 p)
   return l < gc_fetch(cube, q).x || l < o.w;
 }
 
-/* geocube_data.surely_inside_cube: inside by a texel's footprint under the nearest of four texels. */
+/* geocube/model.py surely_inside_cube: inside by a texel's footprint under the nearest of four texels. */
 bool gc_surely_inside(int cube, vec3 p)
 {
   vec4 o = gc_centre(cube);
@@ -84,7 +84,7 @@ int gc_switch(int cube, vec3 p)
   return best;
 }
 
-/* geocube_data.exit_search for one ray: returns the exit point; cube, normal, steps, premature out. */
+/* geocube/model.py exit_search for one ray: returns the exit point; cube, normal, steps, premature out. */
 vec3 gc_exit(vec3 origin, vec3 r, inout int cube, bool first_step, out vec3 normal, out int steps,
              out bool premature)
 {
@@ -117,7 +117,7 @@ vec3 gc_exit(vec3 origin, vec3 r, inout int cube, bool first_step, out vec3 norm
       if (l >= c.x) {
         int other = gc_switch(cube, p);
         if (other < 0) {
-          /* Left the object between prev and p: bisection (geocube_data.REFINE halvings). */
+          /* Left the object between prev and p: bisection (geocube/model.py REFINE halvings). */
           vec3 a = prev;
           vec3 b = p;
           for (int k = 0; k < 6; k++) {

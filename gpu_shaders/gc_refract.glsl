@@ -29,7 +29,7 @@ vec3 env_sample(vec3 d, float theta)
 }
 
 /* The slab transfer fit at scattering depth tau: (f_t, theta_bar, c_t, c_r), linear in
- * s = log(1 + tau) / log(1 + tau_max) (render/methods/geocube.py transfer_image). */
+ * s = log(1 + tau) / log(1 + tau_max) (techniques/geocube/model.py transfer_image). */
 vec4 transfer(float tau)
 {
   float n = gc.table.y;

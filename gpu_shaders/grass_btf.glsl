@@ -4,7 +4,7 @@
  * silhouettes by discarding where the depth maps say the ray meets no blade; external occlusion by
  * writing the depth of the blade the ray hits. Mode 0: the uniform world (the BTF integrated over
  * lights); mode 1: one emitter, with shadows from the scene at the blade. NumPy twin:
- * translucent_addon/render/grass_data.py (shade). */
+ * translucent_addon/techniques/grass/model.py (shade). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {

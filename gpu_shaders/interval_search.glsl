@@ -1,6 +1,6 @@
 // Interval mapping (Shah's thesis ch. 3; Risser, Shah & Pattanaik, JGT 2007) and relief mapping
 // (Policarpo et al. 2005) of a height field: a function library, GLSL 3.30 compatible, no #version, no
-// uniforms, no main. NumPy twin: translucent_addon/geometry/interval_mapping.py (same conventions, same
+// uniforms, no main. NumPy twin: translucent_addon/techniques/relief/model.py (same conventions, same
 // steps; tests/test_interval_mapping.py checks that they agree).
 //
 // Conventions:

@@ -1,4 +1,4 @@
-/* Emitter model of translucent_addon/render/lights.py (Cycles' units), for passes with a `light`
+/* Emitter model of translucent_addon/core/lights.py (Cycles' units), for passes with a `light`
  * block. Returns the light's radiance factor at p: irradiance on a surface facing it
  * (directional) or intensity / d^2 with the spot and area lobes (point); to_light is set. */
 float emitter_lobe(vec3 dir_from_light)

@@ -56,7 +56,7 @@ struct TemporalData {
 };
 
 struct GeocubeData {
-  /* GEOCUBE (render/methods/geocube.py): one object's bake frame (mm) and material. */
+  /* GEOCUBE (techniques/geocube/model.py): one object's bake frame (mm) and material. */
   mat4 bake_from_world;
   mat4 world_from_bake;
   vec4 sigma_a;        /* rgb: mm^-1; w: eta */

@@ -204,6 +204,24 @@ def test_bake_arrays_round_trip(sphere_set):
     np.testing.assert_array_equal(back.start_cube, g.start_cube)
 
 
+def test_a_stored_set_whose_atlas_would_pass_the_texture_limit_is_refused(sphere_set):
+    """The cubes stack, res + 2 texels each, in one atlas of at most 16,384 rows (64 cubes at 256 texels made
+    16,512): a bake places at most MAX_ATLAS_ROWS // (res + 2) and a stored set of more is refused."""
+    from translucent_addon.core.bake_store import DamagedBakeError
+
+    _, _, _, g = sphere_set
+    arrays = geocube.to_arrays(g)
+    res = 256
+    over = geocube.MAX_ATLAS_ROWS // (res + 2) + 1
+    w = res + 2
+    arrays.update(gc_scalars=np.array([res, *arrays["gc_scalars"][1:]]), gc_centres=np.zeros((over, 3)),
+                  gc_radius_D=np.ones(over), gc_cones=np.zeros((over, 6, w, w, 4), np.float32),
+                  gc_normals=np.zeros((over, 6, w, w, 3), np.float32))
+    with pytest.raises(DamagedBakeError, match="cube count"):
+        geocube.from_arrays(arrays)
+    assert over * w > geocube.MAX_ATLAS_ROWS >= (over - 1) * w
+
+
 def test_resolution_follows_the_size_on_screen():
     assert geocube.resolution_for(None) == 64
     assert geocube.resolution_for(128) == 64

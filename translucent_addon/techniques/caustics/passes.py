@@ -5,7 +5,7 @@ Per emitter with caustics on (``Emitter.caustics``) and for every caster in the 
 1. receiver positions from the light into a 3 x 2 atlas (cube faces for point lights, the
    orthographic map of the shadow pass for directional ones): ``caustic_receiver``;
 2. the caster's positions and normals on its vertex grid, a projection from the light fitted to
-   its bounding sphere (``geometry/caustic_mapping.caster_grid``), nearest and farthest surfaces:
+   its bounding sphere (``model.caster_grid``), nearest and farthest surfaces:
    ``caustic_caster``;
 3. per grid vertex: refraction through one or two surfaces (or a mirror), the intersection
    estimate against the back faces and the receivers, flux with Fresnel and Beer (Eq. 5.7):

@@ -42,6 +42,9 @@ GRAZING_COS = 0.15  # a centre covers a surface sample it sees at cos(angle to t
 COVERAGE_SAMPLES = 6000  # area-uniform surface samples the placement must cover
 CANDIDATES = 240  # candidate centres tried by the greedy cover
 MAX_CUBES = 64  # more cubes cost bake time, memory and a longer cube switch (each cube is tested there)
+# The cone and normal atlases stack the cubes, res + 2 texels each, in one texture of at most this height (the
+# least maximum OpenGL 4.5 guarantees): 63 cubes at 256 texels.
+MAX_ATLAS_ROWS = 16384
 TARGETED_ROUNDS = 3  # rounds of candidates placed for the samples still uncovered
 TARGETED_SAMPLES = 48
 RES_RANGE = (16, 256)
@@ -365,7 +368,8 @@ def build_steps(v_mm, t, res: int, eta: float, tracer, coverage_samples: int = C
     pts, nrm, tri = area_samples(v, t, coverage_samples, seed=0)
     areas = np.full(len(pts), 1.0 / len(pts))
     yield 0.05, "placing cubes"
-    centres, coverage = place(pts, nrm, areas, tracer, faces=face_normals(v, t)[tri])
+    centres, coverage = place(pts, nrm, areas, tracer, max_cubes=min(MAX_CUBES, MAX_ATLAS_ROWS // (res + 2)),
+                              faces=face_normals(v, t)[tri])
     tris = v[t]
     radius_D = np.array([point_triangle_distance(o, tris).min() for o in centres])
     vn = vertex_normals(v, t)
@@ -414,8 +418,9 @@ def from_arrays(a: dict) -> GeocubeSet:
     res, coverage, min_step, size = (float(x) for x in shaped(a, "gc_scalars", (4,)))
     res = count(res, "cube resolution", 1, MAX_RES)
     centres = np.asarray(a["gc_centres"], np.float64).reshape(-1, 3)
-    # The shaders' cube switch loops over every cube for each step of each pixel: at most what a bake makes.
-    C, w = count(len(centres), "cube count", 1, 4 * MAX_CUBES), res + 2
+    # The shaders' cube switch loops over every cube for each step of each pixel (a bake makes at most MAX_CUBES;
+    # bakes of before the atlas limit may hold more), and the atlases stack them in one texture.
+    C, w = count(len(centres), "cube count", 1, min(4 * MAX_CUBES, MAX_ATLAS_ROWS // (res + 2))), res + 2
     indices(a, "gc_start_cube", (None,), C)
     return GeocubeSet(
         centres=centres, radius_D=np.asarray(a["gc_radius_D"], np.float64), res=res,

@@ -3,7 +3,7 @@ GPU every frame (Chan & Wang 2005, Blender-facing).
 
 Per frame, for each mesh with an up-to-date bake, one pass over its front faces (``gc_refract``) after
 the base pass: Fresnel reflection of the world, refraction in, the cone-propelled exit search through
-the object's geocubes (``gc_common.glsl``, twin of ``geocube_data``), refraction out or one total internal
+the object's geocubes (``gc_common.glsl``, twin of ``model``), refraction out or one total internal
 reflection, then the world in the leaving direction from the key filtered environment chain
 (``core/environment.py``) at the blur of the slab transfer fit for the path's scattering depth
 (``core/physics/slab_transfer.py``), with coloured Beer absorption. The refracted scene is the world only:

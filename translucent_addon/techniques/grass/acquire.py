@@ -264,7 +264,7 @@ class PatchRenderer:
 
 def acquire(patch: GrassPatch, resolution: int = 128, views: np.ndarray | None = None,
             lights: np.ndarray | None = None, supersample: int = 2):
-    """Generator: yields (fraction, text) per view; returns BTFImages. Light-major inside each view
+    """Generator: yields (fraction, text) per light; returns BTFImages. Light-major inside each view
     would re-render shadow maps, so lights are the outer loop and views the inner one."""
     views = hemisphere.view_directions() if views is None else np.asarray(views, np.float64)
     lights = hemisphere.light_directions() if lights is None else np.asarray(lights, np.float64)

@@ -90,7 +90,7 @@ def package(images, spectra, params: GrassParams, resolution: int, target_error:
     return arrays, meta
 
 
-# The largest BTF image side a bake makes is 512; a stored shape past this is damage.
+# The largest BTF image side a bake makes is 256 (GRASS_CHOICES); a stored shape past this is damage.
 MAX_RESOLUTION = 2048
 
 

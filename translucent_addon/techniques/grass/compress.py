@@ -55,8 +55,9 @@ class CompressedBTF:
     def resolution(self) -> int:
         return int(self.depth.shape[1])
 
-    def storage_bytes(self, basis_bytes: int = 2, coeff_bytes: int = 4, depth_bytes: int = 2) -> dict:
-        """Bytes of the compressed BTF as the GPU holds it (half-float eigen-textures and depth)."""
+    def storage_bytes(self, basis_bytes: int = 2, coeff_bytes: int = 4, depth_bytes: int = 4) -> dict:
+        """Bytes of the compressed BTF as the bake stores it (half-float eigen-textures, float coefficients and
+        depth). The GPU holds all of it as 32-bit floats, with its lookup tables: about 1.8 times this."""
         b = sum(x.size for x in self.basis) * basis_bytes
         c = sum(x.size for x in self.coeffs) * coeff_bytes
         d = self.depth.size * depth_bytes
@@ -126,7 +127,7 @@ MAX_TEXTURE_TEXELS = 16384  # OpenGL 4.5's least GL_MAX_TEXTURE_SIZE: the render
 
 
 def texture_groups(n_y: int, n_c: int) -> int:
-    """Groups of four eigen-textures the renderer packs side by side (``render.grass_data.packed_basis``):
+    """Groups of four eigen-textures the renderer packs side by side (``model.packed_basis``):
     each channel keeps its mean as basis 0."""
     return -(-(n_y + 1) // 4) + 2 * -(-(n_c + 1) // 4)
 
