@@ -106,6 +106,22 @@ def test_a_light_scaled_to_nothing_is_left_out_and_one_flattened_still_shines(tr
     assert np.isfinite(brighter).all() and brighter[..., :3].sum() > 1.01 * lit[..., :3].sum()
 
 
+def test_a_scaled_camera_sees_as_blender_does(tr, scene):
+    """Blender's cameras (Cycles, EEVEE) see without their object's scale; F12 took it into the view matrix
+    (a camera scaled (2, 1, 1) squeezed the image, an orthographic one scaled 2 framed another part)."""
+    lit_cube_scene(scene)
+    plain = render(scene, 24, 24)
+    assert plain[..., :3].std() > 0.01
+    for scale in ((2.0, 1.0, 1.0), (2.0, 2.0, 2.0)):
+        scene.camera.scale = scale
+        np.testing.assert_allclose(render(scene, 24, 24), plain, rtol=1e-4, atol=1e-5)
+    scene.camera.data.type = "ORTHO"
+    scene.camera.scale = (1.0, 1.0, 1.0)
+    ortho = render(scene, 24, 24)
+    scene.camera.scale = (2.0, 2.0, 2.0)
+    np.testing.assert_allclose(render(scene, 24, 24), ortho, rtol=1e-4, atol=1e-5)
+
+
 def test_scene_without_camera_is_a_clear_error(scene):
     add_cube(scene)
     with pytest.raises(RuntimeError, match="no camera"):

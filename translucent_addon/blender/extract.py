@@ -574,7 +574,7 @@ def render_camera(depsgraph, width: int, height: int) -> CameraView:
     proj = cam_eval.calc_matrix_camera(
         depsgraph, x=width, y=height, scale_x=scene.render.pixel_aspect_x, scale_y=scene.render.pixel_aspect_y
     )
-    view = cam_eval.matrix_world.inverted()
+    view = cam_eval.matrix_world.normalized().inverted()  # Blender's cameras see without their object's scale
     return CameraView(np.array(view), np.array(proj), width, height)
 
 
