@@ -89,3 +89,35 @@ def test_light_units_match_cycles(tr, scene, kind, settings, location, rotation)
     print(kind, "median", np.median(rel), "p95", np.percentile(rel, 95))
     assert np.median(rel) < 0.02
     assert np.percentile(rel, 95) < 0.05
+
+
+def test_a_light_s_temperature_tints_it_as_in_cycles(tr, scene):
+    """Blender 5 lights can take their colour from a blackbody temperature: Cycles multiplies the colour by
+    it; the extraction took the colour alone (a 2000 K lamp drew white)."""
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    light = bpy.data.lights.new("Warm", "POINT")
+    if not hasattr(light, "use_temperature"):
+        pytest.skip("this Blender's lights have no temperature")
+    _white_plane(scene)
+    light.energy, light.shadow_soft_size = 80.0, 0.0
+    lo = bpy.data.objects.new("Warm", light)
+    lo.location = (0.3, -0.2, 1.5)
+    scene.collection.objects.link(lo)
+    cam = bpy.data.objects.new("C", bpy.data.cameras.new("C"))
+    cam.data.type, cam.data.ortho_scale, cam.location = "ORTHO", 2 * HALF, (0, 0, 5)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.max_bounces, scene.cycles.seed = 16, False, 0, 1
+    white = render(scene, 8, 8)[..., :3].mean(axis=(0, 1))
+    light.use_temperature, light.temperature = True, 2000.0
+    warm = render(scene, 8, 8)[..., :3].mean(axis=(0, 1))
+    tint = np.array(light.temperature_color)
+    np.testing.assert_allclose(warm / white, tint, rtol=1e-3)  # what Cycles does with it
+    assert tint[0] > 2 * tint[2]
+    np.testing.assert_allclose(extract.light_color(light), tint * np.array(light.color), rtol=1e-6)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, 8, 8))
+    (emitter,) = frame.emitters
+    rgb = np.array(emitter.radiance)
+    np.testing.assert_allclose(rgb / rgb.max(), tint / tint.max(), rtol=1e-6)

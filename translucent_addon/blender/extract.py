@@ -530,7 +530,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 ob.original.name,
                 light.type,
                 np.array(inst.matrix_world),
-                light.color,
+                light_color(light),
                 light.energy * (2.0 ** getattr(light, "exposure", 0.0)),
                 spot_size=getattr(light, "spot_size", 0.0),
                 spot_blend=getattr(light, "spot_blend", 0.0),
@@ -556,6 +556,15 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
         caustics=caustic_settings(settings),
         warnings=warnings,
     )
+
+
+def light_color(light) -> tuple:
+    """The light's colour as Cycles and EEVEE take it: times its blackbody colour where Temperature is on
+    (Blender 5.0 and later; the property is absent before)."""
+    color = np.array(light.color, np.float64)
+    if getattr(light, "use_temperature", False):
+        color *= np.array(light.temperature_color, np.float64)
+    return tuple(color)
 
 
 def output_size(render) -> tuple[int, int]:
