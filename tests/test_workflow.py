@@ -277,3 +277,18 @@ def test_add_grass_field_with_settings_it_cannot_grow_leaves_the_field_off(tr, s
     with pytest.raises(RuntimeError, match="'Ground': blade height must be 5-60 % of the tile"):
         bpy.ops.translucent.add_grass_field()
     assert not ground.translucent.grass
+
+
+def test_the_overlay_over_other_engines_draws_with_the_scene_s_settings(tr, scene):
+    """Objects drawn over EEVEE's viewport took the defaults (splat overlap, QUADGRAPH tolerance, ...), not the
+    scene's: the overlay's frame now carries them, as the engine's viewport frame does."""
+    draw_handler = ext_module(tr, "translucent_addon.blender.draw_handler")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    cube = add_cube(scene)
+    cube.translucent.method = "IMAGE_SPACE"
+    add_camera(scene, (0, -4, 1), (0, 0, 0))
+    scene.translucent.splat_overlap = 23.0
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = draw_handler.overlay_frame(depsgraph, extract.render_camera(depsgraph, 32, 32))
+    assert [m.name for m in frame.meshes] == [cube.name]
+    assert frame.settings.techniques["IMAGE_SPACE"].overlap == pytest.approx(23.0)

@@ -7,13 +7,16 @@ framebuffer, depth-tested against what the engine drew.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import bpy
 
 from ..pipeline import Pipeline
 from . import extract, preferences
-from .engine import LAST_TIMINGS
+from .engine import LAST_TIMINGS, draw_settings
 
 _handle = None
+_frames = 0  # overlay frames drawn: the temporal coherence's sequence
 _overlay = None
 _pipeline: Pipeline | None = None
 
@@ -27,14 +30,22 @@ def _draw():
     region, rv3d = context.region, context.region_data
     if region is None or rv3d is None:
         return
-    depsgraph = context.evaluated_depsgraph_get()
-    frame = extract.frame_inputs(depsgraph, extract.viewport_camera(region, rv3d), only_translucent=True)
+    frame = overlay_frame(context.evaluated_depsgraph_get(), extract.viewport_camera(region, rv3d))
     if not frame.meshes:
         return
     if _pipeline is None:
         _pipeline = Pipeline()
     _pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
     _pipeline.draw(frame, clear=False)
+
+
+def overlay_frame(depsgraph, camera):
+    """The translucent objects of the scene for the overlay, with the scene's settings (its splat overlap and
+    Auto, texture product, QUADGRAPH tolerance, temporal coherence), as the engine's viewport draws them."""
+    global _frames
+    frame = extract.frame_inputs(depsgraph, camera, only_translucent=True)
+    _frames += 1
+    return dataclasses.replace(frame, settings=draw_settings(depsgraph.scene, frame, "overlay", _frames, False))
 
 
 def timing_lines(timings: dict) -> list[str]:
