@@ -121,3 +121,43 @@ def test_a_light_s_temperature_tints_it_as_in_cycles(tr, scene):
     (emitter,) = frame.emitters
     rgb = np.array(emitter.radiance)
     np.testing.assert_allclose(rgb / rgb.max(), tint / tint.max(), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kind, settings, scale", [
+    ("POINT", dict(shadow_soft_size=0.3), (2.0, 2.0, 2.0)),  # 4 pi r^2, the radius unscaled
+    ("POINT", dict(shadow_soft_size=0.0), (1.0, 1.0, 1.0)),  # 4
+    ("SPOT", dict(shadow_soft_size=0.2, spot_size=2.5), (1.0, 1.0, 1.0)),
+    ("AREA", dict(size=0.5, shape="RECTANGLE", size_y=0.2), (2.0, 1.0, 1.0)),  # the scaled rectangle's area
+    ("AREA", dict(size=0.5, shape="DISK"), (1.0, 1.0, 1.0)),
+    ("SUN", dict(angle=0.3), (1.0, 1.0, 1.0)),  # pi sin^2(angle / 2)
+])
+def test_a_light_with_normalize_off_is_as_bright_as_in_cycles(tr, scene, kind, settings, scale):
+    """Normalize off: Cycles scales the light's power by its emitting area; the emitters took every light as
+    normalized. Cycles' own ratio (off / on, one seed: the paths only scale) against the frame's emitters'."""
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    light = bpy.data.lights.new("L", kind)
+    if not hasattr(light, "normalize"):
+        pytest.skip("this Blender's lights are always normalized")
+    _white_plane(scene)
+    light.energy = 2.0 if kind == "SUN" else 10.0
+    for key, value in settings.items():
+        setattr(light, key, value)
+    lo = bpy.data.objects.new("L", light)
+    lo.location, lo.scale = (0.0, 0.0, 1.5), scale
+    scene.collection.objects.link(lo)
+    cam = bpy.data.objects.new("C", bpy.data.cameras.new("C"))
+    cam.data.type, cam.data.ortho_scale, cam.location = "ORTHO", 2 * HALF, (0, 0, 5)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.max_bounces, scene.cycles.seed = 8, False, 0, 1
+
+    def both():
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, 8, 8))
+        return render(scene, 8, 8)[..., 0].mean(), sum(e.radiance[0] for e in frame.emitters)
+
+    cycles_on, ours_on = both()
+    light.normalize = False
+    cycles_off, ours_off = both()
+    assert ours_off / ours_on == pytest.approx(cycles_off / cycles_on, rel=1e-5)

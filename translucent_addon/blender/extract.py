@@ -29,7 +29,7 @@ from ..core.frame import (
 )
 from ..core.geometry.mesh_measures import uv_tangents
 from ..core.geometry.orientation import outward_normals, turned
-from ..core.lights import emitters_from_light
+from ..core.lights import emitters_from_light, unnormalized_power
 from ..core.physics.lut import BLUR_MIN, layer_problem
 from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
@@ -531,7 +531,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 light.type,
                 np.array(inst.matrix_world),
                 light_color(light),
-                light.energy * (2.0 ** getattr(light, "exposure", 0.0)),
+                light.energy * (2.0 ** getattr(light, "exposure", 0.0)) * light_normalization(light, inst.matrix_world),
                 spot_size=getattr(light, "spot_size", 0.0),
                 spot_blend=getattr(light, "spot_blend", 0.0),
                 area_shape=getattr(light, "shape", "SQUARE"),
@@ -565,6 +565,16 @@ def light_color(light) -> tuple:
     if getattr(light, "use_temperature", False):
         color *= np.array(light.temperature_color, np.float64)
     return tuple(color)
+
+
+def light_normalization(light, matrix_world) -> float:
+    """1 for a light whose Normalize is on (the default, and the only way before Blender 4.x had the option);
+    off, Cycles scales its power by its emitting area (``lights.unnormalized_power``)."""
+    if getattr(light, "normalize", True):
+        return 1.0
+    return unnormalized_power(light.type, np.array(matrix_world), radius=getattr(light, "shadow_soft_size", 0.0),
+                              angle=getattr(light, "angle", 0.0), area_shape=getattr(light, "shape", "SQUARE"),
+                              size=getattr(light, "size", 0.0), size_y=getattr(light, "size_y", 0.0))
 
 
 def output_size(render) -> tuple[int, int]:

@@ -76,6 +76,22 @@ def _area_sample_offsets(shape: str, size_x: float, size_y: float, n: int) -> np
     return np.stack([u * size_x * 0.5, v * size_y * 0.5, np.zeros_like(u)], axis=1)
 
 
+def unnormalized_power(light_type: str, matrix_world: ArrayLike, *, radius: float = 0.0, angle: float = 0.0,
+                       area_shape: str = "SQUARE", size: float = 0.0, size_y: float = 0.0) -> float:
+    """What Cycles multiplies a light's power by when its Normalize is off (measured against Cycles, power off /
+    on: tests/test_light_units.py): the emitting surface's area, 4 pi r^2 for a point or spot of radius r (4 at
+    r = 0), the rectangle's or ellipse's area with the object's scale for an area light, pi sin^2(angle / 2) for
+    a sun of angular diameter angle (1 at 0)."""
+    if light_type in ("POINT", "SPOT"):
+        return 4.0 * math.pi * radius * radius if radius > 0.0 else 4.0
+    if light_type == "SUN":
+        return math.pi * math.sin(0.5 * angle) ** 2 if angle > 0.0 else 1.0
+    m = np.asarray(matrix_world, dtype=np.float64).reshape(4, 4)
+    width = size * float(np.linalg.norm(m[:3, 0]))
+    height = (size if area_shape in ("SQUARE", "DISK") else size_y) * float(np.linalg.norm(m[:3, 1]))
+    return width * height * (math.pi / 4.0 if area_shape in ("DISK", "ELLIPSE") else 1.0)
+
+
 def emitters_from_light(
     name: str,
     light_type: str,
