@@ -61,17 +61,22 @@ def get(handle, build):
     res = _entries.get(handle.key)
     if res is None:
         arrays = handle.load()
-        forget(handle.key.split("#")[0])  # the object's previous bake
+        forget(_owner(handle.key))  # the object's previous bake
         res = _entries[handle.key] = build(arrays)
     return res
+
+
+def _owner(key: str) -> str:
+    """The object name of a bake key, name '#' hash (a name may hold '#' itself; the hash does not)."""
+    return key.rsplit("#", 1)[0]
 
 
 def forget(owner: str) -> None:
     """Drop an object's GPU data: its bake was just rewritten or cleared. (A QUADGRAPH bake's key does not
     change with a new bake in another pose, since its hash follows the topology only.)"""
-    for key in [k for k in _entries if k.split("#")[0] == owner]:
+    for key in [k for k in _entries if _owner(k) == owner]:
         del _entries[key]
-    for key in [k for k in _damaged if k.split("#")[0] == owner]:
+    for key in [k for k in _damaged if _owner(k) == owner]:
         del _damaged[key]
 
 

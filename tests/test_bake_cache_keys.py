@@ -1,0 +1,20 @@
+"""GPU data of bakes by key, object name '#' inputs hash (gpu/bake_cache.py): forgetting one object's bake leaves
+the others', also where a name holds '#'. Pure: the GPU data are stood in for."""
+from __future__ import annotations
+
+import types
+
+from translucent_addon.gpu import bake_cache
+
+
+def test_forgetting_an_object_s_bake_leaves_objects_whose_names_share_its_prefix(monkeypatch):
+    monkeypatch.setattr(bake_cache, "_entries", {})
+    monkeypatch.setattr(bake_cache, "_damaged", {})
+    for name in ("Leaf", "Leaf#2", "Leaf#2#b"):
+        handle = types.SimpleNamespace(key=f"{name}#0123abcd", load=lambda: {})
+        bake_cache.get(handle, lambda arrays, name=name: name)
+    bake_cache.forget("Leaf#2")
+    assert sorted(bake_cache._entries) == ["Leaf#0123abcd", "Leaf#2#b#0123abcd"]
+    # A new bake of an object replaces its previous one only.
+    bake_cache.get(types.SimpleNamespace(key="Leaf#ffff0000", load=lambda: {}), lambda arrays: "new")
+    assert sorted(bake_cache._entries) == ["Leaf#2#b#0123abcd", "Leaf#ffff0000"]
