@@ -417,3 +417,22 @@ def test_stored_arrays_that_do_not_fit_their_counts_are_refused(damage):
         why = "'qg_rest_triangles' has shape"
     with pytest.raises(DamagedBakeError, match=why):
         load(arrays)
+
+
+def test_a_surface_link_held_at_its_least_length_is_weighed_with_it():
+    """d_sk is kept at least a tenth of its face's size; the inner node's weight across that face took the
+    unfloored distance, so the two rows of the link disagreed (the inner one conducted more)."""
+    from translucent_addon.techniques.quadgraph.graph import link_geometry
+
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float64)
+    tets = np.array([[0, 1, 2, 3]])
+    inner = points.mean(axis=0)
+    surface = np.array([inner + [0.0, 0.0, 1e-6], inner + [0.3, 0.0, 0.0], inner + [0.0, 0.3, 0.0],
+                        inner + [0.0, 0.0, -0.3]])  # the first hit lands on the inner node: floored
+    positions = np.concatenate([surface, inner[None]])
+    neighbours = np.array([[4, -1, -1, -1]] * 4 + [[0, 1, 2, 3]])
+    weights, d_surface, volumes = link_geometry(positions, neighbours, 4, points, tets)
+    area = np.array([np.linalg.norm(np.cross(points[b] - points[a], points[c] - points[a])) / 2
+                     for a, b, c in ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2))])
+    assert d_surface[0] == pytest.approx(0.1 * np.sqrt(area[0]))  # held at its least
+    np.testing.assert_allclose(weights[4], area / (d_surface * abs(volumes[0])), rtol=1e-12)

@@ -205,6 +205,7 @@ def link_geometry(positions, neighbours, S: int, points, tets, volume_floor=None
     s = neighbours[S:][t, f]
     d_surface = np.empty(S)
     d_surface[s] = np.maximum(np.linalg.norm(positions[s] - inner[t], axis=1), 0.1 * np.sqrt(area[t, f]))
+    weights[S + t, f] = area[t, f] / (d_surface[s] * V[t])  # the link's weight with the length it is given
     return weights, d_surface, volumes
 
 
