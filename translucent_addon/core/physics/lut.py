@@ -170,7 +170,7 @@ def profile_tables(radii: ArrayLike, profile: ArrayLike, rho_mm: float, epsilon:
                             float(rho_mm), total)
 
 
-def layer_problem(top_sigma_a, top_sigma_s_prime, thickness_mm: float) -> str | None:
+def layer_problem(top_sigma_a: tuple, top_sigma_s_prime: tuple, thickness_mm: float) -> str | None:
     """Why the multipole cannot model this layer (thinner than its source depth z_r = 1 / sigma_t' in some
     channel: the first source lies outside it), or None."""
     z_r = max(1.0 / (a + s) for a, s in zip(top_sigma_a, top_sigma_s_prime))
