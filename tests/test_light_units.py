@@ -91,6 +91,17 @@ def test_light_units_match_cycles(tr, scene, kind, settings, location, rotation)
     assert np.percentile(rel, 95) < 0.05
 
 
+def _direct_light_in_cycles(scene, samples: int) -> None:
+    """An orthographic camera over the plane's [-1, 1]^2 and Cycles with one seed and no bounce: a light's
+    direct light alone, two renders of which differ only by the light's scale."""
+    cam = bpy.data.objects.new("C", bpy.data.cameras.new("C"))
+    cam.data.type, cam.data.ortho_scale, cam.location = "ORTHO", 2 * HALF, (0, 0, 5)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.max_bounces, scene.cycles.seed = samples, False, 0, 1
+
+
 def test_a_light_s_temperature_tints_it_as_in_cycles(tr, scene):
     """Blender 5 lights can take their colour from a blackbody temperature: Cycles multiplies the colour by
     it; the extraction took the colour alone (a 2000 K lamp drew white)."""
@@ -103,12 +114,7 @@ def test_a_light_s_temperature_tints_it_as_in_cycles(tr, scene):
     lo = bpy.data.objects.new("Warm", light)
     lo.location = (0.3, -0.2, 1.5)
     scene.collection.objects.link(lo)
-    cam = bpy.data.objects.new("C", bpy.data.cameras.new("C"))
-    cam.data.type, cam.data.ortho_scale, cam.location = "ORTHO", 2 * HALF, (0, 0, 5)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.render.engine = "CYCLES"
-    scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.max_bounces, scene.cycles.seed = 16, False, 0, 1
+    _direct_light_in_cycles(scene, samples=16)
     white = render(scene, 8, 8)[..., :3].mean(axis=(0, 1))
     light.use_temperature, light.temperature = True, 2000.0
     warm = render(scene, 8, 8)[..., :3].mean(axis=(0, 1))
@@ -145,12 +151,7 @@ def test_a_light_with_normalize_off_is_as_bright_as_in_cycles(tr, scene, kind, s
     lo = bpy.data.objects.new("L", light)
     lo.location, lo.scale = (0.0, 0.0, 1.5), scale
     scene.collection.objects.link(lo)
-    cam = bpy.data.objects.new("C", bpy.data.cameras.new("C"))
-    cam.data.type, cam.data.ortho_scale, cam.location = "ORTHO", 2 * HALF, (0, 0, 5)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    scene.render.engine = "CYCLES"
-    scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.max_bounces, scene.cycles.seed = 8, False, 0, 1
+    _direct_light_in_cycles(scene, samples=8)
 
     def both():
         depsgraph = bpy.context.evaluated_depsgraph_get()
