@@ -75,11 +75,14 @@ def clear_target(fb, color=(0.0, 0.0, 0.0, 0.0), depth: float | None = 1.0) -> N
 def read_pixels(fb, width: int, height: int, slot: int = 0, channels: int = 4) -> np.ndarray:
     """Float pixels (height, width, channels: RGBA, or RGB when 3) of a bound framebuffer, row 0 at the bottom.
 
-    Read into a 1-D Buffer: NumPy views of multi-dimensional ``gpu.types.Buffer``
-    objects get wrong strides in Blender 5.0.
+    Always read as four floats a pixel, then sliced: Blender's Vulkan backend writes every component of the
+    texture whatever channel count is asked (5.3: a 3-channel read of an RGBA32F target wrote 4 floats a pixel
+    past the end of the buffer, corrupting the heap; docs/gpu_backends.md). Read into a 1-D Buffer: NumPy views
+    of multi-dimensional ``gpu.types.Buffer`` objects get wrong strides in Blender 5.0.
     """
     import gpu
 
-    buf = gpu.types.Buffer("FLOAT", width * height * channels)
-    fb.read_color(0, 0, width, height, channels, slot, "FLOAT", data=buf)
-    return np.asarray(buf, dtype=np.float32).reshape(height, width, channels).copy()
+    buf = gpu.types.Buffer("FLOAT", width * height * 4)
+    fb.read_color(0, 0, width, height, 4, slot, "FLOAT", data=buf)
+    pixels = np.asarray(buf, dtype=np.float32).reshape(height, width, 4)
+    return (pixels if channels == 4 else pixels[..., :channels]).copy()

@@ -428,7 +428,7 @@ def _relative_change(fb_new, fb_old, size) -> float:
     """The convergence test of ``physics.diffusion.relative_change`` on two read-back phi targets."""
 
     with fb_new.bind():
-        new = read_pixels(fb_new, *size, channels=3)  # contiguous RGB: half the read-back, faster reductions
+        new = read_pixels(fb_new, *size, channels=3)
     with fb_old.bind():
         old = read_pixels(fb_old, *size, channels=3)
     return df.relative_change(new, old)
