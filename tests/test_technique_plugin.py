@@ -38,13 +38,13 @@ def constant_colour_technique(tr):
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.depth_mask_set(False)
                 gpu.state.blend_set("NONE")
-                shader = shaders.get("constant_test")
+                shader = shaders.pass_shader("constant_test")
                 shader.bind()
                 shader.uniform_block("frame", ctx.frame_ubo)
                 shader.uniform_float("colour", COLOUR)
                 for k in state:
                     shader.uniform_block("object", ctx.objects[k])
-                    ctx.batches[k][0].draw(shader)
+                    shader.draw(ctx.batches[k][0])
                 gpu.state.depth_mask_set(True)
             return {}
 

@@ -196,12 +196,12 @@ class Pipeline:
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
         gpu.state.blend_set("NONE")
-        shader = shaders.get("env_background")
+        shader = shaders.pass_shader("env_background")
         shader.bind()
         shader.uniform_block("frame", frame_ubo)
         shader.uniform_sampler("env_atlas", env_tex)
         shader.uniform_int("env_res", int(chain.res))
-        screen_quad(self, "env_background").draw(shader)
+        shader.draw(screen_quad(self, "env_background"))
         gpu.state.depth_mask_set(True)
 
     @staticmethod
@@ -214,14 +214,14 @@ class Pipeline:
             if k in skip:
                 continue  # drawn by its own pass (height fields)
             shader.uniform_block("object", obj)
-            base.draw(shader)
+            shader.draw(base)
 
     @staticmethod
     def _draw_shadow(n_faces: int, texels: int, batches, objects, light_ubo, atlas) -> None:
         import gpu
 
         fb = atlas[3]
-        shader = shaders.get("shadow_distance")
+        shader = shaders.pass_shader("shadow_distance")
         with fb.bind():
             clear_target(fb, (3.0e38, 0.0, 0.0, 0.0))
             gpu.state.depth_test_set("LESS_EQUAL")
@@ -234,7 +234,7 @@ class Pipeline:
                 shader.uniform_int("face", face)
                 for (_, shadow), obj in zip(batches, objects):
                     shader.uniform_block("object", obj)
-                    shadow.draw(shader)
+                    shader.draw(shadow)
 
 
 SHAPE_REUSE = 0.01  # a deforming mesh keeps its shape operators while its corners move less than this (mean)

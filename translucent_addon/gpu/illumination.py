@@ -33,7 +33,7 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         shader.uniform_float("atlas_size", tuple(float(x) for x in size))
         shader.uniform_float("entry", tuple(float(x) for x in entry))
         shader.uniform_sampler("cosine_table", cosine_table)
-        points.draw(shader)
+        shader.draw(points)
         gpu.state.blend_set("NONE")
 
 

@@ -131,11 +131,59 @@ def get(name: str):
     return shader
 
 
-def bind_lit(name: str, frame_ubo, light_ubo, shadow_atlas, mode: int):
+class PassShader:
+    """A pass's compiled shader with its inputs set in the one order every backend takes.
+
+    Blender 5.3 on OpenGL writes a sampler's binding slot into the shader's first push constant when
+    ``uniform_sampler`` is called (measured: docs/gpu_backends.md), so a push constant set before a sampler was
+    silently replaced (TEXTURE_SPACE's ``vertex_width`` read 6, the slot of its seventh sampler). Every pass sets
+    its inputs through this object: push constants are remembered and set again after each sampler, so the order
+    of the calls no longer matters on any backend. ``draw`` draws a batch with the shader.
+    """
+
+    __slots__ = ("name", "shader", "_constants")
+
+    def __init__(self, name: str):
+        self.name = name
+        self.shader = get(name)
+        self._constants = {}  # name: (setter, value) of the push constants set so far
+
+    def bind(self) -> PassShader:
+        self.shader.bind()
+        return self
+
+    def uniform_block(self, name: str, ubo) -> None:
+        self.shader.uniform_block(name, ubo)
+
+    def uniform_sampler(self, name: str, texture) -> None:
+        self.shader.uniform_sampler(name, texture)
+        for const, (setter, value) in self._constants.items():
+            getattr(self.shader, setter)(const, value)
+
+    def uniform_int(self, name: str, value) -> None:
+        self._constants[name] = ("uniform_int", value)
+        self.shader.uniform_int(name, value)
+
+    def uniform_float(self, name: str, value) -> None:
+        self._constants[name] = ("uniform_float", value)
+        self.shader.uniform_float(name, value)
+
+    def draw(self, batch) -> None:
+        batch.draw(self.shader)
+
+    def draw_instanced(self, batch, instance_count: int) -> None:
+        batch.draw_instanced(self.shader, instance_start=0, instance_count=instance_count)
+
+
+def pass_shader(name: str) -> PassShader:
+    """The shader of a pass, to bind, set and draw with (``PassShader``); built on first use."""
+    return PassShader(name)
+
+
+def bind_lit(name: str, frame_ubo, light_ubo, shadow_atlas, mode: int) -> PassShader:
     """Bind a pass drawn in the world pass (mode 0) and each emitter's pass (mode 1) with what those
-    passes share: the frame and light blocks, the shadow atlas and the mode. Returns the shader."""
-    shader = get(name)
-    shader.bind()
+    passes share: the frame and light blocks, the shadow atlas and the mode. Returns the ``PassShader``."""
+    shader = pass_shader(name).bind()
     shader.uniform_block("frame", frame_ubo)
     shader.uniform_block("light", light_ubo)
     shader.uniform_sampler("shadow_atlas", shadow_atlas)

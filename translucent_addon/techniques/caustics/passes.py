@@ -169,7 +169,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
 
     # 1. Receiver positions from the light.
     recv_fb, (recv_tex,), _recv_depth = _target(pipeline, "caustic_receivers", atlas_size, depth=True)
-    shader = shaders.get("caustic_receiver")
+    shader = shaders.pass_shader("caustic_receiver")
     n_faces = 6 if e.kind else 1
     with recv_fb.bind():
         clear_target(recv_fb, (0.0, 0.0, 0.0, 0.0))
@@ -181,16 +181,16 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
             shader.uniform_int("face", face)
             for k in plan.receivers:
                 shader.uniform_block("object", objects[k])
-                _batch(pipeline, "caustic_receiver", frame.meshes[k], False).draw(shader)
+                shader.draw(_batch(pipeline, "caustic_receiver", frame.meshes[k], False))
     _capture(pipeline, "caustic_receivers", recv_fb, atlas_size)
 
     flux_fb, (flux_tex,), _ = _target(pipeline, "caustic_flux", atlas_size)
     with flux_fb.bind():
         clear_target(flux_fb, (0.0, 0.0, 0.0, 0.0), depth=None)
     G = int(s.grid)
-    caster_shader = shaders.get("caustic_caster")
-    trace_shader = shaders.get("caustic_trace")
-    splat_shader = shaders.get("caustic_splat")
+    caster_shader = shaders.pass_shader("caustic_caster")
+    trace_shader = shaders.pass_shader("caustic_trace")
+    splat_shader = shaders.pass_shader("caustic_splat")
     keep_alive = []
     for k, mesh, centre, radius in plan.casters:
         try:
@@ -211,7 +211,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
                 caster_shader.bind()
                 caster_shader.uniform_block("caustic", ubo)
                 caster_shader.uniform_block("object", objects[k])
-                _batch(pipeline, "caustic_caster", mesh, True).draw(caster_shader)
+                caster_shader.draw(_batch(pipeline, "caustic_caster", mesh, True))
             maps.append(textures)
             _capture(pipeline, name + "_position", grid_fb, (G, G), 0)
             _capture(pipeline, name + "_normal", grid_fb, (G, G), 1)
@@ -232,7 +232,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
             trace_shader.uniform_sampler("back_normal", maps[1][1])
             trace_shader.uniform_sampler("receiver_atlas", recv_tex)
             trace_shader.uniform_sampler("shadow_atlas", shadow_atlas)
-            screen_quad(pipeline, "caustic_trace").draw(trace_shader)
+            trace_shader.draw(screen_quad(pipeline, "caustic_trace"))
         _capture(pipeline, "caustic_landing", trace_fb, trace_size, 0)
         _capture(pipeline, "caustic_trace_flux", trace_fb, trace_size, 1)
         # 4. Splat into the caustic atlas.
@@ -244,8 +244,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
             splat_shader.uniform_block("caustic", ubo)
             splat_shader.uniform_sampler("trace_landing", landing_tex)
             splat_shader.uniform_sampler("trace_flux", trace_flux_tex)
-            screen_quad(pipeline, "caustic_splat").draw_instanced(
-                splat_shader, instance_start=0, instance_count=trace_size[0] * trace_size[1])
+            splat_shader.draw_instanced(screen_quad(pipeline, "caustic_splat"), trace_size[0] * trace_size[1])
             gpu.state.blend_set("NONE")
         gpu.state.depth_mask_set(True)
     _capture(pipeline, "caustic_flux", flux_fb, atlas_size)
@@ -253,7 +252,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
         return
 
     # 5. Receivers add the caustic.
-    apply = shaders.get("caustic_apply")
+    apply = shaders.pass_shader("caustic_apply")
     with fb.bind():
         gpu.state.depth_mask_set(False)
         gpu.state.depth_test_set("LESS_EQUAL")
@@ -266,7 +265,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
         apply.uniform_sampler("receiver_atlas", recv_tex)
         for k in plan.lit:
             apply.uniform_block("object", objects[k])
-            batches[k][0].draw(apply)
+            apply.draw(batches[k][0])
         gpu.state.blend_set("NONE")
         gpu.state.depth_mask_set(True)
 

@@ -113,7 +113,7 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, 
         gpu.state.depth_test_set("LESS_EQUAL")
         gpu.state.depth_mask_set(False)
         gpu.state.blend_set("NONE")
-        shader = shaders.get("gc_refract")
+        shader = shaders.pass_shader("gc_refract")
         shader.bind()
         shader.uniform_block("frame", frame_ubo)
         shader.uniform_sampler("env_atlas", env_tex)
@@ -127,7 +127,7 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, 
             shader.uniform_sampler("gc_normals", r.normals)
             shader.uniform_sampler("gc_centres", r.centres)
             shader.uniform_sampler("transfer_table", table_tex)
-            r.batch(a.mesh).draw(shader)
+            shader.draw(r.batch(a.mesh))
         gpu.state.depth_mask_set(True)
     return {"geocube": time.perf_counter() - t0}
 

@@ -125,7 +125,7 @@ def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_
         shader.uniform_sampler("btf_coeffs", r.coeffs)
         shader.uniform_sampler("btf_depth", r.depth)
         shader.uniform_sampler("btf_tables", r.tables)
-        _batch(pipeline, a.mesh).draw(shader)
+        shader.draw(_batch(pipeline, a.mesh))
 
 
 class Grass(Technique):

@@ -165,7 +165,7 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
     out_fb, (out,), _ = history["accum"][1 - parity]
     _, (previous_accum,), _ = history["accum"][parity]
     _, (previous_gbuffer, _), _ = history["gbuffer"][parity]
-    shader = shaders.get("is_temporal")
+    shader = shaders.pass_shader("is_temporal")
     temporal_ubo = gpu.types.GPUUniformBuf(data.tobytes())  # referenced until the draw: a freed UBO reads as 0
     with out_fb.bind():
         gpu.state.depth_test_set("NONE")
@@ -177,7 +177,7 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
         shader.uniform_sampler("previous_accum", previous_accum if valid else scatter)
         shader.uniform_sampler("previous_gbuffer", previous_gbuffer if valid else gbuf)
         shader.uniform_float("blend", TEMPORAL_BLEND if valid else 1.0)
-        quad.draw(shader)
+        shader.draw(quad)
     history.update(parity=1 - parity, frame=frame.settings.coherence_frame, view_proj=frame.camera.view_proj,
                    models=models)
     return out
@@ -192,7 +192,7 @@ def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool,
     gpu.state.depth_test_set("NONE")
     gpu.state.depth_mask_set(False)
     gpu.state.blend_set("ADDITIVE_PREMULT")
-    shader = shaders.get("is_splat")
+    shader = shaders.pass_shader("is_splat")
     shader.bind()
     shader.uniform_block("frame", frame_ubo)
     shader.uniform_block("materials", prepared.materials)
@@ -207,11 +207,11 @@ def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool,
     shader.uniform_float("tail_start", TAIL_START)
     shader.uniform_int("tail_block", TAIL_BLOCK)
     shader.uniform_int("tail_pass", 0)
-    quad.draw_instanced(shader, instance_start=0, instance_count=size[0] * size[1])
+    shader.draw_instanced(quad, size[0] * size[1])
     if not world:
         shader.uniform_int("tail_pass", 1)
         tail_grid = [-(-n // TAIL_BLOCK) for n in size]
-        quad.draw_instanced(shader, instance_start=0, instance_count=tail_grid[0] * tail_grid[1])
+        shader.draw_instanced(quad, tail_grid[0] * tail_grid[1])
     gpu.state.blend_set("NONE")
 
 
@@ -225,7 +225,7 @@ def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, 
     w = prepared.plan.world
     size = (w.grid, w.grid)
     targets = [_target(pipeline, f"world_samples_{i}", size, depth=True, attachments=2) for i in range(2)]
-    peel = shaders.get("is_world_samples")
+    peel = shaders.pass_shader("is_world_samples")
     for axis in range(3):
         for layer in range(w.layers):
             fb, (pos_id, flux) = targets[layer % 2]
@@ -247,7 +247,7 @@ def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, 
                 for (full, _), obj, sss in zip(batches, objects, is_subsurface):
                     if sss:
                         peel.uniform_block("object", obj)
-                        full.draw(peel)
+                        peel.draw(full)
                 if pipeline.capture is not None:
                     pipeline.capture.setdefault("world_samples", []).append(
                         (read_pixels(fb, *size, slot=0), read_pixels(fb, *size, slot=1)))
@@ -269,7 +269,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
         gbuf_fb, (gbuf, gbuf_normal), _ = history["gbuffer"][1 - history["parity"]]
     else:
         gbuf_fb, (gbuf, gbuf_normal) = _target(pipeline, "gbuffer", size, depth=True, attachments=2)
-    shader = shaders.get("is_gbuffer")
+    shader = shaders.pass_shader("is_gbuffer")
     with gbuf_fb.bind():
         clear_target(gbuf_fb)
         gpu.state.depth_test_set("LESS_EQUAL")
@@ -279,7 +279,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
         shader.uniform_block("frame", frame_ubo)
         for (_, pos_only), obj in zip(batches, objects):
             shader.uniform_block("object", obj)
-            pos_only.draw(shader)
+            shader.draw(pos_only)
         if pipeline.capture is not None:
             pipeline.capture["gbuffer"] = read_pixels(gbuf_fb, *size)
             pipeline.capture["gbuffer_normal"] = read_pixels(gbuf_fb, *size, slot=1)
@@ -288,7 +288,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
     with scatter_fb.bind():
         clear_target(scatter_fb, depth=None)
 
-    samples_shader = shaders.get("is_samples")
+    samples_shader = shaders.pass_shader("is_samples")
     quad = screen_quad(pipeline, "is_splat")
     for sampling in p.samplings:
         n = sampling.grid
@@ -311,7 +311,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
                 samples_shader.uniform_int("face", face)
                 for (full, _), obj in zip(batches, objects):
                     samples_shader.uniform_block("object", obj)
-                    full.draw(samples_shader)
+                    samples_shader.draw(full)
             if pipeline.capture is not None:
                 pipeline.capture.setdefault("samples", []).append(
                     (read_pixels(samples_fb, *atlas_size, slot=0), read_pixels(samples_fb, *atlas_size, slot=1)))
@@ -330,7 +330,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
         scatter = _accumulate(history, frame, p, scatter, gbuf, pipeline, quad)
 
     # Final: add F_t / pi * S to the subsurface objects' visible pixels.
-    composite = shaders.get("is_composite")
+    composite = shaders.pass_shader("is_composite")
     with target_fb.bind():
         gpu.state.depth_test_set("LESS_EQUAL")
         gpu.state.depth_mask_set(False)
@@ -342,7 +342,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
         for (full, _), obj, sss in zip(batches, objects, is_subsurface):
             if sss:
                 composite.uniform_block("object", obj)
-                full.draw(composite)
+                composite.draw(full)
         gpu.state.blend_set("NONE")
         gpu.state.depth_mask_set(True)
 

@@ -419,7 +419,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 table, rho_mm = a.resources.terminator(m)
                 shader.uniform_sampler("terminator_table", table)
                 shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
-                a.resources.surface_batch(a.mesh).draw(shader)
+                shader.draw(a.resources.surface_batch(a.mesh))
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
 
@@ -471,14 +471,14 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
             if previous is None or lg.up is None:
                 clear_target(fb, depth=None)
             else:
-                shader = shaders.get("qg_upsample")
+                shader = shaders.pass_shader("qg_upsample")
                 shader.bind()
                 shader.uniform_sampler("coarse_phi", previous[0].phi[previous[1]][1][0])
                 for name, tex in zip(("up_index0", "up_index1", "up_weight0", "up_weight1"), lg.up):
                     shader.uniform_sampler(name, tex)
                 shader.uniform_int("coarse_blocks_per_row", previous[0].tables.layout.blocks_per_row)
-                screen_quad(pipeline, "qg_upsample").draw(shader)
-        shader = shaders.get("qg_relax")
+                shader.draw(screen_quad(pipeline, "qg_upsample"))
+        shader = shaders.pass_shader("qg_relax")
         quad = screen_quad(pipeline, "qg_relax")
         # Bound once a level: its tables, the blend state and the shader stay (each draw binds the shader again;
         # nothing between two steps binds another), so a step sets phi and draws.
@@ -492,7 +492,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
                 src, dst = lg.phi[cur], lg.phi[1 - cur]
                 with dst[0].bind():
                     shader.uniform_sampler("phi", src[1][0])
-                    quad.draw(shader)
+                    shader.draw(quad)
                 cur = 1 - cur
             n += step
             if _relative_change(lg.phi[cur][0], lg.phi[1 - cur][0], size) < tolerance:
@@ -534,7 +534,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(False)
             gpu.state.blend_set("ALPHA")  # the painted mask: the base pass's Lambert shows where it is 0
-            shader = shaders.get("qg_display")
+            shader = shaders.pass_shader("qg_display")
             shader.bind()
             shader.uniform_block("frame", frame_ubo)
             shader.uniform_block("object", objects[a.index])
@@ -553,7 +553,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_float("eta", eta)
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
             shader.uniform_int("display_output", int(output))
-            a.resources.display_batch(a.mesh).draw(shader)
+            shader.draw(a.resources.display_batch(a.mesh))
             gpu.state.depth_mask_set(True)
             gpu.state.blend_set("NONE")
         t2 = time.perf_counter()

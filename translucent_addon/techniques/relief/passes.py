@@ -98,7 +98,7 @@ def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shado
         shader.uniform_block("object", objects[k])
         shader.uniform_block("relief", ubo)
         shader.uniform_sampler("height_map", height_texture(mesh.relief))
-        _batch(pipeline, mesh).draw(shader)
+        shader.draw(_batch(pipeline, mesh))
 
 
 class Relief(Technique):

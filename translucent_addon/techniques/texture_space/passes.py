@@ -188,12 +188,12 @@ def _gather(fb, points, source, size: tuple) -> None:
 
     clear_target(fb, depth=None)
     gpu.state.blend_set("ADDITIVE_PREMULT")
-    shader = shaders.get("ts_gather")
+    shader = shaders.pass_shader("ts_gather")
     shader.bind()
     shader.uniform_sampler("irradiance", source)
     shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
     shader.uniform_float("vertex_size", tuple(float(x) for x in size))
-    points.draw(shader)
+    shader.draw(points)
     gpu.state.blend_set("NONE")
 
 
@@ -234,7 +234,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                     _gather(cl_fb, res.cluster_points, E_vertex, t.cluster_size)
             with vout_fb.bind():
                 gpu.state.blend_set("NONE")
-                shader = shaders.get("ts_product")
+                shader = shaders.pass_shader("ts_product")
                 shader.bind()
                 shader.uniform_sampler("F_indptr", res.F_indptr)
                 shader.uniform_sampler("F_indices", res.F_indices)
@@ -248,13 +248,13 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 shader.uniform_sampler("E_cluster", E_cluster)
                 shader.uniform_int("row_split", tsd.ROW_SPLIT)
                 shader.uniform_float("z_r", t.z_r)
-                screen_quad(pipeline, "ts_product").draw(shader)
+                shader.draw(screen_quad(pipeline, "ts_product"))
         t2 = time.perf_counter()
         maps_fb, (local_map, global_map, through_map), _ = res.maps
         with maps_fb.bind():
             clear_target(maps_fb, depth=None)
             gpu.state.blend_set("NONE")
-            shader = shaders.get("ts_filter")
+            shader = shaders.pass_shader("ts_filter")
             shader.bind()
             shader.uniform_sampler("irradiance", irradiance)
             shader.uniform_sampler("kernels", res.kernels)
@@ -263,7 +263,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
             shader.uniform_int("local_half", t.local_half)
             shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
-            res.filter_points.draw(shader)
+            shader.draw(res.filter_points)
             if pipeline.capture is not None:
                 w, h = t.atlas_size
                 pipeline.capture.setdefault("texture_space", []).append({
@@ -279,7 +279,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(False)
             gpu.state.blend_set("NONE")
-            shader = shaders.get("ts_display")
+            shader = shaders.pass_shader("ts_display")
             shader.bind()
             shader.uniform_block("frame", frame_ubo)
             shader.uniform_block("object", objects[a.index])
@@ -289,7 +289,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("angular_table", angular_texture(a))
             shader.uniform_sampler("through_map", through_map)
             shader.uniform_sampler("exit_table", exit_texture(a))
-            res.display_batch(a.mesh).draw(shader)
+            shader.draw(res.display_batch(a.mesh))
             gpu.state.depth_mask_set(True)
         t4 = time.perf_counter()
         for key, dt in zip(timings, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
