@@ -1,7 +1,9 @@
 # Translucent: two commands for a fresh Linux machine with Python 3.13 (and 3.11 for Blender 4.5):
 #   make demo   renders the bundled back-lit marble bunny into out/ (Blender 5.2 LTS as a module)
-#   make test   builds the extension zips and runs every test on Blender 5.2 LTS, then the zip-only
-#               tests (install with only the zip's wheels, every operator) on 5.2.4, 5.3.0 and 4.5.15
+#   make test   builds the extension zips and runs every test on Blender 5.2 LTS, the GPU tests on 5.3 under
+#               Vulkan and OpenGL, then the zip-only and image-parity tests (install with only the zip's wheels,
+#               every operator, every method's frame against the reference frame) on 5.2.4, 5.3.0 (Vulkan and
+#               OpenGL) and 4.5.15. Without a Vulkan driver the Vulkan cases are skipped, in one line; CI fails then.
 # `scripts/find_python.sh` finds each Python (PATH, then pyenv) or says how to get it.
 PYTHON ?= $(shell sh scripts/find_python.sh 3.13)
 PYTHON311 ?= $(shell sh scripts/find_python.sh 3.11)
@@ -11,8 +13,13 @@ STAMP := $(VENV)/.installed
 PYTEST_PIN := pytest==8.3.5
 # The Blenders the zip-only tests install the zip into: version and the Python it needs.
 ZIP_BLENDERS := 5.2.4:$(PYTHON) 5.3.0:$(PYTHON) 4.5.15:$(PYTHON311)
+# Blender x GPU backend cases (scripts/test_backends.sh); the reference Blender (5.2.4, OpenGL) first: it bakes the
+# parity scene and renders the reference frames (tests/zip_only/test_parity.py).
+ZIP_CASES := 5.2.4:OPENGL 5.3.0:VULKAN 5.3.0:OPENGL 4.5.15:OPENGL
+GPU53_CASES := 5.3.0:VULKAN 5.3.0:OPENGL
+VENV53 := .venv-5.3
 
-.PHONY: demo test test-dev test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu clean
+.PHONY: demo test test-dev test-gpu53 test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu clean
 
 $(STAMP): requirements.txt
 	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
@@ -44,10 +51,26 @@ test-dev: extension lint
 	$(PY) -m pytest tests --ignore=tests/zip_only
 
 test-zip: extension $(foreach b,$(ZIP_BLENDERS),.venv-zip-$(firstword $(subst :, ,$(b)))/.installed)
-	@for b in $(ZIP_BLENDERS); do v=$${b%%:*}; echo "== zip-only tests on bpy $$v"; \
-	  TRANSLUCENT_ZIP_ONLY=1 .venv-zip-$$v/bin/python -m pytest tests/zip_only -p no:cacheprovider || exit 1; done
+	@sh scripts/test_backends.sh "$(ZIP_CASES)" -- sh -c 'TRANSLUCENT_ZIP_ONLY=1 \
+	  TRANSLUCENT_PARITY_PYTHON=.venv-zip-5.2.4/bin/python .venv-zip-$$BPY_VERSION/bin/python \
+	  -m pytest tests/zip_only -p no:cacheprovider'
 
-test: test-dev test-zip
+# The development environment on Blender 5.3 (bpy 5.3.0 in place of 5.2's pin, the rest as requirements.txt).
+$(VENV53)/.installed: requirements.txt
+	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.3 needs it)"; exit 1;; esac
+	$(PYTHON) -m venv $(VENV53)
+	sed 's/^bpy==.*/bpy==5.3.0/' requirements.txt > $(VENV53)/requirements.txt
+	$(VENV53)/bin/python -m pip install --quiet --upgrade pip
+	$(VENV53)/bin/python -m pip install --quiet -r $(VENV53)/requirements.txt
+	touch $@
+
+# The suite's GPU tests (marker gpu: every GPU pass against its CPU twin, the frames of every method) on 5.3 under
+# Vulkan and OpenGL.
+test-gpu53: extension $(VENV53)/.installed
+	@sh scripts/test_backends.sh "$(GPU53_CASES)" -- $(VENV53)/bin/python -m pytest tests --ignore=tests/zip_only \
+	  -m gpu -p no:cacheprovider -q
+
+test: test-dev test-gpu53 test-zip
 
 demo: $(STAMP)
 	$(PY) scripts/demo.py --output out
@@ -81,4 +104,4 @@ bench-gpu: $(STAMP)
 	$(PY) scripts/bench_frame.py --gpu --budget 270
 
 clean:
-	rm -rf dist wheels out .pytest_cache .venv-zip-*
+	rm -rf dist wheels out .pytest_cache .venv-zip-* .parity

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
+pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
 pytest.importorskip("pytetwild")
 
 from blender_helpers import add_camera, add_light, render, set_world  # noqa: E402

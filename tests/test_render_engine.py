@@ -1,10 +1,13 @@
 """F12 renders of TRANSLUCENT_RT against the CPU reference of the same model."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
+pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
 
 from blender_helpers import (  # noqa: E402
     add_camera,
@@ -430,3 +433,16 @@ def test_f12_fills_the_image_blender_sizes(tr, scene, tmp_path):
         bpy.data.images.remove(image)
     rows = px.reshape(29, 29, 4)[..., :3].sum(axis=(1, 2))
     assert np.all(rows > 0.0), rows  # every row drawn, the top one too (the world is not black)
+
+
+def test_blender_draws_on_the_backend_make_names(tr, scene):
+    """``make test-gpu53`` runs the GPU tests once per backend (scripts/test_backends.sh): Blender really drew on
+    the backend that case names, not a fallback."""
+    import gpu
+
+    lit_cube_scene(scene)
+    render(scene, 16, 16)
+    expected = os.environ.get("TRANSLUCENT_EXPECT_BACKEND")
+    if expected is None:
+        pytest.skip("no backend named (make test-gpu53 names one per case)")
+    assert gpu.platform.backend_type_get() == expected

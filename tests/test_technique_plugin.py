@@ -2,12 +2,14 @@
 registered at run time, chosen as an object's method, drawn by F12, and gone after unregister."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
+pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
 
 from blender_helpers import add_camera, add_cube, add_light, render, set_world  # noqa: E402
 from conftest import ext_module  # noqa: E402
@@ -99,3 +101,54 @@ def test_the_registry_refuses_a_taken_id_or_method_number(tr):
     with pytest.raises(ValueError, match="method number 3 is taken"):
         techniques.register(clash)
     assert techniques.METHOD_IDS == ("OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
+
+
+def _refused_technique(tr, how: str, tmp_path):
+    """The constant-colour technique made to fail as a backend that lacks something would: a shader this backend
+    does not compile, or a texture format it refuses (a three-channel float texture, refused by Metal)."""
+    technique = constant_colour_technique(tr)
+    shaders = ext_module(tr, "translucent_addon.gpu.shaders")
+    targets = ext_module(tr, "translucent_addon.gpu.targets")
+    if how == "shader":
+        broken = tmp_path / "broken.glsl"
+        broken.write_text(GLSL.read_text().replace("void main()", "void main() { undeclared_builtin(); }\nvoid _m()",
+                                                   1))
+        spec = technique.shader_specs["constant_test"]
+        technique.shader_specs = {"constant_test": dataclasses.replace(spec, source=str(broken))}
+    else:
+        def prepare(ctx):
+            targets.texture_from_array(np.zeros((2, 2, 3), np.float32), "RGB32F")
+
+        technique.prepare = prepare
+    shaders.free_all()
+    return technique
+
+
+@pytest.mark.parametrize("how", ["shader", "format"])
+def test_a_technique_the_backend_cannot_run_falls_back_with_one_line(tr, scene, how, tmp_path):
+    """A backend that lacks what a technique needs draws its objects with their base colour and says so in one
+    line naming the object and the reason; the frame is drawn, nothing crashes, the other objects are unchanged."""
+    techniques = ext_module(tr, "translucent_addon.techniques")
+    engine = ext_module(tr, "translucent_addon.blender.engine")
+    set_world(scene, (0.05, 0.05, 0.05))
+    cube = add_cube(scene)
+    add_light(scene, "SUN", (3, -2, 5), energy=2.0)
+    add_camera(scene, (3.0, -3.0, 2.5), (0, 0, 0.5))
+    scene.translucent.capture_passes = True
+    plain = render(scene, 48, 48)
+    technique = _refused_technique(tr, how, tmp_path)
+    techniques.register(technique)
+    try:
+        cube.translucent.method = "CONSTANT_TEST"
+        for _ in range(2):  # refused once, then remembered: the line stays, the shader is not built again
+            image = render(scene, 48, 48)
+            np.testing.assert_allclose(image, plain, atol=1e-6)
+            warnings = [w for w in engine.LAST_CAPTURE["frame"].warnings if "cannot run" in w]
+            assert len(warnings) == 1, engine.LAST_CAPTURE["frame"].warnings
+            assert warnings[0].startswith("'Cube': Constant (test) cannot run on this GPU backend: ")
+            assert warnings[0].endswith("drawn with its base colour")
+            assert ("Shader Compile Error" if how == "shader" else "RGB32F") in warnings[0], warnings[0]
+        cube.translucent.method = "OFF"
+    finally:
+        techniques.unregister(technique)
+        engine.final_pipeline().unavailable.clear()

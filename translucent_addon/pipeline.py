@@ -11,7 +11,9 @@ Both callers share it: ``RenderEngine.render`` (F12, batch; into an RGBA32F offs
 3. each technique's ``finish``: what it draws over the base.
 
 The pipeline names no technique: it loops over ``techniques.REGISTRY`` (``techniques/protocol.py`` says what
-each hook is for). An object whose method draws nothing yet keeps the base.
+each hook is for). An object whose method draws nothing yet keeps the base. A technique the GPU backend cannot run
+(a shader it does not compile, a texture it refuses, a driver error) falls back the same way, with one line naming
+its objects and the reason (``_prepared``); it is not tried again until the pipeline is made anew.
 """
 from __future__ import annotations
 
@@ -38,6 +40,7 @@ class Pipeline:
         self.targets: dict = {}  # method render targets by (name, size), reused across frames
         self.last_timings: dict[str, float] = {}
         self.capture = None  # read-backs of intermediate passes for the last frame (frame.settings.capture)
+        self.unavailable: dict[str, str] = {}  # technique id -> why this GPU backend cannot run it
 
     def free(self) -> None:
         self._batches.clear()
@@ -127,7 +130,7 @@ class Pipeline:
         texels = int(frame.shadow_resolution)
         atlas = self._shadow_atlas(texels)
         ctx = FrameContext(frame, fb, frame_ubo, [], [self._batch(m) for m in frame.meshes], atlas[1], self)
-        states = [(t, t.prepare(ctx)) for t in REGISTRY]
+        states = [(t, self._prepared(t, ctx)) for t in REGISTRY]
         active = [(t, state) for t, state in states if state is not None]
         lighting = [t.base_lighting(state) for t, state in active]
         materials_ubo, near_lut, slots = next(x for x in lighting if x is not None)
@@ -187,6 +190,33 @@ class Pipeline:
         gpu.state.depth_mask_set(False)
         timings["total"] = time.perf_counter() - t0
         self.last_timings = timings
+
+    def _prepared(self, t, ctx: FrameContext):
+        """``t.prepare(ctx)`` once its shaders are built on this backend. A backend that lacks what the technique
+        needs (a shader it does not compile, a format or size it refuses, a driver error) makes it fall back to the
+        base colour for the rest of the session, one line a frame naming its objects and the reason: an error
+        here must not fail the whole frame, and in Blender a failed draw is a blank viewport."""
+        why = self.unavailable.get(t.id)
+        new = why is None
+        if new:
+            try:
+                for name in t.shader_specs:
+                    shaders.get(name)
+                return t.prepare(ctx)
+            except Exception as err:  # noqa: BLE001 -- what a backend raises is not one type; each is reported
+                import traceback
+
+                import gpu
+
+                traceback.print_exc()  # the whole story for the console and a farm's log
+                why = self.unavailable[t.id] = (f"{gpu.platform.backend_type_get()} refused it "
+                                                f"({type(err).__name__}: {str(err).strip() or 'no message'})")
+        names = [m.name for m in ctx.frame.meshes if m.method == t.id]
+        if names or new:
+            who = ", ".join(f"'{n}'" for n in names) if names else t.label
+            ctx.frame.warnings.append(f"{who}: {t.label} cannot run on this GPU backend: {why}; drawn with its base "
+                                      "colour")
+        return None
 
     def _draw_environment(self, frame, frame_ubo) -> None:
         """The world image behind everything, where the world is an environment texture."""

@@ -8,12 +8,20 @@ import numpy as np
 
 from . import shaders
 
+# Texture formats every backend Blender runs takes for sampling and as render targets (docs/gpu_backends.md): no
+# three-channel format (Metal has no RGB float format; Vulkan drivers need not take R32G32B32 as an image), no packed
+# 24-bit depth (Apple GPUs have none). tests/test_backend_rules.py holds every literal format in the code to it.
+TEXTURE_FORMATS = frozenset({"RGBA8", "RGBA16F", "RGBA32F", "RG16F", "RG32F", "R16F", "R32F", "R8",
+                             "DEPTH_COMPONENT32F"})
+
 
 def texture_from_array(image: np.ndarray, fmt: str = "RGBA32F"):
     """A GPUTexture from an (h, w, c) array. Blender fills textures from FLOAT buffers only (integer
     tables travel as exact floats); the buffer takes the NumPy array without a Python list."""
     import gpu
 
+    if fmt not in TEXTURE_FORMATS:
+        raise ValueError(f"texture format {fmt} is not taken by every GPU backend")
     h, w, _ = image.shape
     flat = np.ascontiguousarray(image, np.float32).reshape(-1)
     return gpu.types.GPUTexture((w, h), format=fmt, data=gpu.types.Buffer("FLOAT", flat.size, flat))
