@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -56,6 +57,8 @@ def parity_dir() -> Path:
     folder = root / digest
     done = folder / "reference.done"
     if not done.exists():
+        for old in root.glob("*/reference.done"):  # the scene of an earlier zip: one kept, not one per build
+            shutil.rmtree(old.parent, ignore_errors=True)
         folder.mkdir(parents=True, exist_ok=True)
         proc = _run(REFERENCE, "build", str(zip_path), str(folder / "scene.blend"), env=_reference_env())
         assert proc.returncode == 0, "building the parity scene failed: " + _failure(proc)
