@@ -24,8 +24,9 @@ for _var in ("BLENDER_USER_CONFIG", "BLENDER_USER_SCRIPTS", "BLENDER_USER_DATAFI
 
 WIDTH, HEIGHT = 64, 48
 SPACING = 1.5  # metres between stations: one station's light and shadow do not reach the next one's camera
-# Station name: what it shows. The order is the x position of the station.
-STATIONS = ("image_space", "texture_space", "quadgraph", "geocube", "caustics", "grass", "height_field")
+# Station name: what it shows. The order is the x position of the station. ``hold_out``: two tori (genus 1, a shape
+# no test or bench tunes on), one TEXTURE_SPACE and one QUADGRAPH, baked like the rest.
+STATIONS = ("image_space", "texture_space", "quadgraph", "geocube", "caustics", "grass", "height_field", "hold_out")
 REPO_MODULE = "translucent_parity"
 
 
@@ -104,7 +105,7 @@ def build(zip_path: str, blend_path: str) -> None:
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = WIDTH, HEIGHT, 100
     demo = _module(tr, "translucent_addon.blender.demo")
     demo.uniform_world(scene, (0.05, 0.06, 0.08))  # world light reaches every station
-    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(SPACING * 3, 0.0, 0.0))
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(SPACING * (len(STATIONS) - 1) / 2, 0.0, 0.0))
     floor = bpy.context.active_object
     floor.name = "Floor"
     floor.scale = (SPACING * len(STATIONS), 2.0, 1.0)
@@ -151,6 +152,16 @@ def build(zip_path: str, blend_path: str) -> None:
             bpy.context.view_layer.objects.active = ob
             if bpy.ops.translucent.add_grass_field() != {"FINISHED"}:
                 raise SystemExit("grass bake failed")
+        elif station == "hold_out":
+            for dx, method, preset in ((-0.035, "TEXTURE_SPACE", "ketchup"), (0.035, "QUADGRAPH", "marble")):
+                bpy.ops.mesh.primitive_torus_add(major_radius=0.025, minor_radius=0.009, major_segments=32,
+                                                 minor_segments=12, location=(x + dx, 0.0, 0.009))
+                torus = bpy.context.active_object
+                torus.name = f"HoldOut{method.title().replace('_', '')}"
+                bpy.ops.object.shade_smooth()
+                torus.translucent.preset = preset
+                torus.translucent.method = method
+                _bake(torus)
         elif station == "height_field":
             im = _module(tr, "translucent_addon.techniques.relief.model")
             height = im.bumps(64).astype(np.float32)
@@ -159,7 +170,7 @@ def build(zip_path: str, blend_path: str) -> None:
             rgba[..., 3] = 1.0
             img.pixels.foreach_set(rgba.reshape(-1))
             img.pack()
-            bpy.ops.mesh.primitive_plane_add(size=0.4, location=(x, 0.0, 0.002))
+            bpy.ops.mesh.primitive_plane_add(size=0.4, location=(x, 0.0, 0.04))  # above the floor by its depth
             ob = bpy.context.active_object
             ob.name = "HeightField"
             ob.data.materials.append(demo._material("Stone", (0.6, 0.55, 0.5)))
@@ -167,7 +178,8 @@ def build(zip_path: str, blend_path: str) -> None:
             s.relief, s.relief_image, s.relief_depth = "INTERVAL", img, 0.03
             s.relief_linear_steps, s.relief_iterations = 5, 10
         loc, target = {"grass": ((0.0, -0.6, 0.45), (0.0, 0.0, 0.0)),
-                       "height_field": ((0.0, -0.3, 0.25), (0.0, 0.0, 0.0))}.get(station, ((0.0, -0.22, 0.1),
+                       "height_field": ((0.0, -0.3, 0.25), (0.0, 0.0, 0.0)),
+                       "hold_out": ((0.0, -0.25, 0.15), (0.0, 0.0, 0.0))}.get(station, ((0.0, -0.22, 0.1),
                                                                                           (0.0, 0.0, 0.03)))
         views[station] = _camera(scene, f"View_{station}", x, loc, target)
     scene.camera = views[STATIONS[0]]

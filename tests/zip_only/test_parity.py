@@ -27,7 +27,7 @@ TOLERANCE = 0.005  # relative RMSE of a frame against the reference frame
 REFERENCE = os.environ.get("TRANSLUCENT_PARITY_PYTHON")
 if not REFERENCE:
     pytest.skip("TRANSLUCENT_PARITY_PYTHON is not set (make test-zip sets it)", allow_module_level=True)
-VIEWS = ("image_space", "texture_space", "quadgraph", "geocube", "caustics", "grass", "height_field")
+VIEWS = ("image_space", "texture_space", "quadgraph", "geocube", "caustics", "grass", "height_field", "hold_out")
 
 
 def _run(python: str, *args: str, env: dict | None = None) -> subprocess.CompletedProcess:
