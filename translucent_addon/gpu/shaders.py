@@ -132,21 +132,22 @@ def get(name: str):
 
 
 class PassShader:
-    """A pass's compiled shader with its inputs set in the one order every backend takes.
+    """A pass's compiled shader with its inputs set in a way every backend takes.
 
     Blender 5.3 on OpenGL writes a sampler's binding slot into the shader's first push constant when
     ``uniform_sampler`` is called (measured: docs/gpu_backends.md), so a push constant set before a sampler was
     silently replaced (TEXTURE_SPACE's ``vertex_width`` read 6, the slot of its seventh sampler). Every pass sets
-    its inputs through this object: push constants are remembered and set again after each sampler, so the order
-    of the calls no longer matters on any backend. ``draw`` draws a batch with the shader.
+    its inputs and draws through this object: push constants are remembered, and set again before a draw that
+    follows a sampler binding, so the order of the calls does not matter on any backend.
     """
 
-    __slots__ = ("name", "shader", "_constants")
+    __slots__ = ("name", "shader", "_constants", "_stale")
 
     def __init__(self, name: str):
         self.name = name
         self.shader = get(name)
         self._constants = {}  # name: (setter, value) of the push constants set so far
+        self._stale = False  # a sampler was bound since the push constants were last set
 
     def bind(self) -> PassShader:
         self.shader.bind()
@@ -157,8 +158,7 @@ class PassShader:
 
     def uniform_sampler(self, name: str, texture) -> None:
         self.shader.uniform_sampler(name, texture)
-        for const, (setter, value) in self._constants.items():
-            getattr(self.shader, setter)(const, value)
+        self._stale = bool(self._constants)
 
     def uniform_int(self, name: str, value) -> None:
         self._constants[name] = ("uniform_int", value)
@@ -168,10 +168,18 @@ class PassShader:
         self._constants[name] = ("uniform_float", value)
         self.shader.uniform_float(name, value)
 
+    def _restore_constants(self) -> None:
+        if self._stale:
+            for const, (setter, value) in self._constants.items():
+                getattr(self.shader, setter)(const, value)
+            self._stale = False
+
     def draw(self, batch) -> None:
+        self._restore_constants()
         batch.draw(self.shader)
 
     def draw_instanced(self, batch, instance_count: int) -> None:
+        self._restore_constants()
         batch.draw_instanced(self.shader, instance_start=0, instance_count=instance_count)
 
 
