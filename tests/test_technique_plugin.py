@@ -120,7 +120,6 @@ def _refused_technique(tr, how: str, tmp_path):
             targets.texture_from_array(np.zeros((2, 2, 3), np.float32), "RGB32F")
 
         technique.prepare = prepare
-    shaders.free_all()
     return technique
 
 

@@ -13,7 +13,7 @@ Both callers share it: ``RenderEngine.render`` (F12, batch; into an RGBA32F offs
 The pipeline names no technique: it loops over ``techniques.REGISTRY`` (``techniques/protocol.py`` says what
 each hook is for). An object whose method draws nothing yet keeps the base. A technique the GPU backend cannot run
 (a shader it does not compile, a texture it refuses, a driver error) falls back the same way, with one line naming
-its objects and the reason (``_prepared``); it is not tried again until the pipeline is made anew.
+its objects and the reason (``_guarded``); it is not tried again until the pipeline is made anew.
 """
 from __future__ import annotations
 
@@ -41,6 +41,7 @@ class Pipeline:
         self.last_timings: dict[str, float] = {}
         self.capture = None  # read-backs of intermediate passes for the last frame (frame.settings.capture)
         self.unavailable: dict[str, str] = {}  # technique id -> why this GPU backend cannot run it
+        self._failed_now: set[str] = set()  # technique ids that failed in the frame being drawn
 
     def free(self) -> None:
         self._batches.clear()
@@ -130,9 +131,10 @@ class Pipeline:
         texels = int(frame.shadow_resolution)
         atlas = self._shadow_atlas(texels)
         ctx = FrameContext(frame, fb, frame_ubo, [], [self._batch(m) for m in frame.meshes], atlas[1], self)
-        states = [(t, self._prepared(t, ctx)) for t in REGISTRY]
-        active = [(t, state) for t, state in states if state is not None]
-        lighting = [t.base_lighting(state) for t, state in active]
+        states = [(t, self._guarded(t, ctx, t.prepare, ctx)) for t in REGISTRY]
+        # One that failed before still gives the base pass its inputs (IMAGE_SPACE's placeholders) but draws nothing.
+        lighting = [t.base_lighting(state) for t, state in states if state is not None]
+        active = [(t, state) for t, state in states if state is not None and t.id not in self.unavailable]
         materials_ubo, near_lut, slots = next(x for x in lighting if x is not None)
         ctx.objects[:] = [gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
                           for k, m in enumerate(frame.meshes)]
@@ -148,8 +150,8 @@ class Pipeline:
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
         base_inputs = (ctx.batches, ctx.objects, frame_ubo, materials_ubo, near_lut, atlas[1])
         self._draw_base(*base_inputs, placeholder, mode=0, skip=skip)
-        for t, state in active:
-            t.world(ctx, state, placeholder)
+        for t, state in list(active):
+            self._guarded(t, ctx, t.world, ctx, state, placeholder, active=active)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
         spent = {"shadow_maps": 0.0, "lights": 0.0}
@@ -169,54 +171,63 @@ class Pipeline:
                 gpu.state.depth_test_set("LESS_EQUAL")
                 gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
                 self._draw_base(*base_inputs, light_ubo, mode=1, skip=skip)
-                for t, state in active:
-                    t.emitter_surface(ctx, state, light_ubo)
+                for t, state in list(active):
+                    self._guarded(t, ctx, t.emitter_surface, ctx, state, light_ubo, active=active)
                 gpu.state.blend_set("NONE")
                 gpu.state.depth_mask_set(True)
             spent["lights"] += time.perf_counter() - t2
-            for t, state in active:
+            for t, state in list(active):
                 t3 = time.perf_counter()
-                t.emitter(ctx, state, e, light_ubo)
+                self._guarded(t, ctx, t.emitter, ctx, state, e, light_ubo, active=active)
                 spent[t.emitter_timing] = spent.get(t.emitter_timing, 0.0) + time.perf_counter() - t3
         timings.update(spent)
-        for t, state in active:
+        for t, state in list(active):
             t1 = time.perf_counter()
-            steps = t.finish(ctx, state)
+            steps = self._guarded(t, ctx, t.finish, ctx, state, active=active)
             if steps is not None:
                 timings.update(steps)
                 if t.timing:
                     timings[t.timing] = time.perf_counter() - t1
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
+        self._unavailable_warnings(frame)
+        self._failed_now.clear()
         timings["total"] = time.perf_counter() - t0
         self.last_timings = timings
 
-    def _prepared(self, t, ctx: FrameContext):
-        """``t.prepare(ctx)`` once its shaders are built on this backend. A backend that lacks what the technique
-        needs (a shader it does not compile, a format or size it refuses, a driver error) makes it fall back to the
-        base colour for the rest of the session, one line a frame naming its objects and the reason: an error
-        here must not fail the whole frame, and in Blender a failed draw is a blank viewport."""
-        why = self.unavailable.get(t.id)
-        new = why is None
-        if new:
-            try:
-                for name in t.shader_specs:
-                    shaders.get(name)
-                return t.prepare(ctx)
-            except Exception as err:  # noqa: BLE001 -- what a backend raises is not one type; each is reported
-                import traceback
+    def _guarded(self, t, ctx: FrameContext, hook, *args, active: list | None = None):
+        """``hook(*args)``, one of technique ``t``'s. A backend that lacks what the technique needs (a shader it does
+        not compile, a format or size it refuses, a driver error) makes the technique fall back to the base colour:
+        dropped from ``active`` for the rest of this frame, not tried again by this pipeline, and one line naming its
+        objects and the reason in this frame's warnings (and every later frame's while they use it). The traceback
+        goes to the console and a farm's log. An error here must not fail the whole frame: in the viewport a failed
+        draw is a blank viewport, on a farm a failed frame."""
+        try:
+            return hook(*args)
+        except Exception as err:  # noqa: BLE001 -- what a backend raises is not one type; each is reported
+            import traceback
 
-                import gpu
+            import gpu
 
-                traceback.print_exc()  # the whole story for the console and a farm's log
-                why = self.unavailable[t.id] = (f"{gpu.platform.backend_type_get()} refused it "
-                                                f"({type(err).__name__}: {str(err).strip() or 'no message'})")
-        names = [m.name for m in ctx.frame.meshes if m.method == t.id]
-        if names or new:
-            who = ", ".join(f"'{n}'" for n in names) if names else t.label
-            ctx.frame.warnings.append(f"{who}: {t.label} cannot run on this GPU backend: {why}; drawn with its base "
+            if t.id not in self.unavailable:
+                traceback.print_exc()
+            self.unavailable[t.id] = (f"{gpu.platform.backend_type_get()} refused it "
+                                      f"({type(err).__name__}: {str(err).strip() or 'no message'})")
+            self._failed_now.add(t.id)
+            if active is not None:
+                active[:] = [(u, state) for u, state in active if u is not t]
+            return None
+
+    def _unavailable_warnings(self, frame: FrameInputs) -> None:
+        """One line per technique this pipeline gave up on (``_guarded``) that the frame asks for: a method with
+        objects of its own, or a technique without objects of its own (caustics, grass) in the frame it failed."""
+        for t in REGISTRY:
+            why = self.unavailable.get(t.id)
+            names = [m.name for m in frame.meshes if m.method == t.id]
+            if why is not None and (names or t.id in self._failed_now):
+                who = ", ".join(f"'{n}'" for n in names) if names else t.label
+                frame.warnings.append(f"{who}: {t.label} cannot run on this GPU backend: {why}; drawn with its base "
                                       "colour")
-        return None
 
     def _draw_environment(self, frame, frame_ubo) -> None:
         """The world image behind everything, where the world is an environment texture."""
