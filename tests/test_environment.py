@@ -12,6 +12,8 @@ import pytest
 from translucent_addon.core import environment as env
 from translucent_addon.core.geometry import cubemap
 
+pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
+
 TABLE1 = {2: 4.6, 4: 10.5, 8: 21.6, 16: 43.4, 32: 86.9, 64: 173.7}  # Chan & Wang Table 1 (omega 0.02)
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
+pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
 
 from blender_helpers import (  # noqa: E402
     add_camera,

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
+pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
 
 from blender_helpers import add_camera, add_cube, add_light, add_plane, diffuse_material, render, set_world  # noqa: E402
 from conftest import ext_module  # noqa: E402
