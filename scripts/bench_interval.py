@@ -179,7 +179,7 @@ def write_summary(path: Path, rows, meta) -> None:
         "# Interval mapping vs relief mapping (Shah, thesis ch. 3)",
         "",
         "NumPy twin (`translucent_addon/techniques/relief/model.py`; the GLSL twin"
-        " `gpu_shaders/interval_search.glsl`"
+        " `gpu_shaders/relief/interval_search.glsl`"
         f" matches it in the tests). {meta['rays']} rays on one tile of each {meta['field_size']}x{meta['field_size']}"
         f" field, layer {meta['depth_scale_uv']} uv thick, azimuth {meta['azimuth_deg']:.0f} deg. Converged when"
         f" |ray depth - surface depth| < {meta['threshold']} layer thicknesses at the new point, at most"

@@ -151,7 +151,7 @@ def test_crest_shows_a_grass_silhouette(tr, scene, btf_record):
     assert sky(bare)[band, cols].all()
     share_sky = sky(grassy)[band, cols].mean()
     assert 0.05 < share_sky < 0.95, share_sky
-    # The ground's curvature lets rays leave the layer before their blade (grass_btf.glsl): the top row is
+    # The ground's curvature lets rays leave the layer before their blade (grass/btf.glsl): the top row is
     # mostly sky (measured 0.70; 0.42 from the depth maps' gaps alone).
     assert sky(grassy)[layer_top, cols].mean() > 0.55
 

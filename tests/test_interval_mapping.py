@@ -243,7 +243,7 @@ def _gl_worker(inp: str, outp: str) -> None:
     import moderngl
 
     data = np.load(inp)
-    lib = (ROOT / "gpu_shaders" / "interval_search.glsl").read_text()
+    lib = (ROOT / "gpu_shaders" / "relief/interval_search.glsl").read_text()
     assert not re.search(r"^\s*(#version|uniform\s|void\s+main\s*\()", lib, re.M)
     ctx = moderngl.create_standalone_context(backend="egl")
     # GLSL 3.30: the library compiles and links in a fragment shader

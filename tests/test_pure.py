@@ -129,7 +129,7 @@ def test_spot_cone_and_blend():
 
 # -- blocks and shadow projections ----------------------------------------------
 def test_block_sizes_match_the_glsl_structs():
-    text = (ROOT / "gpu_shaders" / "translucent_structs.glsl").read_text()
+    text = (ROOT / "gpu_shaders" / "common/structs.glsl").read_text()
     assert "mat4 face_view_proj[6]" in text
     assert "mat4 view;" in text and "vec4 shading;" in text and "vec4 params[64];" in text
     assert len(blocks.frame_block(np.eye(4), np.eye(4), (0, 0, 0), np.zeros((9, 3)))) == 3 * 64 + 3 * 16 + 9 * 16

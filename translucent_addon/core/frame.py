@@ -83,7 +83,7 @@ class ReliefSurface:
     key: str  # names the height image (GPU cache)
     height: np.ndarray  # (H, W) float32 in [0, 1], row 0 at v = 0; 1 is the surface
     depth: float  # scene units from height 1 down to height 0
-    mode: int = 0  # 0 interval mapping, 1 relief mapping (gpu_shaders/interval_search.glsl)
+    mode: int = 0  # 0 interval mapping, 1 relief mapping (gpu_shaders/relief/interval_search.glsl)
     linear_steps: int = 8
     iterations: int = 10
     shadows: bool = True

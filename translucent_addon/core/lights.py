@@ -12,7 +12,7 @@ Measured against Cycles 5.0 (direct light on a white diffuse plane, see
 
 Outgoing radiance of a Lambertian surface of albedo rho is rho E / pi.
 These functions are the single source of that light model; the GLSL in
-``gpu_shaders/base_lighting.glsl`` implements the same formulas.
+``gpu_shaders/pipeline/base_lighting.glsl`` implements the same formulas.
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Uniform-block packing (std140) and shadow-map projections. Pure NumPy.
 
-Mirrors the structs of ``gpu_shaders/translucent_structs.glsl``. Matrices are
+Mirrors the structs of ``gpu_shaders/common/structs.glsl``. Matrices are
 NumPy row-major maths (``clip = M @ p``); GLSL ``mat4`` is column-major, so a
 matrix is written as ``M.T`` flattened.
 """
@@ -119,7 +119,7 @@ def face_texels(texels: int, n_faces: int) -> int:
 
 
 def cube_face(d) -> int:
-    """The face index for a direction, as ``cube_face`` in base_lighting.glsl."""
+    """The face index for a direction, as ``cube_face`` in pipeline/base_lighting.glsl."""
     a = np.abs(d)
     if a[0] >= a[1] and a[0] >= a[2]:
         return 0 if d[0] > 0 else 1
@@ -156,7 +156,7 @@ def object_block(model, normal_matrix, subsurface_slot: int = -1) -> bytes:
 
 def light_block(e: Emitter, faces: np.ndarray, origin, texels: int, radius: float, shadows: bool = True,
                 normal_offset_texels: float = 1.5, tan_half: float = 0.0) -> bytes:
-    """LightData (translucent_structs.glsl); ``tan_half`` > 0: the shadow map is one fitted face
+    """LightData (common/structs.glsl); ``tan_half`` > 0: the shadow map is one fitted face
     (``shadow_faces``)."""
     data = np.zeros(LIGHT_FLOATS, np.float32)
     data[:96] = np.concatenate([_mat(f) for f in faces])

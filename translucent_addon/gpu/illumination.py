@@ -1,5 +1,5 @@
 """The illumination map in texture space (Lensch Sec. 5.2, Fig. 3 step 1): one point per atlas texel lit at
-its surface point with Fresnel and shadows (``gpu_shaders/ts_illumination.glsl``). TEXTURE_SPACE draws its
+its surface point with Fresnel and shadows (``gpu_shaders/common/illumination_map.glsl``). TEXTURE_SPACE draws its
 irradiance with it; QUADGRAPH its q(n_s) and the exitance its surface term takes over."""
 from __future__ import annotations
 

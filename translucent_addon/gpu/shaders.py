@@ -13,7 +13,7 @@ import dataclasses
 from pathlib import Path
 
 SHADER_DIR = Path(__file__).resolve().parents[2] / "gpu_shaders"
-STRUCTS_FILE = "translucent_structs.glsl"
+STRUCTS_FILE = "common/structs.glsl"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -21,7 +21,7 @@ class ShaderSpec:
     """Interface of one pass: inputs, varyings, uniform blocks, samplers, outputs."""
 
     source: str
-    libraries: tuple = ("translucent_common.glsl",)  # prepended to the source, in order
+    libraries: tuple = ("common/common.glsl",)  # prepended to the source, in order
     vertex_in: tuple = ()  # (type, name)
     varyings: tuple = ()  # ("smooth" | "flat", type, name)
     uniform_blocks: tuple = ()  # (slot, struct, name)
@@ -31,15 +31,15 @@ class ShaderSpec:
     depth_write: str = "UNCHANGED"  # "ANY": the fragment stage writes gl_FragDepth
 
 
-LIGHT_LIBS = ("translucent_common.glsl", "translucent_light.glsl")
-SHADOW_LIBS = LIGHT_LIBS + ("translucent_shadow.glsl",)
+LIGHT_LIBS = ("common/common.glsl", "common/light.glsl")
+SHADOW_LIBS = LIGHT_LIBS + ("common/shadow.glsl",)
 SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint"), ("VEC3", "tint"),
               ("VEC3", "curv_d"), ("VEC3", "curv_o"))  # curv: the shape operator (pipeline.shape_attributes)
 CURVATURE_OUT = (("smooth", "VEC3", "v_curv_d"), ("smooth", "VEC3", "v_curv_o"))
 
 SPECS = {  # the pipeline's own passes; each technique joins its own (techniques.register)
     "shadow_distance": ShaderSpec(
-        source="shadow_distance.glsl",
+        source="pipeline/shadow_distance.glsl",
         vertex_in=(("VEC3", "pos"),),
         varyings=(("smooth", "VEC3", "v_world"),),
         uniform_blocks=((2, "LightData", "light"), (1, "ObjectData", "object")),
@@ -47,8 +47,9 @@ SPECS = {  # the pipeline's own passes; each technique joins its own (techniques
         fragment_out=((0, "FLOAT", "out_distance"),),
     ),
     "base_lighting": ShaderSpec(
-        source="base_lighting.glsl",
-        libraries=SHADOW_LIBS + ("translucent_world_sh.glsl", "translucent_angular.glsl", "translucent_oblique.glsl"),
+        source="pipeline/base_lighting.glsl",
+        libraries=SHADOW_LIBS + ("common/world_spherical_harmonics.glsl", "common/angular_law.glsl",
+                                 "common/oblique_entry.glsl"),
         vertex_in=SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
                   ("smooth", "VEC4", "v_paint"), ("smooth", "VEC3", "v_tint")) + CURVATURE_OUT,
@@ -59,8 +60,8 @@ SPECS = {  # the pipeline's own passes; each technique joins its own (techniques
         fragment_out=((0, "VEC4", "out_color"),),
     ),
     "ts_illumination": ShaderSpec(
-        source="ts_illumination.glsl",
-        libraries=SHADOW_LIBS + ("translucent_world_sh.glsl", "translucent_oblique.glsl"),
+        source="common/illumination_map.glsl",
+        libraries=SHADOW_LIBS + ("common/world_spherical_harmonics.glsl", "common/oblique_entry.glsl"),
         vertex_in=(("VEC2", "texel"), ("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "facet"), ("FLOAT", "sky"),
                    ("VEC3", "curv_d"), ("VEC3", "curv_o")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_facet"),
@@ -72,8 +73,8 @@ SPECS = {  # the pipeline's own passes; each technique joins its own (techniques
         fragment_out=((0, "VEC4", "out_irradiance"),),
     ),
     "env_background": ShaderSpec(
-        source="env_background.glsl",
-        libraries=("translucent_common.glsl", "cube_atlas.glsl"),
+        source="pipeline/environment_background.glsl",
+        libraries=("common/common.glsl", "common/cube_atlas.glsl"),
         vertex_in=(("VEC2", "corner"),),
         varyings=(("smooth", "VEC2", "v_ndc"),),
         uniform_blocks=((0, "FrameData", "frame"),),

@@ -6,7 +6,7 @@ cube faces or mip levels from Python, and a 2-D atlas lets the shader and its Nu
 exactly the same texels. Each face of ``res`` x ``res`` texels is stored with a one-texel border
 on every side holding the value in the border texel's own (extrapolated) direction, which lies
 on the neighbouring face: bilinear filtering inside a face then blends across the edge with no
-seam. ``glsl`` twin: ``gpu_shaders/cube_atlas.glsl``.
+seam. ``glsl`` twin: ``gpu_shaders/common/cube_atlas.glsl``.
 
 Pure (NumPy).
 """

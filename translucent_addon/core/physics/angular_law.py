@@ -44,7 +44,7 @@ from .fresnel import fresnel_dielectric
 from .single_scattering import chandrasekhar_H, refracted_cosine
 
 # Table nodes: texel k at mu = (k + 0.5) / n (the illumination pass's cosine tables). IMAGE_SPACE keeps
-# SAMPLES per slot in its materials block (translucent_structs.glsl): keep them in step.
+# SAMPLES per slot in its materials block (common/structs.glsl): keep them in step.
 SAMPLES = 16
 ALBEDO_FLOOR = 1e-4  # below it A(mu) / <A> is its single-scattering limit to 1e-4
 
@@ -173,7 +173,7 @@ def _through_constants(sigma_a: tuple, sigma_s_prime: tuple, eta: float) -> np.n
 
 def through_exit(constants: np.ndarray, eta: float, mu: ArrayLike) -> np.ndarray:
     """M(mu) (..., 3): how the light that crossed a thin part leaves towards cosine mu, over the Lambertian law,
-    mean 1 over the light leaving (CPU twin of ``through_exit`` in translucent_angular.glsl)."""
+    mean 1 over the light leaving (CPU twin of ``through_exit`` in common/angular_law.glsl)."""
     gamma, k, inv_mean = constants
     mu_t = refracted_cosine(np.clip(np.asarray(mu, np.float64), 0.0, 1.0), float(max(eta, 1.0)))[..., None]
     return _emergent_shape(gamma, k, mu_t) * inv_mean
@@ -187,6 +187,6 @@ def through_exit_table(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float,
 
 def through_exit_ratio(sigma_a: ArrayLike, sigma_s_prime: ArrayLike, eta: float, mu: ArrayLike) -> np.ndarray:
     """M(mu) / a(mu) (..., 3): what the light of a thin-part pair is weighed by where the angular law of the light
-    leaving was applied to all of it (CPU twin of ``through_exit_ratio`` in translucent_angular.glsl)."""
+    leaving was applied to all of it (CPU twin of ``through_exit_ratio`` in common/angular_law.glsl)."""
     return (through_exit(through_constants(sigma_a, sigma_s_prime, eta), eta, mu)
             / lookup(table(sigma_a, sigma_s_prime, eta), mu))

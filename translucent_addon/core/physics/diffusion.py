@@ -292,7 +292,7 @@ def relax(neighbours: np.ndarray, weights: np.ndarray, d_surface: np.ndarray, ka
           mu_nodes: np.ndarray, q: ArrayLike, eta: float, phi: ArrayLike, iterations: int) -> np.ndarray:
     """``iterations`` Jacobi steps (Eq. 8 for inner nodes, Eq. 9 for surface nodes, with the fitted surface
     link), all nodes at once
-    from the previous iterate, as the GPU pass does. The CPU twin of ``qg_relax.glsl``."""
+    from the previous iterate, as the GPU pass does. The CPU twin of ``quadgraph/relaxation.glsl``."""
     S = len(d_surface)
     A = float(internal_reflection(eta))
     k = np.asarray(kappa_nodes, np.float64)

@@ -117,7 +117,7 @@ def corner_shape_operators(positions: ArrayLike, normals: ArrayLike) -> np.ndarr
 
 def packed_shape(S: ArrayLike) -> np.ndarray:
     """(N, 6) float32: symmetric shape operators (N, 3, 3) as the shaders take them, the diagonal then the (xy, xz,
-    yz) entries (``curv_d``, ``curv_o``; ``shape_operator`` in translucent_oblique.glsl unpacks them)."""
+    yz) entries (``curv_d``, ``curv_o``; ``shape_operator`` in common/oblique_entry.glsl unpacks them)."""
     S = np.asarray(S, np.float64)
     return np.concatenate([S[:, [0, 1, 2], [0, 1, 2]], S[:, [0, 0, 1], [1, 2, 2]]], axis=1).astype(np.float32)
 

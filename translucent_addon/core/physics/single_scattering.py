@@ -12,7 +12,7 @@ with sigma_s = sigma_s' / (1 - g), sigma_t = sigma_a + sigma_s, p the Henyey-Gre
 and T_o, T_i the Fresnel transmittances out of and into the medium. The 1 / eta^2 is the radiance's n^2
 law: light leaving a denser medium spreads its flux over a wider solid angle (Jensen 2001 Eq. 7 leaves it
 out; with it the flux out is what crossed the boundary, which ``boundary_gain`` relies on).
-The GPU pass (``qg_single.glsl``) reads d(t) from the light's distance map at the nodes ``march_nodes`` and
+The GPU pass (``quadgraph/surface_term.glsl``) reads d(t) from the light's distance map at the nodes ``march_nodes`` and
 integrates segment by segment with the exponent linear inside each segment (``march``): exact wherever d is
 linear in t, as under a flat face lit by a distant light, for which (eta = 1)
 

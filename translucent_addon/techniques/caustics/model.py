@@ -1,6 +1,6 @@
 """Caustics mapping (Shah ch. 5): the light-space geometry of the GPU passes, in NumPy.
 
-The GPU passes (``techniques/caustics/passes.py``, ``gpu_shaders/caustic_*.glsl``) refract a grid of rays
+The GPU passes (``techniques/caustics/passes.py``, ``gpu_shaders/caustics/``) refract a grid of rays
 fitted around each caster, estimate where each ray meets the receivers from the receivers'
 positions seen by the light (Shah 5.3.3-5.3.4), and splat its flux there. This module is the
 same arithmetic on arrays: the tests compare the GPU against it, and the bench uses it to
@@ -205,7 +205,7 @@ def grid_lookup(grid: CasterGrid, back_position: np.ndarray):
 
 def trace_grid(e: Emitter, grid: CasterGrid, caster, front_position, front_normal, back_position, back_normal,
                receivers, iterations: int, guard: bool = True, secant: bool = False):
-    """The NumPy twin of ``caustic_trace.glsl`` (one channel, no dispersion, no occluder between the light
+    """The NumPy twin of ``caustics/trace.glsl`` (one channel, no dispersion, no occluder between the light
     and the caster: the shader's shadow-map test is left out): per grid texel the landing point
     (size, size, 3), its flux (size, size, 3) and validity (size, size)."""
     G = grid.size

@@ -36,7 +36,7 @@ from .model import CausticError, caster_grid
 # shader table by the registry.
 SHADER_SPECS = {
     "caustic_receiver": shaders.ShaderSpec(
-        source="caustic_receiver.glsl",
+        source="caustics/receiver.glsl",
         vertex_in=(("VEC3", "pos"),),
         varyings=(("smooth", "VEC3", "v_world"),),
         uniform_blocks=((2, "LightData", "light"), (1, "ObjectData", "object")),
@@ -44,15 +44,15 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_position"),),
     ),
     "caustic_caster": shaders.ShaderSpec(
-        source="caustic_caster.glsl",
+        source="caustics/caster.glsl",
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal")),
         uniform_blocks=((1, "ObjectData", "object"), (4, "CausticData", "caustic")),
         fragment_out=((0, "VEC4", "out_position"), (1, "VEC4", "out_normal")),
     ),
     "caustic_trace": shaders.ShaderSpec(
-        source="caustic_trace.glsl",
-        libraries=shaders.SHADOW_LIBS + ("caustic_lookup.glsl",),
+        source="caustics/trace.glsl",
+        libraries=shaders.SHADOW_LIBS + ("caustics/atlas_lookup.glsl",),
         vertex_in=(("VEC2", "corner"),),
         uniform_blocks=((2, "LightData", "light"), (4, "CausticData", "caustic")),
         samplers=((0, "FLOAT_2D", "front_position"), (1, "FLOAT_2D", "front_normal"),
@@ -61,8 +61,8 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_landing"), (1, "VEC4", "out_flux")),
     ),
     "caustic_splat": shaders.ShaderSpec(
-        source="caustic_splat.glsl",
-        libraries=shaders.LIGHT_LIBS + ("caustic_lookup.glsl",),
+        source="caustics/splat.glsl",
+        libraries=shaders.LIGHT_LIBS + ("caustics/atlas_lookup.glsl",),
         vertex_in=(("VEC2", "corner"),),
         varyings=(("flat", "VEC3", "v_flux"), ("flat", "VEC2", "v_centre"), ("flat", "FLOAT", "v_sigma"),
                   ("flat", "VEC2", "v_tile")),
@@ -71,8 +71,8 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_flux"),),
     ),
     "caustic_apply": shaders.ShaderSpec(
-        source="caustic_apply.glsl",
-        libraries=shaders.LIGHT_LIBS + ("caustic_lookup.glsl",),
+        source="caustics/apply.glsl",
+        libraries=shaders.LIGHT_LIBS + ("caustics/atlas_lookup.glsl",),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light"),

@@ -1,5 +1,5 @@
 """GEOCUBE at run time, in NumPy: the cone-propelled exit search (Chan & Wang 2005, Sec. 2.2-2.3), the
-appendix's step functions, and the GPU atlases. Pure; the twin of ``gpu_shaders/gc_common.glsl`` line by
+appendix's step functions, and the GPU atlases. Pure; the twin of ``gpu_shaders/geocube/cube_search.glsl`` line by
 line, so the GPU pass is tested against it and the search is measured against exact ray casting.
 
 The search, per ray (origin on the surface, unit direction r inside):
@@ -253,7 +253,7 @@ def transfer_lookup(image: np.ndarray, log_max: float, tau) -> np.ndarray:
 
 def gc_block(to_bake: np.ndarray, sigma_a, sigma_s, eta: float, min_step: float, res: int, cubes: int,
              max_steps: int, env, log_tau_max: float, mode: int = 0) -> bytes:
-    """GeocubeData (std140) of ``gpu_shaders/translucent_structs.glsl``; env: an EnvironmentChain."""
+    """GeocubeData (std140) of ``gpu_shaders/common/structs.glsl``; env: an EnvironmentChain."""
     if env.levels > MAX_ENV_LEVELS:
         raise ValueError(f"environment chain has {env.levels} levels, the shader takes {MAX_ENV_LEVELS}")
     data = np.zeros(GC_FLOATS, np.float32)

@@ -3,7 +3,7 @@ GPU every frame (Chan & Wang 2005, Blender-facing).
 
 Per frame, for each mesh with an up-to-date bake, one pass over its front faces (``gc_refract``) after
 the base pass: Fresnel reflection of the world, refraction in, the cone-propelled exit search through
-the object's geocubes (``gc_common.glsl``, twin of ``model``), refraction out or one total internal
+the object's geocubes (``geocube/cube_search.glsl``, twin of ``model``), refraction out or one total internal
 reflection, then the world in the leaving direction from the key filtered environment chain
 (``core/environment.py``) at the blur of the slab transfer fit for the path's scattering depth
 (``core/physics/slab_transfer.py``), with coloured Beer absorption. The refracted scene is the world only:
@@ -33,8 +33,8 @@ from .bake import GeocubeError, from_arrays
 # shader table by the registry.
 SHADER_SPECS = {
     "gc_refract": shaders.ShaderSpec(
-        source="gc_refract.glsl",
-        libraries=("translucent_common.glsl", "cube_atlas.glsl", "gc_common.glsl"),
+        source="geocube/refraction.glsl",
+        libraries=("common/common.glsl", "common/cube_atlas.glsl", "geocube/cube_search.glsl"),
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("FLOAT", "start_cube")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("flat", "INT", "v_cube")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "GeocubeData", "gc")),

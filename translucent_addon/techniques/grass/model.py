@@ -1,5 +1,5 @@
 """Pure maths of the grass pass (Shah 4.3.3): per-pixel BTF reconstruction, the NumPy twin of
-``gpu_shaders/grass_btf.glsl``, and the GPU table layout.
+``gpu_shaders/grass/btf.glsl``, and the GPU table layout.
 
 Per pixel with tile coordinates uv (texel units: uv * R), view and light directions in the ground's
 local frame (z = normal, x = the object's x axis):

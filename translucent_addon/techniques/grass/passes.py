@@ -4,7 +4,7 @@ Blender-facing (``gpu``). The pipeline calls ``draw`` right after the base pass 
 (mode 0) and in each emitter's lighting pass (mode 1), so the grass takes part in the same depth
 test as everything else: blades in front of an object hide it, gaps show what is behind, and the
 base pass adds light only to what the blades leave visible. Per-pixel maths:
-``techniques/grass/model.py``; shader: ``gpu_shaders/grass_btf.glsl``.
+``techniques/grass/model.py``; shader: ``gpu_shaders/grass/btf.glsl``.
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from . import model as grass_data
 # shader table by the registry.
 SHADER_SPECS = {
     "grass_btf": shaders.ShaderSpec(
-        source="grass_btf.glsl",
+        source="grass/btf.glsl",
         libraries=shaders.SHADOW_LIBS,
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC2", "v_uv"),

@@ -138,7 +138,7 @@ def slab_constants(med) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def materials_block(p: "ImageSpacePlan | None") -> bytes:
-    """The MaterialsData block (translucent_structs.glsl). params, 2 vec4 per slot: (mm_per_unit, r_max_mm,
+    """The MaterialsData block (common/structs.glsl). params, 2 vec4 per slot: (mm_per_unit, r_max_mm,
     rho_mm, eta) and (A_0, A_1, A_2 of the world's transmittance kernel, the world splats' rho mm); slab, 2 vec4
     per slot: (sigma_tr rgb, A(eta)) and (z_r rgb, 0) of ``slab_through``; angular, ``angular_law.SAMPLES`` vec4
     per slot: the medium's profile's angular law; through_exit, 3 vec4 per slot: ``angular_law.through_constants``

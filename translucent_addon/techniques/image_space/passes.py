@@ -6,8 +6,8 @@ light-view samples (pass 1, a 3x2 cube atlas for point emitters) and one camera-
 sample (pass 3) accumulating the far field into a scatter texture; world light the same way from
 depth-peeled samples along the three axes (Shah 6.4.2, ``_draw_world``); with temporal coherence on, the
 far field is blended with the previous frame's, reprojected through each object's motion
-(``is_temporal.glsl``); finally the composite adds F_t / pi * S to the subsurface objects.
-Blender-facing (``gpu``), the maths is in ``model`` and the GLSL in ``gpu_shaders/is_*.glsl``.
+(``image_space/temporal_blend.glsl``); finally the composite adds F_t / pi * S to the subsurface objects.
+Blender-facing (``gpu``), the maths is in ``model`` and the GLSL in ``gpu_shaders/image_space/``.
 """
 from __future__ import annotations
 
@@ -28,8 +28,8 @@ from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # no
 # shader table by the registry.
 SHADER_SPECS = {
     "is_world_samples": shaders.ShaderSpec(
-        source="is_world_samples.glsl",
-        libraries=("translucent_common.glsl", "translucent_world_sh.glsl"),
+        source="image_space/world_samples.glsl",
+        libraries=("common/common.glsl", "common/world_spherical_harmonics.glsl"),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
                   ("smooth", "VEC3", "v_tint")),
@@ -39,15 +39,15 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
     ),
     "is_gbuffer": shaders.ShaderSpec(
-        source="is_gbuffer.glsl",
+        source="image_space/gbuffer.glsl",
         vertex_in=(("VEC3", "pos"),),
         varyings=(("smooth", "VEC3", "v_world"),),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),
         fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_normal")),
     ),
     "is_samples": shaders.ShaderSpec(
-        source="is_samples.glsl",
-        libraries=shaders.LIGHT_LIBS + ("translucent_angular.glsl", "translucent_oblique.glsl"),
+        source="image_space/light_samples.glsl",
+        libraries=shaders.LIGHT_LIBS + ("common/angular_law.glsl", "common/oblique_entry.glsl"),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint"),
                   ("smooth", "VEC3", "v_tint")) + shaders.CURVATURE_OUT,
@@ -56,8 +56,8 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_pos_id"), (1, "VEC4", "out_flux")),
     ),
     "is_splat": shaders.ShaderSpec(
-        source="is_splat.glsl",
-        libraries=("translucent_common.glsl", "translucent_angular.glsl"),
+        source="image_space/splat.glsl",
+        libraries=("common/common.glsl", "common/angular_law.glsl"),
         vertex_in=(("VEC2", "corner"),),
         varyings=(("flat", "VEC3", "v_xi"), ("flat", "VEC4", "v_flux"), ("flat", "FLOAT", "v_slot")),
         uniform_blocks=((0, "FrameData", "frame"), (3, "MaterialsData", "materials")),
@@ -68,7 +68,7 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_color"),),
     ),
     "is_temporal": shaders.ShaderSpec(
-        source="is_temporal.glsl",
+        source="image_space/temporal_blend.glsl",
         vertex_in=(("VEC2", "corner"),),
         uniform_blocks=((0, "TemporalData", "temporal"),),
         samplers=((0, "FLOAT_2D", "scatter"), (1, "FLOAT_2D", "gbuffer"), (2, "FLOAT_2D", "previous_accum"),
@@ -77,8 +77,8 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_accum"),),
     ),
     "is_composite": shaders.ShaderSpec(
-        source="is_composite.glsl",
-        libraries=("translucent_common.glsl", "translucent_angular.glsl"),
+        source="image_space/composite.glsl",
+        libraries=("common/common.glsl", "common/angular_law.glsl"),
         vertex_in=shaders.SURFACE_IN,
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_paint")),
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (3, "MaterialsData", "materials")),

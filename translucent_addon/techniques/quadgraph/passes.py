@@ -62,8 +62,8 @@ from .tetra import TetrahedraError
 # shader table by the registry.
 SHADER_SPECS = {
     "qg_relax": shaders.ShaderSpec(
-        source="qg_relax.glsl",
-        libraries=("qg_common.glsl",),
+        source="quadgraph/relaxation.glsl",
+        libraries=("quadgraph/block_layout.glsl",),
         vertex_in=(("VEC2", "corner"),),
         samplers=((0, "FLOAT_2D", "phi"), (1, "FLOAT_2D", "incident"), (2, "FLOAT_2D", "links_map"),
                   (3, "FLOAT_2D", "weights_map"), (4, "FLOAT_2D", "node_kappa"), (5, "FLOAT_2D", "node_mu"),
@@ -73,8 +73,8 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_phi"),),
     ),
     "qg_upsample": shaders.ShaderSpec(
-        source="qg_upsample.glsl",
-        libraries=("qg_common.glsl",),
+        source="quadgraph/upsample.glsl",
+        libraries=("quadgraph/block_layout.glsl",),
         vertex_in=(("VEC2", "corner"),),
         samplers=((0, "FLOAT_2D", "coarse_phi"), (1, "FLOAT_2D", "up_index0"), (2, "FLOAT_2D", "up_index1"),
                   (3, "FLOAT_2D", "up_weight0"), (4, "FLOAT_2D", "up_weight1")),
@@ -82,8 +82,8 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_phi"),),
     ),
     "qg_display": shaders.ShaderSpec(
-        source="qg_display.glsl",
-        libraries=("translucent_common.glsl", "qg_common.glsl"),
+        source="quadgraph/display.glsl",
+        libraries=("common/common.glsl", "quadgraph/block_layout.glsl"),
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC4", "links"), ("VEC4", "link_weights"), ("FLOAT", "mask")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_radiosity"),
                   ("smooth", "VEC3", "v_world_local"), ("smooth", "FLOAT", "v_mask"), ("smooth", "VEC3", "v_factor"),
@@ -96,7 +96,7 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_color"),),
     ),
     "qg_single": shaders.ShaderSpec(
-        source="qg_single.glsl",
+        source="quadgraph/surface_term.glsl",
         libraries=shaders.SHADOW_LIBS,
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "corner")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_corner")),

@@ -1,6 +1,6 @@
 """Interval mapping of height fields (Shah's thesis ch. 3; Risser, Shah & Pattanaik, JGT 2007) and relief
 mapping (Policarpo et al. 2005), vectorised over many rays at once. Pure NumPy (no bpy); the GLSL twin is
-``gpu_shaders/interval_search.glsl`` and follows the same conventions line by line.
+``gpu_shaders/relief/interval_search.glsl`` and follows the same conventions line by line.
 
 Conventions (shared with the GLSL twin)
 ---------------------------------------

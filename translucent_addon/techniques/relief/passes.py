@@ -2,8 +2,8 @@
 
 Blender-facing (``gpu``). A mesh with a height field is left out of the base pass and drawn here in
 the world pass (mode 0) and in each emitter's pass (mode 1), writing the depth of the displaced
-surface, so it sorts with everything else. Shader: ``gpu_shaders/relief.glsl`` with the search
-library ``interval_search.glsl`` (NumPy twin: ``techniques/relief/model.py``).
+surface, so it sorts with everything else. Shader: ``gpu_shaders/relief/height_field.glsl`` with the search
+library ``relief/interval_search.glsl`` (NumPy twin: ``techniques/relief/model.py``).
 """
 from __future__ import annotations
 
@@ -21,8 +21,8 @@ from ..protocol import Technique
 # shader table by the registry.
 SHADER_SPECS = {
     "relief": shaders.ShaderSpec(
-        source="relief.glsl",
-        libraries=shaders.SHADOW_LIBS + ("interval_search.glsl", "translucent_world_sh.glsl"),
+        source="relief/height_field.glsl",
+        libraries=shaders.SHADOW_LIBS + ("relief/interval_search.glsl", "common/world_spherical_harmonics.glsl"),
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC2", "uv"), ("VEC3", "tangent_u"),
                    ("VEC3", "tangent_v")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_tangent_u"),

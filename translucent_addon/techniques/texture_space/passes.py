@@ -14,7 +14,7 @@ Per frame, for each mesh with an up-to-date bake (Lensch Fig. 3):
    point per texel (``ts_filter``);
 5. display (Eq. 1, 14): the displayed mesh reads both maps through its atlas coordinates
    (``ts_display``), over the base pass.
-The maths and layouts are in ``model.py``, the GLSL in ``gpu_shaders/ts_*.glsl``.
+The maths and layouts are in ``model.py``, the GLSL in ``gpu_shaders/texture_space/``.
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ from .throughput import LenschBake, has_through, product_matrices, vertex_produc
 # shader table by the registry.
 SHADER_SPECS = {
     "ts_gather": shaders.ShaderSpec(
-        source="ts_gather.glsl",
+        source="texture_space/vertex_gather.glsl",
         vertex_in=(("VEC2", "texel"), ("FLOAT", "target"), ("FLOAT", "dual"), ("VEC3", "blend")),
         varyings=(("flat", "VEC3", "v_eg"), ("flat", "VEC3", "v_bd")),
         samplers=((0, "FLOAT_2D", "irradiance"),),
@@ -48,7 +48,7 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_eg"), (1, "VEC4", "out_bd")),
     ),
     "ts_product": shaders.ShaderSpec(
-        source="ts_product.glsl",
+        source="texture_space/sparse_product.glsl",
         vertex_in=(("VEC2", "corner"),),
         samplers=((0, "FLOAT_2D", "F_indptr"), (1, "FLOAT_2D", "F_indices"), (2, "FLOAT_2D", "F_data"),
                   (3, "FLOAT_2D", "E_vertex"), (4, "FLOAT_2D", "B_direct"), (5, "FLOAT_2D", "T_p_vertex"),
@@ -58,7 +58,7 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_vertex"), (1, "VEC4", "out_through")),
     ),
     "ts_filter": shaders.ShaderSpec(
-        source="ts_filter.glsl",
+        source="texture_space/local_filter.glsl",
         vertex_in=(("VEC2", "texel"), ("VEC2", "source"), ("FLOAT", "row"), ("VEC3", "bary"), ("VEC3", "verts")),
         varyings=(("flat", "VEC2", "v_source"), ("flat", "FLOAT", "v_row"), ("flat", "VEC3", "v_bary"),
                   ("flat", "VEC3", "v_verts")),
@@ -68,7 +68,7 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_local"), (1, "VEC4", "out_global"), (2, "VEC4", "out_through")),
     ),
     "ts_display": shaders.ShaderSpec(
-        source="ts_display.glsl",
+        source="texture_space/display.glsl",
         vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC2", "uv")),
         varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC3", "v_color"),
                   ("smooth", "VEC2", "v_uv")),

@@ -1,5 +1,5 @@
 /* IMAGE_SPACE final pass: adds F_t(w_o) / pi * a(cos_o) * S(x_o) * m, the splatted far field with the angular
- * law's weight of the light leaving (translucent_angular.glsl), to the
+ * law's weight of the light leaving (common/angular_law.glsl), to the
  * subsurface objects' pixels (additive over the base pass, depth-tested against it). */
 #ifdef GPU_VERTEX_SHADER
 void main()

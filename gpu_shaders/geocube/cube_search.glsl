@@ -1,5 +1,5 @@
 /* GEOCUBE (Chan & Wang 2005): bordered cube atlases and the cone-propelled exit search.
- * Twin of techniques/geocube/model.py, line by line (the atlas lookups are in cube_atlas.glsl).
+ * Twin of techniques/geocube/model.py, line by line (the atlas lookups are in common/cube_atlas.glsl).
  * Needs: samplers gc_cones (d, cos A, cos B, R_C), gc_normals (N), gc_centres (O, D per cube) and
  * env_atlas; the GeocubeData block `gc`. */
 

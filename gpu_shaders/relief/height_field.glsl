@@ -1,6 +1,6 @@
 /* Height-field pass (Shah ch. 3): a mesh displaced per pixel by a height map over its UVs. The view
  * ray enters the layer (depth 0 at the polygon, 1 at black, `relief.depth` scene units down along the
- * normal) and interval mapping (or relief mapping) finds its first hit (interval_search.glsl, NumPy twin
+ * normal) and interval mapping (or relief mapping) finds its first hit (relief/interval_search.glsl, NumPy twin
  * techniques/relief/model.py); the hit's depth is written (the surface sorts with everything else),
  * its normal comes from the height map, and in the emitters' passes a search toward the light shadows
  * it. Mode 0 is the uniform world, mode 1 one emitter; relief.params.w = 1 writes (hit u, hit v, hit

@@ -6,7 +6,7 @@
  * physics/lut.py crossover): with tail_pass set, one quad per tail_block x tail_block block of samples (those
  * of the block's first object: summed power at the power-weighted mean position and blur) carries
  * R_d t out to tail_reach r_max from the tail rows of far_lut (image_space/model.py tail_samples is its twin).
- * Pairs across a thin part take the thin-part factor and leave by the diffusion mode's law (translucent_angular.glsl);
+ * Pairs across a thin part take the thin-part factor and leave by the diffusion mode's law (common/angular_law.glsl);
  * every pair leans away from x_i as it leaves (physics/exit_lean.py). */
 #ifdef GPU_VERTEX_SHADER
 void main()

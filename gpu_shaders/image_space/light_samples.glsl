@@ -2,7 +2,7 @@
  * objects occlude: shadows); subsurface surfaces store their position and slot + 1, and the
  * power entering through their texel, Phi = E F_t(w_i) dA (point: I F_t dw_texel; directional:
  * E F_t texel area), times mm per unit^2 (dA in mm^2), the mask, M_i and the angular law's a(cos_i)
- * (translucent_angular.glsl); alpha holds M_d. */
+ * (common/angular_law.glsl); alpha holds M_d. */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {
@@ -38,7 +38,7 @@ void main()
   float cos_s = dot(n, to_light);
   float cos_g = abs(dot(normalize(cross(dFdx(v_world), dFdy(v_world))), to_light));
   float cos_i = max(cos_s, 0.0);
-  /* the light entering at an angle, read where it entered (translucent_oblique.glsl): its cosine per channel */
+  /* the light entering at an angle, read where it entered (common/oblique_entry.glsl): its cosine per channel */
   vec3 entering = oblique_cosine(n, to_light, mat.w, materials.entry[slot].xyz / mat.x,
                                  shape_operator(v_curv_d, v_curv_o));
   vec3 shading = entering / max(cos_g, MIN_FACET_COS);

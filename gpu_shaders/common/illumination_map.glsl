@@ -5,7 +5,7 @@
  * emitter, E = L cos_i (1 - F_r(cos_i)) V, added.
  * Border texels carry their source's point, so they take the irradiance across the seam.
  * As in the base pass, a point whose facet faces away from the light is in shadow. An emitter's light
- * entering at an angle is read where it entered (translucent_oblique.glsl; ``entry`` the shift per channel in
+ * entering at an angle is read where it entered (common/oblique_entry.glsl; ``entry`` the shift per channel in
  * world units, 0 for none; curv_d, curv_o the texel's shape operator in object space). An emitter's E is
  * scaled by cosine_table(cos_i), an n x 1 table read with linear interpolation (``cosine_lerp``), the world's by
  * its last texel (one texel of 1 leaves E; TEXTURE_SPACE's emitters: the angular law, physics/angular_law.py;

@@ -5,7 +5,7 @@
  * surface), and per emitter the near field of the
  * profile F_t(w_o) / pi * E F_t(w_i) V * near(M_d) * M_i (the far field is splatted by
  * IMAGE_SPACE). Subsurface light leaves weighed by the angular law's a(cos_o), and an emitter's enters
- * weighed by a(cos_i) (translucent_angular.glsl; the world's light is diffuse, over which a averages 1); an
+ * weighed by a(cos_i) (common/angular_law.glsl; the world's light is diffuse, over which a averages 1); an
  * emitter's near field leans away from where its light entered (physics/exit_lean.py).
  * The painted mask m blends subsurface (m = 1) and Lambert (m = 0). */
 #ifdef GPU_VERTEX_SHADER
@@ -85,7 +85,7 @@ void main()
     vec4 mat = materials.params[2 * slot];
     float eta = mat.w;
     float M = clamp(v_paint.y, 0.25, 1.0);
-    /* the light entering at an angle, read where it entered (translucent_oblique.glsl) */
+    /* the light entering at an angle, read where it entered (common/oblique_entry.glsl) */
     vec3 E = V * oblique_cosine(n, to_light, eta, materials.entry[slot].xyz / mat.x, S);
     vec3 entering = (1.0 - fresnel_dielectric(cos_i, eta)) * angular_weight(slot, cos_i);
     /* The near field's light leans away from where it entered (physics/exit_lean.py near_constant): over a disk

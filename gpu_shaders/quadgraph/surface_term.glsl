@@ -35,7 +35,7 @@ void main()
 
 #ifdef GPU_FRAGMENT_SHADER
 /* Path length in the medium from the first surface the emitter's light meets to p: the distance
- * atlas (shadow_distance.glsl) holds that surface's distance, interpolated bilinearly over those of
+ * atlas (pipeline/shadow_distance.glsl) holds that surface's distance, interpolated bilinearly over those of
  * the four nearest texels that saw a surface not far behind p (a nearest texel steps the path at
  * grazing light; a texel beside the outline that missed the object or saw the floor behind it would
  * light p in full: speckled rims). "Far": 16 texel widths, the depth one texel spans on a surface the
