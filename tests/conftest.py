@@ -81,6 +81,14 @@ def scene(installed, bpy_module):
     sc.render.engine = "TRANSLUCENT_RT"
     sc.render.resolution_percentage = 100
     yield sc
+    # Every pass sets and restores its GPU state (gpu/draw_state.py): one a technique hook left changed fails the
+    # test that drew it (the pipeline puts it back and records it).
+    engine = sys.modules.get(f"{installed}.translucent_addon.blender.engine")
+    pipeline = engine.final_pipeline() if engine is not None else None
+    leaks = list(pipeline.state_leaks) if pipeline is not None else []
+    if leaks:
+        pipeline.state_leaks.clear()
+        pytest.fail(f"GPU state left changed by a technique hook: {leaks}")
 
 
 def ext_module(package, name: str):

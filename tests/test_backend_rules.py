@@ -122,6 +122,18 @@ def call_violations(label: str, source: str) -> list[str]:
     return out
 
 
+STATE_SETTERS = re.compile(r"\bgpu\.state\.(blend_set|depth_test_set|depth_mask_set)\s*\(")
+
+
+def state_violations(label: str, source: str) -> list[str]:
+    """Blend, depth test or depth writes set outside gpu/draw_state.py: a pass states them through ``draw_pass``,
+    which restores them, so nothing one pass sets reaches the next."""
+    if label.endswith("gpu/draw_state.py"):
+        return []
+    lines = enumerate(source.splitlines(), 1)
+    return [f"{label}:{n}: {line.strip()}" for n, line in lines if STATE_SETTERS.search(line)]
+
+
 def _python_sources():
     return sorted(p for p in PACKAGE.rglob("*.py"))
 
@@ -145,6 +157,18 @@ def test_every_glsl_file_uses_only_what_every_backend_takes():
 def test_every_gpu_call_uses_formats_and_read_backs_every_backend_takes():
     problems = [p for f in _python_sources() for p in call_violations(str(f.relative_to(ROOT)), f.read_text())]
     assert not problems, "\n".join(problems)
+
+
+def test_every_pass_sets_its_gpu_state_through_draw_pass():
+    problems = [p for f in _python_sources() for p in state_violations(str(f.relative_to(ROOT)), f.read_text())]
+    assert not problems, "\n".join(problems)
+
+
+def test_a_planted_state_setter_is_caught():
+    source = 'with fb.bind():\n    gpu.state.blend_set("ADDITIVE_PREMULT")\n    shader.draw(batch)\n'
+    expected = 'techniques/x/passes.py:2: gpu.state.blend_set("ADDITIVE_PREMULT")'
+    assert state_violations("techniques/x/passes.py", source) == [expected]
+    assert state_violations("translucent_addon/gpu/draw_state.py", source) == []
 
 
 def test_every_pass_sets_its_inputs_through_pass_shader():

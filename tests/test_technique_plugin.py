@@ -21,6 +21,7 @@ GLSL = Path(__file__).parent / "data" / "constant_colour.glsl"
 def constant_colour_technique(tr):
     protocol = ext_module(tr, "translucent_addon.techniques.protocol")
     shaders = ext_module(tr, "translucent_addon.gpu.shaders")
+    draw_state = ext_module(tr, "translucent_addon.gpu.draw_state")
 
     class ConstantColour(protocol.Technique):
         id, label, method_number = "CONSTANT_TEST", "Constant (test)", 100
@@ -34,12 +35,7 @@ def constant_colour_technique(tr):
             return [k for k, m in enumerate(ctx.frame.meshes) if m.method == self.id] or None
 
         def finish(self, ctx, state):
-            import gpu
-
-            with ctx.target.bind():
-                gpu.state.depth_test_set("LESS_EQUAL")
-                gpu.state.depth_mask_set(False)
-                gpu.state.blend_set("NONE")
+            with draw_state.draw_pass(ctx.target, depth_test="LESS_EQUAL"):
                 shader = shaders.pass_shader("constant_test")
                 shader.bind()
                 shader.uniform_block("frame", ctx.frame_ubo)
@@ -47,7 +43,6 @@ def constant_colour_technique(tr):
                 for k in state:
                     shader.uniform_block("object", ctx.objects[k])
                     shader.draw(ctx.batches[k][0])
-                gpu.state.depth_mask_set(True)
             return {}
 
     return ConstantColour()
@@ -151,3 +146,37 @@ def test_a_technique_the_backend_cannot_run_falls_back_with_one_line(tr, scene, 
     finally:
         techniques.unregister(technique)
         engine.final_pipeline().unavailable.clear()
+
+
+def test_gpu_state_a_technique_leaves_set_is_put_back_and_recorded(tr, scene):
+    """A planted violation: the constant-colour technique's finish turns additive blending on and leaves it. The
+    pipeline puts the state back after the hook (the next frame is drawn as the first) and records the leak, which
+    the suite's teardown (conftest ``scene``) turns into a failure for every other test."""
+    import gpu
+
+    techniques = ext_module(tr, "translucent_addon.techniques")
+    engine = ext_module(tr, "translucent_addon.blender.engine")
+    cube, _ = _lit_cube(scene)
+    technique = constant_colour_technique(tr)
+    drawn = technique.finish
+
+    def leaking_finish(ctx, state):
+        steps = drawn(ctx, state)
+        gpu.state.blend_set("ADDITIVE")  # the violation under test
+        return steps
+
+    technique.finish = leaking_finish
+    techniques.register(technique)
+    pipeline = engine.final_pipeline()
+    try:
+        cube.translucent.method = "CONSTANT_TEST"
+        first = render(scene, 48, 48)
+        second = render(scene, 48, 48)
+        np.testing.assert_array_equal(first, second)
+        assert len(pipeline.state_leaks) == 2, pipeline.state_leaks
+        assert pipeline.state_leaks[0].startswith("CONSTANT_TEST leaking_finish: ('NONE', ")
+        assert "('ADDITIVE', " in pipeline.state_leaks[0]
+        cube.translucent.method = "OFF"
+    finally:
+        techniques.unregister(technique)
+        pipeline.state_leaks.clear()

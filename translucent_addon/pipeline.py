@@ -23,7 +23,7 @@ import numpy as np
 
 from .core.frame import FrameInputs, MeshInstance
 from .core.physics import oblique_entry
-from .gpu import blocks, shaders
+from .gpu import blocks, draw_state, shaders
 from .gpu.environment import environment
 from .gpu.frame_context import FrameContext
 from .gpu.targets import clear_target, read_pixels, screen_quad
@@ -42,6 +42,7 @@ class Pipeline:
         self.capture = None  # read-backs of intermediate passes for the last frame (frame.settings.capture)
         self.unavailable: dict[str, str] = {}  # technique id -> why this GPU backend cannot run it
         self._failed_now: set[str] = set()  # technique ids that failed in the frame being drawn
+        self.state_leaks: list[str] = []  # GPU state a technique hook left changed (put back; ``_guarded``)
 
     def free(self) -> None:
         self._batches.clear()
@@ -143,15 +144,13 @@ class Pipeline:
         timings["setup"] = time.perf_counter() - t0
 
         gpu.state.face_culling_set("NONE")
-        gpu.state.depth_mask_set(True)
-        gpu.state.depth_test_set("LESS_EQUAL")
-        gpu.state.blend_set("NONE")
         # A light block is bound in every mode; the world pass ignores it.
         placeholder = gpu.types.GPUUniformBuf(bytes(blocks.LIGHT_FLOATS * 4))
         base_inputs = (ctx.batches, ctx.objects, frame_ubo, materials_ubo, near_lut, atlas[1])
-        self._draw_base(*base_inputs, placeholder, mode=0, skip=skip)
-        for t, state in list(active):
-            self._guarded(t, ctx, t.world, ctx, state, placeholder, active=active)
+        with draw_state.draw_pass(fb, depth_test="LESS_EQUAL", depth_write=True):
+            self._draw_base(*base_inputs, placeholder, mode=0, skip=skip)
+            for t, state in list(active):
+                self._guarded(t, ctx, t.world, ctx, state, placeholder, active=active)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
 
         spent = {"shadow_maps": 0.0, "lights": 0.0}
@@ -165,16 +164,10 @@ class Pipeline:
             self._draw_shadow(n_faces, face_texels, ctx.batches, ctx.objects, light_ubo, atlas)
             t2 = time.perf_counter()
             spent["shadow_maps"] += t2 - t1
-            # The shadow pass bound the atlas: bind the target explicitly for the light pass.
-            with fb.bind():
-                gpu.state.depth_mask_set(False)
-                gpu.state.depth_test_set("LESS_EQUAL")
-                gpu.state.blend_set("ADDITIVE_PREMULT")  # ONE, ONE
+            with draw_state.draw_pass(fb, blend="ADDITIVE_PREMULT", depth_test="LESS_EQUAL"):  # ONE, ONE
                 self._draw_base(*base_inputs, light_ubo, mode=1, skip=skip)
                 for t, state in list(active):
                     self._guarded(t, ctx, t.emitter_surface, ctx, state, light_ubo, active=active)
-                gpu.state.blend_set("NONE")
-                gpu.state.depth_mask_set(True)
             spent["lights"] += time.perf_counter() - t2
             for t, state in list(active):
                 t3 = time.perf_counter()
@@ -188,20 +181,24 @@ class Pipeline:
                 timings.update(steps)
                 if t.timing:
                     timings[t.timing] = time.perf_counter() - t1
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
         self._unavailable_warnings(frame)
         self._failed_now.clear()
         timings["total"] = time.perf_counter() - t0
         self.last_timings = timings
 
     def _guarded(self, t, ctx: FrameContext, hook, *args, active: list | None = None):
-        """``hook(*args)``, one of technique ``t``'s. A backend that lacks what the technique needs (a shader it does
-        not compile, a format or size it refuses, a driver error) makes the technique fall back to the base colour:
-        dropped from ``active`` for the rest of this frame, not tried again by this pipeline, and one line naming its
-        objects and the reason in this frame's warnings (and every later frame's while they use it). The traceback
-        goes to the console and a farm's log. An error here must not fail the whole frame: in the viewport a failed
-        draw is a blank viewport, on a farm a failed frame."""
+        """``hook(*args)``, one of technique ``t``'s, with two guards.
+
+        A backend that lacks what the technique needs (a shader it does not compile, a format or size it refuses,
+        a driver error) makes the technique fall back to the base colour: dropped from ``active`` for the rest of
+        this frame, not tried again by this pipeline, and one line naming its objects and the reason in this
+        frame's warnings (and every later frame's while they use it). The traceback goes to the console and a
+        farm's log. An error here must not fail the whole frame: in the viewport a failed draw is a blank
+        viewport, on a farm a failed frame.
+
+        GPU state a hook leaves changed (blend, depth test, depth writes: a pass set outside ``draw_pass``) is put
+        back and recorded in ``state_leaks``, so that it cannot reach the next pass (the tests require none)."""
+        before = draw_state.current()
         try:
             return hook(*args)
         except Exception as err:  # noqa: BLE001 -- what a backend raises is not one type; each is reported
@@ -217,6 +214,11 @@ class Pipeline:
             if active is not None:
                 active[:] = [(u, state) for u, state in active if u is not t]
             return None
+        finally:
+            after = draw_state.current()
+            if after != before:
+                draw_state.apply(*before)
+                self.state_leaks.append(f"{t.id} {hook.__name__}: {before} -> {after}")
 
     def _unavailable_warnings(self, frame: FrameInputs) -> None:
         """One line per technique this pipeline gave up on (``_guarded``) that the frame asks for: a method with
@@ -231,19 +233,15 @@ class Pipeline:
 
     def _draw_environment(self, frame, frame_ubo) -> None:
         """The world image behind everything, where the world is an environment texture."""
-        import gpu
 
         chain, env_tex = environment(frame)
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
-        gpu.state.blend_set("NONE")
-        shader = shaders.pass_shader("env_background")
-        shader.bind()
-        shader.uniform_block("frame", frame_ubo)
-        shader.uniform_sampler("env_atlas", env_tex)
-        shader.uniform_int("env_res", int(chain.res))
-        shader.draw(screen_quad(self, "env_background"))
-        gpu.state.depth_mask_set(True)
+        with draw_state.draw_pass():
+            shader = shaders.pass_shader("env_background")
+            shader.bind()
+            shader.uniform_block("frame", frame_ubo)
+            shader.uniform_sampler("env_atlas", env_tex)
+            shader.uniform_int("env_res", int(chain.res))
+            shader.draw(screen_quad(self, "env_background"))
 
     @staticmethod
     def _draw_base(batches, objects, frame_ubo, materials_ubo, near_lut, atlas_texture, light_ubo,
@@ -263,11 +261,8 @@ class Pipeline:
 
         fb = atlas[3]
         shader = shaders.pass_shader("shadow_distance")
-        with fb.bind():
+        with draw_state.draw_pass(fb, depth_test="LESS_EQUAL", depth_write=True):
             clear_target(fb, (3.0e38, 0.0, 0.0, 0.0))
-            gpu.state.depth_test_set("LESS_EQUAL")
-            gpu.state.depth_mask_set(True)
-            gpu.state.blend_set("NONE")
             shader.bind()
             shader.uniform_block("light", light_ubo)
             for face in range(n_faces):
@@ -329,9 +324,7 @@ def draw_to_region(pipeline: Pipeline, frame: FrameInputs, size, bind_display, u
         pipeline.draw(frame)
     # Making an offscreen leaves no framebuffer bound (measured headless: a 0x0 viewport after it), so the first
     # frame after a resize drew its image nowhere: the region's is bound for it by name.
-    with region_fb.bind():
-        gpu.state.blend_set("ALPHA_PREMULT")
+    with draw_state.draw_pass(region_fb, blend="ALPHA_PREMULT", depth_test=None, depth_write=None):
         bind_display()
         draw_texture_2d(off.texture_color, (0, 0), *size)
         unbind_display()
-        gpu.state.blend_set("NONE")

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..core.physics.sh_irradiance import transmittance_kernel
 from . import shaders
+from .draw_state import draw_pass
 from .targets import clear_target, texture_from_array
 
 
@@ -19,12 +20,9 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
     the exitance its surface term takes over."""
     import gpu
 
-    with fb.bind():
+    with draw_pass(fb, blend="ADDITIVE_PREMULT"):
         if mode == 0:
             clear_target(fb, depth=None)
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
-        gpu.state.blend_set("ADDITIVE_PREMULT")
         gpu.state.point_size_set(1.0)
         shader = shaders.bind_lit("ts_illumination", frame_ubo, light_ubo, shadow_atlas, mode)
         shader.uniform_block("object", obj_ubo)
@@ -34,7 +32,6 @@ def draw_illumination(fb, points, size, obj_ubo, frame_ubo, light_ubo, shadow_at
         shader.uniform_float("entry", tuple(float(x) for x in entry))
         shader.uniform_sampler("cosine_table", cosine_table)
         shader.draw(points)
-        gpu.state.blend_set("NONE")
 
 
 def rgb_table(table):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import shaders
+from . import draw_state, shaders
 
 # Texture formats every backend Blender runs takes for sampling and as render targets (docs/gpu_backends.md): no
 # three-channel format (Metal has no RGB float format; Vulkan drivers need not take R32G32B32 as an image), no packed
@@ -69,15 +69,13 @@ def screen_quad(pipeline, shader_name: str):
 
 
 def clear_target(fb, color=(0.0, 0.0, 0.0, 0.0), depth: float | None = 1.0) -> None:
-    """Clear a bound framebuffer. Depth writes are enabled first: a depth clear obeys the depth
-    mask, and a pass that left it off would leave the last frame's depth in place."""
-    import gpu
-
-    gpu.state.depth_mask_set(True)
-    if depth is None:
-        fb.clear(color=color)
-    else:
-        fb.clear(color=color, depth=depth)
+    """Clear a bound framebuffer. Depth writes are on for the clear (a depth clear obeys the depth mask: a pass
+    that had them off would keep the last frame's depth) and as they were afterwards."""
+    with draw_state.draw_pass(None, blend=draw_state.current()[0], depth_write=True):
+        if depth is None:
+            fb.clear(color=color)
+        else:
+            fb.clear(color=color, depth=depth)
 
 
 def read_pixels(fb, width: int, height: int, slot: int = 0, channels: int = 4) -> np.ndarray:

@@ -27,6 +27,7 @@ from ...core.frame import CausticSettings, FrameInputs, MeshInstance
 from ...core.geometry.mesh_checks import check_mesh
 from ...core.properties import Prop
 from ...gpu import blocks, shaders
+from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, read_pixels, screen_quad
 from ..protocol import Technique
@@ -164,16 +165,13 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
     s = plan.settings
     N = int(s.texels)
     atlas_size = (3 * N, 2 * N)
-    gpu.state.blend_set("NONE")
-    gpu.state.depth_mask_set(True)
 
     # 1. Receiver positions from the light.
     recv_fb, (recv_tex,), _recv_depth = _target(pipeline, "caustic_receivers", atlas_size, depth=True)
     shader = shaders.pass_shader("caustic_receiver")
     n_faces = 6 if e.kind else 1
-    with recv_fb.bind():
+    with draw_pass(recv_fb, depth_test="LESS_EQUAL", depth_write=True):
         clear_target(recv_fb, (0.0, 0.0, 0.0, 0.0))
-        gpu.state.depth_test_set("LESS_EQUAL")
         shader.bind()
         shader.uniform_block("light", light_ubo)
         for face in range(n_faces):
@@ -204,10 +202,9 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
         maps = []
         for name, depth_clear, test in (("caustic_front", 1.0, "LESS_EQUAL"), ("caustic_back", 0.0, "GREATER_EQUAL")):
             grid_fb, textures, _depth = _target(pipeline, name, (G, G), depth=True, attachments=2)
-            with grid_fb.bind():
+            with draw_pass(grid_fb, depth_test=test, depth_write=True):
                 clear_target(grid_fb, (0.0, 0.0, 0.0, 0.0), depth=depth_clear)
                 gpu.state.viewport_set(0, 0, G, G)
-                gpu.state.depth_test_set(test)
                 caster_shader.bind()
                 caster_shader.uniform_block("caustic", ubo)
                 caster_shader.uniform_block("object", objects[k])
@@ -219,9 +216,7 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
         channels = 3 if (mesh.caster.dispersion > 0 and mesh.caster.mode != "REFLECTIVE") else 1
         trace_size = (G * channels, G)
         trace_fb, (landing_tex, trace_flux_tex), _ = _target(pipeline, "caustic_trace", trace_size, attachments=2)
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
-        with trace_fb.bind():
+        with draw_pass(trace_fb):
             gpu.state.viewport_set(0, 0, *trace_size)
             trace_shader.bind()
             trace_shader.uniform_block("light", light_ubo)
@@ -236,27 +231,21 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
         _capture(pipeline, "caustic_landing", trace_fb, trace_size, 0)
         _capture(pipeline, "caustic_trace_flux", trace_fb, trace_size, 1)
         # 4. Splat into the caustic atlas.
-        with flux_fb.bind():
+        with draw_pass(flux_fb, blend="ADDITIVE_PREMULT"):
             gpu.state.viewport_set(0, 0, *atlas_size)
-            gpu.state.blend_set("ADDITIVE_PREMULT")
             splat_shader.bind()
             splat_shader.uniform_block("light", light_ubo)
             splat_shader.uniform_block("caustic", ubo)
             splat_shader.uniform_sampler("trace_landing", landing_tex)
             splat_shader.uniform_sampler("trace_flux", trace_flux_tex)
             splat_shader.draw_instanced(screen_quad(pipeline, "caustic_splat"), trace_size[0] * trace_size[1])
-            gpu.state.blend_set("NONE")
-        gpu.state.depth_mask_set(True)
     _capture(pipeline, "caustic_flux", flux_fb, atlas_size)
     if not keep_alive or not plan.lit:
         return
 
     # 5. Receivers add the caustic.
     apply = shaders.pass_shader("caustic_apply")
-    with fb.bind():
-        gpu.state.depth_mask_set(False)
-        gpu.state.depth_test_set("LESS_EQUAL")
-        gpu.state.blend_set("ADDITIVE_PREMULT")
+    with draw_pass(fb, blend="ADDITIVE_PREMULT", depth_test="LESS_EQUAL"):
         apply.bind()
         apply.uniform_block("frame", frame_ubo)
         apply.uniform_block("light", light_ubo)
@@ -266,8 +255,6 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
         for k in plan.lit:
             apply.uniform_block("object", objects[k])
             apply.draw(batches[k][0])
-        gpu.state.blend_set("NONE")
-        gpu.state.depth_mask_set(True)
 
 
 class Caustics(Technique):

@@ -20,6 +20,7 @@ from ...core.physics.slab_transfer import transfer_table
 from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
+from ...gpu.draw_state import draw_pass
 from ...gpu.environment import environment
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
@@ -109,10 +110,7 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, 
     t0 = time.perf_counter()
     _, env_tex = environment(frame)
     mode = int(mode)
-    with target_fb.bind():
-        gpu.state.depth_test_set("LESS_EQUAL")
-        gpu.state.depth_mask_set(False)
-        gpu.state.blend_set("NONE")
+    with draw_pass(target_fb, depth_test="LESS_EQUAL"):
         shader = shaders.pass_shader("gc_refract")
         shader.bind()
         shader.uniform_block("frame", frame_ubo)
@@ -128,7 +126,6 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, 
             shader.uniform_sampler("gc_centres", r.centres)
             shader.uniform_sampler("transfer_table", table_tex)
             shader.draw(r.batch(a.mesh))
-        gpu.state.depth_mask_set(True)
     return {"geocube": time.perf_counter() - t0}
 
 

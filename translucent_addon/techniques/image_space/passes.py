@@ -18,6 +18,7 @@ import numpy as np
 from ...core.physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
 from ...core.properties import Prop
 from ...gpu import blocks, shaders
+from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique
@@ -167,9 +168,7 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
     _, (previous_gbuffer, _), _ = history["gbuffer"][parity]
     shader = shaders.pass_shader("is_temporal")
     temporal_ubo = gpu.types.GPUUniformBuf(data.tobytes())  # referenced until the draw: a freed UBO reads as 0
-    with out_fb.bind():
-        gpu.state.depth_test_set("NONE")
-        gpu.state.blend_set("NONE")
+    with draw_pass(out_fb):
         shader.bind()
         shader.uniform_block("temporal", temporal_ubo)
         shader.uniform_sampler("scatter", scatter)
@@ -187,32 +186,27 @@ def _splat(prepared: Prepared, frame_ubo, pos_id, flux, gbuf, size, world: bool,
     """Pass 3: one splat per sample of a (pos_id, flux) pair into the bound scatter target; ``gbuf`` is
     the camera view's (positions and slots, facet normals). Light samples also get their tail splats, one
     per TAIL_BLOCK x TAIL_BLOCK block (``physics.lut.crossover``)."""
-    import gpu
-
-    gpu.state.depth_test_set("NONE")
-    gpu.state.depth_mask_set(False)
-    gpu.state.blend_set("ADDITIVE_PREMULT")
-    shader = shaders.pass_shader("is_splat")
-    shader.bind()
-    shader.uniform_block("frame", frame_ubo)
-    shader.uniform_block("materials", prepared.materials)
-    shader.uniform_sampler("sample_pos_id", pos_id)
-    shader.uniform_sampler("sample_flux", flux)
-    shader.uniform_sampler("gbuffer", gbuf[0])
-    shader.uniform_sampler("gbuffer_normal", gbuf[1])
-    shader.uniform_sampler("far_lut", prepared.far_lut)
-    shader.uniform_int("samples_per_row", size[0])
-    shader.uniform_int("world_pass", 1 if world else 0)
-    shader.uniform_float("tail_reach", TAIL_REACH)
-    shader.uniform_float("tail_start", TAIL_START)
-    shader.uniform_int("tail_block", TAIL_BLOCK)
-    shader.uniform_int("tail_pass", 0)
-    shader.draw_instanced(quad, size[0] * size[1])
-    if not world:
-        shader.uniform_int("tail_pass", 1)
-        tail_grid = [-(-n // TAIL_BLOCK) for n in size]
-        shader.draw_instanced(quad, tail_grid[0] * tail_grid[1])
-    gpu.state.blend_set("NONE")
+    with draw_pass(None, blend="ADDITIVE_PREMULT"):
+        shader = shaders.pass_shader("is_splat")
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        shader.uniform_block("materials", prepared.materials)
+        shader.uniform_sampler("sample_pos_id", pos_id)
+        shader.uniform_sampler("sample_flux", flux)
+        shader.uniform_sampler("gbuffer", gbuf[0])
+        shader.uniform_sampler("gbuffer_normal", gbuf[1])
+        shader.uniform_sampler("far_lut", prepared.far_lut)
+        shader.uniform_int("samples_per_row", size[0])
+        shader.uniform_int("world_pass", 1 if world else 0)
+        shader.uniform_float("tail_reach", TAIL_REACH)
+        shader.uniform_float("tail_start", TAIL_START)
+        shader.uniform_int("tail_block", TAIL_BLOCK)
+        shader.uniform_int("tail_pass", 0)
+        shader.draw_instanced(quad, size[0] * size[1])
+        if not world:
+            shader.uniform_int("tail_pass", 1)
+            tail_grid = [-(-n // TAIL_BLOCK) for n in size]
+            shader.draw_instanced(quad, tail_grid[0] * tail_grid[1])
 
 
 def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, scatter_fb, gbuf, pipeline,
@@ -230,12 +224,9 @@ def _draw_world(prepared: Prepared, frame_ubo, batches, objects, is_subsurface, 
         for layer in range(w.layers):
             fb, (pos_id, flux) = targets[layer % 2]
             previous = targets[(layer + 1) % 2][1][0]
-            with fb.bind():
+            with draw_pass(fb, depth_test="LESS", depth_write=True):
                 clear_target(fb)
                 gpu.state.viewport_set(0, 0, w.grid, w.grid)
-                gpu.state.depth_test_set("LESS")
-                gpu.state.depth_mask_set(True)
-                gpu.state.blend_set("NONE")
                 peel.bind()
                 peel.uniform_block("frame", frame_ubo)
                 peel.uniform_block("materials", prepared.materials)
@@ -270,11 +261,8 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
     else:
         gbuf_fb, (gbuf, gbuf_normal) = _target(pipeline, "gbuffer", size, depth=True, attachments=2)
     shader = shaders.pass_shader("is_gbuffer")
-    with gbuf_fb.bind():
+    with draw_pass(gbuf_fb, depth_test="LESS_EQUAL", depth_write=True):
         clear_target(gbuf_fb)
-        gpu.state.depth_test_set("LESS_EQUAL")
-        gpu.state.depth_mask_set(True)
-        gpu.state.blend_set("NONE")
         shader.bind()
         shader.uniform_block("frame", frame_ubo)
         for (_, pos_only), obj in zip(batches, objects):
@@ -298,11 +286,8 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
                                normal_offset_texels=sampling.tan_half))
         samples_fb, (pos_id, flux) = _target(pipeline, "samples", atlas_size, depth=True, attachments=2)
         # Pass 1: light-view samples x_i with the power entering through each texel.
-        with samples_fb.bind():
+        with draw_pass(samples_fb, depth_test="LESS_EQUAL", depth_write=True):
             clear_target(samples_fb)
-            gpu.state.depth_test_set("LESS_EQUAL")
-            gpu.state.depth_mask_set(True)
-            gpu.state.blend_set("NONE")
             samples_shader.bind()
             samples_shader.uniform_block("light", light_ubo)
             samples_shader.uniform_block("materials", prepared.materials)
@@ -331,10 +316,7 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
 
     # Final: add F_t / pi * S to the subsurface objects' visible pixels.
     composite = shaders.pass_shader("is_composite")
-    with target_fb.bind():
-        gpu.state.depth_test_set("LESS_EQUAL")
-        gpu.state.depth_mask_set(False)
-        gpu.state.blend_set("ADDITIVE_PREMULT")
+    with draw_pass(target_fb, blend="ADDITIVE_PREMULT", depth_test="LESS_EQUAL"):
         composite.bind()
         composite.uniform_block("frame", frame_ubo)
         composite.uniform_block("materials", prepared.materials)
@@ -343,8 +325,6 @@ def draw(prepared: Prepared, frame, batches, objects, frame_ubo, target_fb, pipe
             if sss:
                 composite.uniform_block("object", obj)
                 composite.draw(full)
-        gpu.state.blend_set("NONE")
-        gpu.state.depth_mask_set(True)
 
 
 class ImageSpace(Technique):

@@ -48,6 +48,7 @@ from ...core.physics.fresnel import F_dr as diffuse_fresnel
 from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
+from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import MediumTables, draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
@@ -385,19 +386,16 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
     next surface behind it (the view ray's exit, mode 2); mode 1: add one emitter's surface term on the
     nearest surface, single scattering L^(1) and local multiple scattering L^(ms) (objects with the term
     switched off add none; the pipeline's QUADGRAPH output 2 or 3 keeps one of the two)."""
-    import gpu
 
     single, exit_ = single_target(pipeline, size), single_target(pipeline, size, "qg_exit")
     # (target drawn into, pass mode, target read as ``depths``)
     passes = ((single, 0, exit_), (exit_, 2, single)) if mode == 0 else ((single, 1, exit_),)
     for target, pass_mode, source in passes:
         fb, depths = target[0], source[1][0]
-        with fb.bind():
+        with draw_pass(fb, blend="ADDITIVE_PREMULT" if pass_mode == 1 else "NONE", depth_test="LESS_EQUAL",
+                       depth_write=pass_mode != 1):
             if pass_mode != 1:
                 clear_target(fb, (3.0e38,) * 4 if pass_mode == 2 else (0.0,) * 4)
-            gpu.state.depth_test_set("LESS_EQUAL")
-            gpu.state.depth_mask_set(pass_mode != 1)
-            gpu.state.blend_set("ADDITIVE_PREMULT" if pass_mode == 1 else "NONE")
             shader = shaders.bind_lit("qg_single", frame_ubo, light_ubo, shadow_atlas, pass_mode)
             shader.uniform_sampler("depths", depths)
             shader.uniform_int("segments", ss.SEGMENTS)
@@ -420,8 +418,6 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
                 shader.uniform_sampler("terminator_table", table)
                 shader.uniform_float("terminator_rho", (*map(float, rho_mm / m.mm_per_unit), 0.0))
                 shader.draw(a.resources.surface_batch(a.mesh))
-            gpu.state.depth_mask_set(True)
-            gpu.state.blend_set("NONE")
 
 
 def _relative_change(fb_new, fb_old, size) -> float:
@@ -451,7 +447,6 @@ def _relax_uniforms(shader, lg, t, A: float) -> None:
 
 def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresolution: bool = True):
     """Relax every level coarse to fine; returns the finest level's current phi target index."""
-    import gpu
 
     res = a.resources
     tolerance = df.reachable_tolerance(tolerance)
@@ -465,9 +460,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
         size = t.layout.size
         cur = 0
         fb = lg.phi[cur][0]
-        with fb.bind():
-            gpu.state.blend_set("NONE")
-            gpu.state.depth_test_set("NONE")
+        with draw_pass(fb):
             if previous is None or lg.up is None:
                 clear_target(fb, depth=None)
             else:
@@ -480,23 +473,23 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
                 shader.draw(screen_quad(pipeline, "qg_upsample"))
         shader = shaders.pass_shader("qg_relax")
         quad = screen_quad(pipeline, "qg_relax")
-        # Bound once a level: its tables, the blend state and the shader stay (each draw binds the shader again;
+        # Bound once a level: its tables, the state and the shader stay (each draw binds the shader again;
         # nothing between two steps binds another), so a step sets phi and draws.
-        gpu.state.blend_set("NONE")
-        shader.bind()
-        _relax_uniforms(shader, lg, t, A)
-        n = 0
-        while n < max_iterations:
-            step = min(CHECK_EVERY, max_iterations - n)
-            for _ in range(step):
-                src, dst = lg.phi[cur], lg.phi[1 - cur]
-                with dst[0].bind():
-                    shader.uniform_sampler("phi", src[1][0])
-                    shader.draw(quad)
-                cur = 1 - cur
-            n += step
-            if _relative_change(lg.phi[cur][0], lg.phi[1 - cur][0], size) < tolerance:
-                break
+        with draw_pass():
+            shader.bind()
+            _relax_uniforms(shader, lg, t, A)
+            n = 0
+            while n < max_iterations:
+                step = min(CHECK_EVERY, max_iterations - n)
+                for _ in range(step):
+                    src, dst = lg.phi[cur], lg.phi[1 - cur]
+                    with dst[0].bind():
+                        shader.uniform_sampler("phi", src[1][0])
+                        shader.draw(quad)
+                    cur = 1 - cur
+                n += step
+                if _relative_change(lg.phi[cur][0], lg.phi[1 - cur][0], size) < tolerance:
+                    break
         res.iterations.append(n)
         previous = (lg, cur)
     return previous[1]
@@ -505,7 +498,6 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, tolerance: float,
            max_iterations: int, output: int = 0) -> dict:
     """Solve and display; returns seconds per step (summed over meshes)."""
-    import gpu
 
     timings = {"qg_solve": 0.0, "qg_display": 0.0}
     for a in actives:
@@ -530,10 +522,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             pipeline.capture.setdefault("quadgraph", []).append(record)
         t1 = time.perf_counter()
         eta = float(a.mesh.medium.eta)
-        with target_fb.bind():
-            gpu.state.depth_test_set("LESS_EQUAL")
-            gpu.state.depth_mask_set(False)
-            gpu.state.blend_set("ALPHA")  # the painted mask: the base pass's Lambert shows where it is 0
+        # ALPHA: the painted mask; the base pass's Lambert shows where it is 0
+        with draw_pass(target_fb, blend="ALPHA", depth_test="LESS_EQUAL"):
             shader = shaders.pass_shader("qg_display")
             shader.bind()
             shader.uniform_block("frame", frame_ubo)
@@ -554,8 +544,6 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_float("F_dr", float(diffuse_fresnel(eta)))
             shader.uniform_int("display_output", int(output))
             shader.draw(a.resources.display_batch(a.mesh))
-            gpu.state.depth_mask_set(True)
-            gpu.state.blend_set("NONE")
         t2 = time.perf_counter()
         timings["qg_solve"] += t1 - t0
         timings["qg_display"] += t2 - t1

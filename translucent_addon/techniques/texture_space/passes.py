@@ -27,6 +27,7 @@ from ...core.physics.lut import profile_model
 from ...core.properties import Prop
 from ...gpu import bake_cache, shaders
 from ...gpu.bake_cache import Active
+from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import MediumTables, draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
@@ -182,24 +183,20 @@ def angular_texture(a: Active):
 
 
 def _gather(fb, points, source, size: tuple) -> None:
-    """``ts_gather`` into the bound ``fb`` (cleared first, additive): each point adds its weights times its texel of
+    """``ts_gather`` into ``fb`` (cleared first, additive): each point adds its weights times its texel of
     ``source`` to its slot of an image ``size`` wide and high (vertices from the atlas; clusters from the vertices)."""
-    import gpu
-
-    clear_target(fb, depth=None)
-    gpu.state.blend_set("ADDITIVE_PREMULT")
-    shader = shaders.pass_shader("ts_gather")
-    shader.bind()
-    shader.uniform_sampler("irradiance", source)
-    shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
-    shader.uniform_float("vertex_size", tuple(float(x) for x in size))
-    shader.draw(points)
-    gpu.state.blend_set("NONE")
+    with draw_pass(fb, blend="ADDITIVE_PREMULT"):
+        clear_target(fb, depth=None)
+        shader = shaders.pass_shader("ts_gather")
+        shader.bind()
+        shader.uniform_sampler("irradiance", source)
+        shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+        shader.uniform_float("vertex_size", tuple(float(x) for x in size))
+        shader.draw(points)
 
 
 def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, product: str = "GPU") -> dict:
     """Gather, product, filter and display; returns seconds per step (summed over meshes)."""
-    import gpu
 
     timings = {"ts_gather": 0.0, "ts_product": 0.0, "ts_filter": 0.0, "ts_display": 0.0}
     for a in actives:
@@ -211,9 +208,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
         t0 = time.perf_counter()
         irr_fb, (irradiance,), _ = res.irradiance
         vin_fb, (E_vertex, B_direct), _ = res.vertex_in
+        _gather(vin_fb, res.gather_points, irradiance, t.vertex_size)
         with vin_fb.bind():
-            gpu.state.depth_test_set("NONE")
-            _gather(vin_fb, res.gather_points, irradiance, t.vertex_size)
             if product_here == "CPU":
                 E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
                 B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
@@ -230,10 +226,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             E_cluster = unit_texture(pipeline)  # read by no entry where the bake has no far field
             if res.cluster_in is not None:
                 cl_fb, (E_cluster, _), _ = res.cluster_in
-                with cl_fb.bind():
-                    _gather(cl_fb, res.cluster_points, E_vertex, t.cluster_size)
-            with vout_fb.bind():
-                gpu.state.blend_set("NONE")
+                _gather(cl_fb, res.cluster_points, E_vertex, t.cluster_size)
+            with draw_pass(vout_fb):
                 shader = shaders.pass_shader("ts_product")
                 shader.bind()
                 shader.uniform_sampler("F_indptr", res.F_indptr)
@@ -251,9 +245,8 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 shader.draw(screen_quad(pipeline, "ts_product"))
         t2 = time.perf_counter()
         maps_fb, (local_map, global_map, through_map), _ = res.maps
-        with maps_fb.bind():
+        with draw_pass(maps_fb):
             clear_target(maps_fb, depth=None)
-            gpu.state.blend_set("NONE")
             shader = shaders.pass_shader("ts_filter")
             shader.bind()
             shader.uniform_sampler("irradiance", irradiance)
@@ -275,10 +268,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
                 w, h = t.atlas_size
                 pipeline.capture["texture_space"][-1]["irradiance"] = read_pixels(irr_fb, w, h)
         t3 = time.perf_counter()
-        with target_fb.bind():
-            gpu.state.depth_test_set("LESS_EQUAL")
-            gpu.state.depth_mask_set(False)
-            gpu.state.blend_set("NONE")
+        with draw_pass(target_fb, depth_test="LESS_EQUAL"):
             shader = shaders.pass_shader("ts_display")
             shader.bind()
             shader.uniform_block("frame", frame_ubo)
@@ -290,7 +280,6 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("through_map", through_map)
             shader.uniform_sampler("exit_table", exit_texture(a))
             shader.draw(res.display_batch(a.mesh))
-            gpu.state.depth_mask_set(True)
         t4 = time.perf_counter()
         for key, dt in zip(timings, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
             timings[key] += dt
