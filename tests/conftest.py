@@ -10,9 +10,11 @@ leaks into the user's configuration, and every test starts from an empty scene.
 """
 from __future__ import annotations
 
+import atexit
 import glob
 import importlib
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -23,8 +25,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # pure modules: ``import translucent_addon...``
 
 if "bpy" not in sys.modules:
-    # bpy as a module: point Blender's user folders at a temporary place before it starts.
+    # bpy as a module: point Blender's user folders at a temporary place before it starts (removed at exit).
     _USER = tempfile.mkdtemp(prefix="translucent-blender-user-")
+    atexit.register(shutil.rmtree, _USER, True)
     for var in ("BLENDER_USER_CONFIG", "BLENDER_USER_SCRIPTS", "BLENDER_USER_DATAFILES", "BLENDER_USER_EXTENSIONS"):
         os.environ[var] = os.path.join(_USER, var.split("_")[-1].lower())
 
@@ -64,6 +67,7 @@ def installed(bpy_module):
     if package in bpy.context.preferences.addons:
         bpy.ops.preferences.addon_disable(module=package)
     repos.remove(repo)
+    shutil.rmtree(repo_dir, ignore_errors=True)  # the installed extension: 79 MB a session
 
 
 @pytest.fixture
