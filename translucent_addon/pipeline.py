@@ -324,7 +324,9 @@ def draw_to_region(pipeline: Pipeline, frame: FrameInputs, size, bind_display, u
         pipeline.draw(frame)
     # Making an offscreen leaves no framebuffer bound (measured headless: a 0x0 viewport after it), so the first
     # frame after a resize drew its image nowhere: the region's is bound for it by name.
-    with draw_state.draw_pass(region_fb, blend="ALPHA_PREMULT", depth_test=None, depth_write=None):
+    # No depth test: the image covers the region whatever depth Blender's own drawing left there (EEVEE's render
+    # leaves LESS_EQUAL on; the old pipeline switched it off at its end, by chance).
+    with draw_state.draw_pass(region_fb, blend="ALPHA_PREMULT"):
         bind_display()
         draw_texture_2d(off.texture_color, (0, 0), *size)
         unbind_display()

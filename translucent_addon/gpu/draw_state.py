@@ -28,14 +28,13 @@ def apply(blend: str, depth_test: str, depth_write: bool) -> None:
 
 
 @contextlib.contextmanager
-def draw_pass(target=None, *, blend: str = "NONE", depth_test: str | None = "NONE", depth_write: bool | None = False):
+def draw_pass(target=None, *, blend: str = "NONE", depth_test: str = "NONE", depth_write: bool = False):
     """Draw a pass into ``target`` (a GPUFrameBuffer bound for the pass; None: the one bound now) with ``blend``,
-    ``depth_test`` and ``depth_write`` (None: as they are, for a draw onto Blender's own region); on exit the
-    framebuffer and the three are what they were before."""
+    ``depth_test`` and ``depth_write``; on exit the framebuffer and the three are what they were before."""
     before = current()
     binding = target.bind() if target is not None else contextlib.nullcontext()
     with binding:
-        apply(blend, before[1] if depth_test is None else depth_test, before[2] if depth_write is None else depth_write)
+        apply(blend, depth_test, depth_write)
         try:
             yield
         finally:
