@@ -6,8 +6,6 @@ import pytest
 
 from translucent_addon.core.geometry.orientation import orient_outward, outward_normals, turned
 
-pytestmark = pytest.mark.gpu  # also run on Blender 5.3 under Vulkan and OpenGL (make test-gpu53)
-
 
 def _ball(centre=(0.0, 0.0, 0.0), radius=1.0, levels=2):
     from test_quadgraph import icosphere
