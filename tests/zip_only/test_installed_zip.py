@@ -37,15 +37,16 @@ W, H = 64, 48
 BAKED = ("TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
 # Frames of these scenes rendered on Blender 5.2.4 (OpenGL, llvmpipe), each baked there: every Blender and backend
 # bakes and draws them again and must land within REFERENCE_TOLERANCE (relative RMSE over the frame). A grey ball is
-# 45 % off; measured across 5.2.4, 5.3.0 (Vulkan, OpenGL) and 4.5.15 every frame is exact but QUADGRAPH's, whose
-# tetrahedra differ from bake to bake (fTetWild: 0.2-0.4 % on one Blender). docs/gpu_backends.md.
+# 35-45 % off. Measured across 5.2.4, 5.3.0 (Vulkan, OpenGL) and 4.5.15 every frame is exact but QUADGRAPH's, whose
+# tetrahedra differ from bake to bake (fTetWild; 0.2-1.7 % seen here, test_quadgraph_gpu allows 6 %): the parity
+# tests (test_parity.py), which draw one bake everywhere, hold QUADGRAPH to 0.5 %. docs/gpu_backends.md.
 # TRANSLUCENT_WRITE_REFERENCE=1 writes them instead (on the reference Blender only).
 REFERENCE_DIR = Path(__file__).resolve().parent / "reference"
-REFERENCE_TOLERANCE = 0.01  # QUADGRAPH: 0.2-0.4 % between two bakes on one Blender (fTetWild); the rest exact
+REFERENCE_TOLERANCE = {"quadgraph": 0.06}  # the rest: 0.01
 
 
 def _matches_reference(image, name: str) -> None:
-    """The frame equals the reference frame ``name`` within REFERENCE_TOLERANCE relative RMSE (RGB)."""
+    """The frame equals the reference frame ``name`` within its REFERENCE_TOLERANCE relative RMSE (RGB)."""
     path = REFERENCE_DIR / f"{name}.npy"
     if os.environ.get("TRANSLUCENT_WRITE_REFERENCE") == "1":
         REFERENCE_DIR.mkdir(exist_ok=True)
@@ -54,7 +55,8 @@ def _matches_reference(image, name: str) -> None:
     reference = np.load(path).astype(np.float64)[..., :3]
     error = np.sqrt(np.mean((image[..., :3] - reference) ** 2)) / np.sqrt(np.mean(reference ** 2))
     print(f"{name}: relative RMSE {error:.5f} against the reference frame")
-    assert error < REFERENCE_TOLERANCE, f"{name}: relative RMSE {error:.4f} against the 5.2.4 frame"
+    tolerance = REFERENCE_TOLERANCE.get(name, 0.01)
+    assert error < tolerance, f"{name}: relative RMSE {error:.4f} against the 5.2.4 frame (at most {tolerance})"
 
 
 def _render(tr, scene, width=W, height=H):
