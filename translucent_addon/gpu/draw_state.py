@@ -40,17 +40,3 @@ def draw_pass(target=None, *, blend: str = "NONE", depth_test: str = "NONE", dep
         finally:
             apply(*before)
 
-
-def set_blend(blend: str) -> None:
-    """Change the blending inside a ``draw_pass`` (a pass whose draws blend differently); restored with the pass."""
-    import gpu
-
-    gpu.state.blend_set(blend)
-
-
-def set_depth(depth_test: str, depth_write: bool) -> None:
-    """Change the depth test and writes inside a ``draw_pass``; restored with the pass."""
-    import gpu
-
-    gpu.state.depth_test_set(depth_test)
-    gpu.state.depth_mask_set(bool(depth_write))
