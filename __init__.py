@@ -12,9 +12,9 @@ from .translucent_addon import techniques as _techniques
 from .translucent_addon.blender import bake_files as _bake_files
 from .translucent_addon.blender import draw_handler as _draw_handler
 from .translucent_addon.blender import engine as _engine
-from .translucent_addon.blender import extract as _extract
 from .translucent_addon.blender import preferences as _preferences
 from .translucent_addon.blender import props as _props
+from .translucent_addon.blender import session as _session
 from .translucent_addon.blender import ui as _ui
 from .translucent_addon.blender import versioning as _versioning
 from .translucent_addon.gpu import bake_cache as _bake_cache
@@ -45,6 +45,7 @@ def register():
     _draw_handler.register()
     _bake_files.register()
     _versioning.register()
+    _session.register()
 
 
 def unregister():
@@ -52,10 +53,9 @@ def unregister():
 
     _versioning.unregister()
     _bake_files.unregister()
-    _draw_handler.unregister()
+    _draw_handler.unregister()  # its handlers are the session's: before the session goes
+    _session.unregister()
     _techniques.clear_caches()
-    _extract.clear_caches()
-    _engine.free()
     _bake_cache.clear()
     _environment.clear_cache()
     _shaders.free_all()

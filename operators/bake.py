@@ -19,8 +19,6 @@ from ..translucent_addon.techniques import registry
 from . import polls
 from .polls import active_mesh as _active_mesh
 
-BAKED_AUTO = {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}  # methods whose Auto resolutions a bake uses
-
 
 class ModalJob:
     """A long job on the active object as a generator of (fraction, text): modal with a progress bar and
@@ -150,7 +148,7 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"ERROR"}, error)
             return None
         self._previous = {}
-        if ob.translucent.quality == "AUTO" and ob.translucent.method in BAKED_AUTO:
+        if ob.translucent.quality == "AUTO" and registry.bakes_auto(ob.translucent.method):
             try:
                 choice = apply_auto(context, ob, self._previous)
             except registry.BakeInputError as err:

@@ -40,7 +40,7 @@ class TRANSLUCENT_OT_compare_cycles(ModalJob, bpy.types.Operator):
 
     def _settings(self):
         quick = self.quick or self.extent == "QUICK"
-        return runner.CompareSettings.quick() if quick else runner.CompareSettings()
+        return runner.CompareSettings.quick_settings() if quick else runner.CompareSettings()
 
     def invoke(self, context, event):
         """The dialog: Quick or Full, each with the time it takes here (Cycles measured on this scene)."""
@@ -48,7 +48,8 @@ class TRANSLUCENT_OT_compare_cycles(ModalJob, bpy.types.Operator):
             return self.execute(context)
         self._expected = {}
         try:
-            for kind, settings in (("QUICK", runner.CompareSettings.quick()), ("FULL", runner.CompareSettings())):
+            for kind, settings in (("QUICK", runner.CompareSettings.quick_settings()),
+                                   ("FULL", runner.CompareSettings())):
                 self._expected[kind] = (runner.expected_seconds(context.scene, settings), settings)
         except Exception:  # noqa: BLE001 - Cycles could not render the scene now: the dialog goes without times
             self._expected = {}
@@ -64,8 +65,10 @@ class TRANSLUCENT_OT_compare_cycles(ModalJob, bpy.types.Operator):
     def draw(self, context):
         layout = self.layout
         layout.row().prop(self, "extent", expand=True)
+        methods = runner.object_methods(runner.translucent_objects(context.scene))
         for kind, (seconds, settings) in getattr(self, "_expected", {}).items():
-            layout.label(text=f"{kind.capitalize()}: about {_duration(seconds)} here ({settings.renders()} renders, "
+            renders = settings.renders(methods)
+            layout.label(text=f"{kind.capitalize()}: about {_duration(seconds)} here ({renders} renders, "
                               f"Cycles {settings.cycles_pixel_samples():,} samples per pixel in all)",
                          icon="TIME" if kind == self.extent else "BLANK1")
         layout.prop(self, "output_dir")

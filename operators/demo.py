@@ -13,8 +13,8 @@ class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     KINDS = (("BUNNY", "Marble bunny", "A back-lit marble Stanford bunny on a ground plane"),
-             ("CAUSTICS", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
-             ("CAUSTICS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics"))
+             ("GLASS_BALL", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
+             ("GLASS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics"))
     kind: bpy.props.EnumProperty(name="Scene", description="Which demo scene to add", items=KINDS, default="BUNNY")
 
     @classmethod
@@ -30,7 +30,7 @@ class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
         if self.kind == "BUNNY":
             scene = build_default_scene()
         else:
-            scene = build_caustics_scene(caster="bunny" if self.kind == "CAUSTICS_BUNNY" else "sphere")
+            scene = build_caustics_scene(caster="bunny" if self.kind == "GLASS_BUNNY" else "sphere")
         if context.window is not None:
             context.window.scene = scene
         self.report({"INFO"}, f"Added scene '{scene.name}'")

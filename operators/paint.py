@@ -7,6 +7,7 @@ QUADGRAPH, which carries them into its volume.
 """
 import bpy
 
+from ..translucent_addon import techniques
 from ..translucent_addon.blender.extract import BLUR_GROUP, GLOW_GROUP, MASK_GROUP, TINT_ATTRIBUTE
 from . import polls
 
@@ -52,8 +53,9 @@ class TRANSLUCENT_OT_add_paint_layer(bpy.types.Operator):
             ob.vertex_groups.active_index = group.index
             mode = "WEIGHT_PAINT"
         if ob.translucent.method == "OFF":
-            ob.translucent.method = "IMAGE_SPACE"
-            self.report({"INFO"}, f"'{ob.name}': method set to IMAGE_SPACE, which draws painted translucency")
+            ob.translucent.method = method = techniques.default_method()
+            self.report({"INFO"}, f"'{ob.name}': method set to {techniques.METHOD_LABELS[method]}, which draws "
+                                  f"painted translucency")
         if self.enter_paint_mode and context.mode != "PAINT_" + mode.split("_")[0]:
             if bpy.ops.object.mode_set.poll():
                 bpy.ops.object.mode_set(mode=mode)

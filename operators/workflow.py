@@ -2,6 +2,7 @@
 quality tiers and AUTO quality."""
 import bpy
 
+from ..translucent_addon import techniques
 from ..translucent_addon.blender import medium_source, preferences, props
 from ..translucent_addon.blender.quality_apply import apply_auto
 from ..translucent_addon.core import quality
@@ -73,10 +74,10 @@ class TRANSLUCENT_OT_apply_quality(bpy.types.Operator):
         if tier == "DEFAULT":
             prefs = preferences.get(context)
             tier = prefs.default_quality if prefs is not None else "STANDARD"
-        quality.apply(context.scene.translucent, quality.SCENE, tier)
+        quality.apply(context.scene.translucent, techniques.tier_table("scene"), tier)
         ob = context.active_object
         if ob is not None and ob.type == "MESH":
-            quality.apply(ob.translucent, quality.OBJECT, tier)
+            quality.apply(ob.translucent, techniques.tier_table("object"), tier)
         self.report({"INFO"}, f"quality {tier.capitalize()} applied")
         return {"FINISHED"}
 

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_series  # noqa: E402
 import blender_env  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,8 +78,10 @@ def main() -> int:
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = demo.build_scene(name, bpy.context.scene)
         scene.render.resolution_x, scene.render.resolution_y = args.width, args.height
-        settings = runner.CompareSettings.quick() if args.quick else runner.CompareSettings(
-            texture_space_atlas=(256, 512, (512, 2.4)), quadgraph_K=(2.0, 1.0, 0.5), auto_targets=(0.05,))
+        settings = runner.CompareSettings.quick_settings() if args.quick else runner.CompareSettings(
+            series={"IMAGE_SPACE": (8.0, 16.0, 32.0, 48.0), "TEXTURE_SPACE": (256, 512, (512, 2.4)),
+                    "QUADGRAPH": (2.0, 1.0, 0.5)},
+            auto_targets=(0.05,), auto_methods=("IMAGE_SPACE", "TEXTURE_SPACE"))
         settings.cache_dir = args.cache
         print(f"== {name}", flush=True)
         subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
@@ -88,7 +91,8 @@ def main() -> int:
             rows.append((name, e))
         if args.discretisation_size and not args.quick and name in args.discretisation_scenes:
             scene.render.resolution_x = scene.render.resolution_y = args.discretisation_size
-            disc = runner.discretisation(scene, [subject], out / name / "discretisation", cache_dir=args.cache,
+            disc = bench_series.discretisation(runner, scene, [subject], out / name / "discretisation",
+                                               cache_dir=args.cache,
                                          progress=lambda text, n=name: print(f"[{n}] {text}", flush=True))
             disc_rows.extend((name, r) for r in disc)
     for name in args.discretisation_scenes if args.discretisation_size and not args.quick else []:
@@ -98,7 +102,8 @@ def main() -> int:
         scene = demo.build_scene(name, bpy.context.scene)
         scene.render.resolution_x = scene.render.resolution_y = args.discretisation_size
         subject = bpy.data.objects[demo.SCENES[name]["mesh"].capitalize()]
-        ts = runner.texture_space_discretisation(scene, [subject], ts_out / name, args.texture_space_atlas,
+        ts = bench_series.texture_space_discretisation(runner, scene, [subject], ts_out / name,
+                                                       args.texture_space_atlas,
                                                  cache_dir=args.cache,
                                                  progress=lambda text, n=name: print(f"[{n}] {text}", flush=True))
         ts_rows.extend((name, r) for r in ts)
@@ -339,7 +344,7 @@ def blending_phase(demo, runner, bpy, out: Path, cache, size: int = 256) -> None
     out.mkdir(parents=True, exist_ok=True)
     for blend in (False, True):
         ob.translucent.texture_blending = blend
-        got = runner.texture_space_discretisation(scene, [ob], out / "blending", (512,), cache_dir=cache,
+        got = bench_series.texture_space_discretisation(runner, scene, [ob], out / "blending", (512,), cache_dir=cache,
                                                   progress=lambda t: print(f"[blending] {t}", flush=True),
                                                   name=f"blending_{'on' if blend else 'off'}")
         rows.append({"blending": blend, **got[0]})

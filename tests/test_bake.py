@@ -158,7 +158,7 @@ def test_quadgraph_density_refines_a_mesh_with_fewer_triangles_than_it_asks_for(
     def proxy(K):
         ob.translucent.quadgraph_K = K
         got = inputs.gather(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()), for_bake=True)
-        (level,) = got.proxy_levels
+        (level,) = got.params.proxy_levels
         return got, level
 
     got, (v, t) = proxy(1.0)

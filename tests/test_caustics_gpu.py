@@ -18,7 +18,7 @@ def _scene(tr, scene, **kw):
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.session").current().capture
 
 
 def _twin(tr, cap, caster_name="Glass ball"):

@@ -29,7 +29,7 @@ def _scene(tr, scene):
 def test_compare_writes_report_images_chart_and_reproduces_from_cache(tr, scene, tmp_path):
     _scene(tr, scene)
     runner = ext_module(tr, "translucent_addon.blender.compare_runner")
-    settings = runner.CompareSettings(our_quality=({"label": "k=8", "splat_overlap": 8.0},),
+    settings = runner.CompareSettings(series={"IMAGE_SPACE": (8.0,)},
                                       cycles_random_walk_samples=(4,),
                                       cycles_brute_force_samples=(8,), eevee_samples=(1,), reference_samples=64,
                                       brute_force_reference_samples=32, model_reference_samples=5000)
@@ -86,10 +86,10 @@ def test_compare_steps_report_progress_and_stop_cleanly(tr, scene, tmp_path):
     fractions ending at 1; stopped after a step (Esc), the scene keeps its engine and materials."""
     ob = _scene(tr, scene)
     runner = ext_module(tr, "translucent_addon.blender.compare_runner")
-    settings = runner.CompareSettings(our_quality=({"label": "k=8", "splat_overlap": 8.0},),
+    settings = runner.CompareSettings(series={"IMAGE_SPACE": (8.0,)},
                                       cycles_random_walk_samples=(2,), cycles_brute_force_samples=(),
                                       eevee_samples=(), reference_samples=4, brute_force_reference_samples=0,
-                                      model_reference_samples=0, texture_space_atlas=())
+                                      model_reference_samples=0)
     job = runner.run_steps(scene, tmp_path / "a", settings)
     fractions = []
     while True:
@@ -113,10 +113,11 @@ def test_compare_quadgraph_and_auto_series_restore_the_object(tr, scene, tmp_pat
     ball.translucent.atlas_resolution = 384
     overlap = scene.translucent.splat_overlap
     runner = ext_module(tr, "translucent_addon.blender.compare_runner")
-    settings = runner.CompareSettings(our_quality=(), cycles_random_walk_samples=(), cycles_brute_force_samples=(),
+    settings = runner.CompareSettings(series={"IMAGE_SPACE": (), "QUADGRAPH": (2.0,)}, cycles_random_walk_samples=(),
+                                      cycles_brute_force_samples=(),
                                       eevee_samples=(), reference_samples=16, brute_force_reference_samples=0,
-                                      model_reference_samples=0, texture_space_atlas=(), quadgraph_K=(2.0,),
-                                      auto_targets=(0.1,))
+                                      model_reference_samples=0, auto_targets=(0.1,),
+                                      auto_methods=("IMAGE_SPACE", "TEXTURE_SPACE"))
     entries, _ = runner.run(scene, tmp_path, settings, progress=lambda s: None)
     by_series = {e.series: e for e in entries}
     assert set(by_series) == {"Cycles random walk (reference)", "Translucent (QUADGRAPH)",
@@ -141,12 +142,13 @@ def test_the_dialog_says_how_long_each_comparison_takes_and_an_unsaved_file_repo
 
     _scene(tr, scene)
     runner = ext_module(tr, "translucent_addon.blender.compare_runner")
-    quick = runner.expected_seconds(scene, runner.CompareSettings.quick())
+    quick = runner.expected_seconds(scene, runner.CompareSettings.quick_settings())
     full = runner.expected_seconds(scene, runner.CompareSettings())
     overhead, per_sample = runner.cycles_rate(scene)
     print(f"expected here: quick {quick:.0f} s, full {full:.0f} s (Cycles {overhead:.2f} s + {per_sample:.4f} s/spp)")
     assert 0 < quick < full and per_sample > 0
-    assert runner.CompareSettings().cycles_pixel_samples() > 10 * runner.CompareSettings.quick().cycles_pixel_samples()
+    quick_samples = runner.CompareSettings.quick_settings().cycles_pixel_samples()
+    assert runner.CompareSettings().cycles_pixel_samples() > 10 * quick_samples
     operator = __import__(tr.__name__ + ".operators.compare", fromlist=["x"])
     assert not bpy.data.filepath
     folder = operator._output_folder(bpy.context, "//translucent_compare")

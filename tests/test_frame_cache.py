@@ -43,8 +43,7 @@ def _scene(scene, method="OFF"):
 
 def _fresh(tr, scene) -> np.ndarray:
     """The frame with every cache dropped: what the cached frame must equal."""
-    ext_module(tr, "translucent_addon.blender.extract").clear_caches()
-    ext_module(tr, "translucent_addon.blender.engine").free()
+    ext_module(tr, "translucent_addon.blender.session").current().clear()
     return render(scene, SIZE, SIZE)
 
 
@@ -106,7 +105,6 @@ def test_an_unchanged_mesh_is_not_read_again_and_a_deforming_one_is(tr, scene):
     a shape-key edit (deformation) makes new positions and normals under the same topology."""
     ball = _scene(scene)
     extract = ext_module(tr, "translucent_addon.blender.extract")
-    mesh_read = ext_module(tr, "translucent_addon.blender.mesh_read")
     depsgraph = bpy.context.evaluated_depsgraph_get()
 
     def frame():
@@ -117,7 +115,7 @@ def test_an_unchanged_mesh_is_not_read_again_and_a_deforming_one_is(tr, scene):
     depsgraph.update()
     second = next(m for m in frame().meshes if m.name == "Ball")
     assert second.key == first.key and second.positions is first.positions
-    read = mesh_read._CACHE[("VIEWPORT", "Ball")]
+    read = ext_module(tr, "translucent_addon.blender.session").current().reads.cache[("VIEWPORT", "Ball")]
 
     ball.shape_key_add(name="Basis")
     key = ball.shape_key_add(name="Squash")
@@ -125,7 +123,7 @@ def test_an_unchanged_mesh_is_not_read_again_and_a_deforming_one_is(tr, scene):
     key.value = 1.0
     depsgraph.update()
     third = next(m for m in frame().meshes if m.name == "Ball")
-    moved = mesh_read._CACHE[("VIEWPORT", "Ball")]
+    moved = ext_module(tr, "translucent_addon.blender.session").current().reads.cache[("VIEWPORT", "Ball")]
     assert third.key != first.key and not np.array_equal(third.positions, first.positions)
     assert moved is not read and moved.tri_loops is read.tri_loops, "the topology is kept, not read again"
 
@@ -240,23 +238,23 @@ def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
     """Between updates, an object no update named is not read (its ``DrawnMesh`` is reused as it is); one
     that is named is read and compared."""
     ball = _scene(scene)
-    extract = ext_module(tr, "translucent_addon.blender.extract")
     _viewport_frame(scene)
     reads = []
-    real = extract.mesh_read.read
-    extract.mesh_read.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
+    session = ext_module(tr, "translucent_addon.blender.session").current()
+    real = session.reads.read
+    session.reads.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
     try:
         _viewport_frame(scene)
         assert reads == [], "nothing changed: no mesh read"
         _viewport_frame(scene, [viewport_probe.update_of(ball)])
         assert reads == ["Ball"]
     finally:
-        extract.mesh_read.read = real
+        session.reads.read = real
     add_mesh(scene, "Tri", [(0, 0, 2), (1, 0, 2), (0, 1, 2)], [(0, 1, 2)])
     reads.clear()
-    extract.mesh_read.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
+    session.reads.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
     try:  # an update of the scene (a frame change, a new object): every mesh is read and compared
         assert np.isfinite(_viewport_frame(scene, [viewport_probe.update_of(scene)])).all()
     finally:
-        extract.mesh_read.read = real
+        session.reads.read = real
     assert sorted(reads) == ["Ball", "Ground", "Tri"]

@@ -71,7 +71,7 @@ def test_grass_pass_equals_its_numpy_twin(tr, scene, btf_record):
     add_camera(scene, (0.0, -0.45, 0.3), (0.0, 0.0, 0.0), lens=50.0)
     scene.translucent.capture_passes = True
     img = render(scene, 64, 64)
-    frame = ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE["frame"]
+    frame = ext_module(tr, "translucent_addon.blender.session").current().capture["frame"]
     grass_btf = ext_module(tr, "translucent_addon.techniques.grass.bake")
     grass_data = ext_module(tr, "translucent_addon.techniques.grass.model")
     cb = grass_btf.from_arrays(btf_record.arrays, btf_record.meta)

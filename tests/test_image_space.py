@@ -35,7 +35,7 @@ def _back_lit_ball(scene):
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.session").current().capture
 
 
 def _to_eye(scene, x_o):

@@ -10,7 +10,7 @@ from translucent_addon.core.physics import diffusion as df
 from translucent_addon.core.physics.dipole import total_diffuse_reflectance
 from translucent_addon.techniques.quadgraph import graph as qg
 from translucent_addon.techniques.quadgraph import tetra
-from translucent_addon.techniques.quadgraph.bake import display_links, proxy_triangles
+from translucent_addon.techniques.quadgraph.bake import BakeParameters, display_links, proxy_triangles
 from translucent_addon.techniques.registry import BakeInputError, BakeInputs, run
 
 pytest.importorskip("pytetwild")
@@ -322,9 +322,9 @@ def test_display_links_interpolate_from_nearby_surface_nodes_facing_the_same_way
 # -- the bake stage ----------------------------------------------------------------------------
 def _inputs(**kw):
     v, f = icosphere(2, 1.0)
+    params = BakeParameters(K=kw.pop("K", 1.0), levels=kw.pop("levels", 2))
     base = dict(name="Ball", method="QUADGRAPH", vertices=v.astype(np.float32), triangles=f.astype(np.int32),
-                mm_per_unit=10.0, sigma_a=(0.01,) * 3, sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0,
-                quadgraph_levels=2)
+                mm_per_unit=10.0, sigma_a=(0.01,) * 3, sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0, params=params)
     base.update(kw)
     return BakeInputs(**base)
 
@@ -351,7 +351,7 @@ def test_bake_stores_levels_links_and_display_mapping_and_ignores_the_material_i
     # Material edits keep the bake current; geometry and density do not.
     base = _inputs().hash()
     assert _inputs(sigma_a=(0.5, 0.2, 0.1), eta=1.5).hash() == base
-    assert _inputs(quadgraph_K=0.5).hash() != base
+    assert _inputs(K=0.5).hash() != base
     assert _inputs(mm_per_unit=20.0).hash() != base
 
 
@@ -369,7 +369,7 @@ def test_a_surface_with_no_inside_is_refused_with_a_message():
     v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
     f = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
     with pytest.raises(BakeInputError, match="'Ball': the tetrahedraliser found no volume inside the surface"):
-        _run(_inputs(vertices=v, triangles=f, quadgraph_levels=1))
+        _run(_inputs(vertices=v, triangles=f, levels=1))
 
 
 @pytest.mark.parametrize("damage", ["n_surface", "neighbour", "up_index"])

@@ -31,7 +31,7 @@ def _baked_ball(scene, levels=2, preset="skin1", subdivisions=3):
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.session").current().capture
 
 
 def test_gpu_relaxation_converges_to_the_direct_solution(tr, scene):

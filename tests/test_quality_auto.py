@@ -293,7 +293,7 @@ def test_auto_quality_operator_and_bake(tr, scene):
     assert "splat_overlap" in cube.translucent.auto_summary and "every frame" in cube.translucent.auto_summary
     # IMAGE_SPACE's k is the engine's, per frame: tighter targets and a nearer camera ask for more samples,
     # and the scene's manual value is left alone.
-    engine = __import__("conftest").ext_module(tr, "translucent_addon.blender.engine")
+    session = __import__("conftest").ext_module(tr, "translucent_addon.blender.session").current()
     manual_k = scene.translucent.splat_overlap
     asked = {}
     for target, distance in ((0.1, 1.0), (0.03, 1.0), (0.03, 0.3)):
@@ -301,13 +301,14 @@ def test_auto_quality_operator_and_bake(tr, scene):
         add_camera(scene, (0.2 * distance, -0.2 * distance, 0.15 * distance), (0, 0, 0.025))
         image = render(scene, 192, 192)
         assert np.isfinite(image).all() and image[..., :3].max() > 0
-        asked[(target, distance)] = engine.LAST_AUTO_OVERLAP["objects"][cube.name]
-        assert engine.LAST_AUTO_OVERLAP["overlap"] == asked[(target, distance)]
+        chosen = session.results["IMAGE_SPACE"]
+        asked[(target, distance)] = chosen["objects"][cube.name]
+        assert chosen["overlap"] == asked[(target, distance)]
     assert asked[(0.1, 1.0)] < asked[(0.03, 1.0)] <= asked[(0.03, 0.3)]
     assert scene.translucent.splat_overlap == manual_k
     cube.translucent.quality = "MANUAL"
     render(scene, 32, 32)
-    assert engine.LAST_AUTO_OVERLAP == {}
+    assert session.results["IMAGE_SPACE"] == {}
     cube.translucent.quality = "AUTO"
 
     cube.translucent.method = "TEXTURE_SPACE"

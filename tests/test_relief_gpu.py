@@ -37,7 +37,7 @@ def _relief_plane(tr, scene, mode="INTERVAL", field="bumps"):
 
 def _rays(tr, w, h):
     """Each pixel centre's ray from the last F12's camera, and where it meets the plane z = 0."""
-    frame = ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE["frame"]
+    frame = ext_module(tr, "translucent_addon.blender.session").current().capture["frame"]
     a, d = ext_module(tr, "translucent_addon.core.geometry.camera").pixel_rays(frame.camera.view_proj, w, h)
     t = -a[..., 2] / d[..., 2]
     return a + t[..., None] * d, d

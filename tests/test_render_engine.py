@@ -399,7 +399,7 @@ def test_counts_a_file_holds_out_of_range_are_clamped_in_the_frame_and_on_load(t
     texels = scene.translucent.bl_rna.properties["shadow_resolution"].hard_max
     add_camera(scene, (3, -3, 2), (0, 0, 0))
     frame = _frame_of(tr, scene, 16, 16)
-    assert frame.shadow_resolution == texels and frame.meshes[0].medium.max_steps == steps
+    assert frame.shadow_resolution == texels and frame.meshes[0].medium.extras.max_steps == steps
     path = str(tmp_path / "out_of_range.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     capfd.readouterr()

@@ -137,8 +137,9 @@ def test_a_technique_the_backend_cannot_run_falls_back_with_one_line(tr, scene, 
         for _ in range(2):  # refused once, then remembered: the line stays, the shader is not built again
             image = render(scene, 48, 48)
             np.testing.assert_allclose(image, plain, atol=1e-6)
-            warnings = [w for w in engine.LAST_CAPTURE["frame"].warnings if "cannot run" in w]
-            assert len(warnings) == 1, engine.LAST_CAPTURE["frame"].warnings
+            capture = ext_module(tr, "translucent_addon.blender.session").current().capture
+            warnings = [w for w in capture["frame"].warnings if "cannot run" in w]
+            assert len(warnings) == 1, capture["frame"].warnings
             assert warnings[0].startswith("'Cube': Constant (test) cannot run on this GPU backend: ")
             assert warnings[0].endswith("drawn with its base colour")
             assert ("Shader Compile Error" if how == "shader" else "RGB32F") in warnings[0], warnings[0]
@@ -180,3 +181,95 @@ def test_gpu_state_a_technique_leaves_set_is_put_back_and_recorded(tr, scene):
     finally:
         techniques.unregister(technique)
         pipeline.state_leaks.clear()
+
+
+def baking_technique(tr):
+    """The constant-colour technique grown into one that bakes: its own object property (a strength), bake
+    parameter, hash part, bake stage and panel; its frame draws the colour its bake stored."""
+    protocol = ext_module(tr, "translucent_addon.techniques.protocol")
+    properties = ext_module(tr, "translucent_addon.core.properties")
+    technique = constant_colour_technique(tr)
+    drawn = type(technique)
+
+    class Baked(drawn):
+        object_props = (properties.Prop("constant_test_strength", "FloatProperty", {
+            "name": "Strength", "description": "How much of the colour the bake stores", "min": 0.0, "max": 1.0,
+            "default": 0.5}),)
+        bake_stages = ("colour",)
+        bake_properties = ("constant_test_strength",)
+        panel = (("constant_test_strength",),)
+
+        def bake_parameters(self, values):
+            return {"strength": float(values.get("constant_test_strength", 0.5))}
+
+        def hash_parts(self, inputs, geometry, material):
+            return geometry, {"strength": inputs.params["strength"]}
+
+        def bake(self, inputs, stage):
+            yield 0.5, f"{self.id}: {stage}"
+            colour = np.array(COLOUR[:3], np.float32) * inputs.params["strength"]
+            return {"colour": colour}, {"strength": inputs.params["strength"]}
+
+        def bake_summary(self, meta):
+            return [f"Strength {meta['strength']:g} baked"]
+
+        def prepare(self, ctx):
+            return [k for k, m in enumerate(ctx.frame.meshes) if m.method == self.id and m.bake is not None] or None
+
+        def finish(self, ctx, state):
+            shaders = ext_module(tr, "translucent_addon.gpu.shaders")
+            draw_state = ext_module(tr, "translucent_addon.gpu.draw_state")
+            with draw_state.draw_pass(ctx.target, depth_test="LESS_EQUAL"):
+                shader = shaders.pass_shader("constant_test")
+                shader.bind()
+                shader.uniform_block("frame", ctx.frame_ubo)
+                for k in state:
+                    colour = ctx.frame.meshes[k].bake.load()["colour"]
+                    shader.uniform_float("colour", (*map(float, colour), 1.0))
+                    shader.uniform_block("object", ctx.objects[k])
+                    shader.draw(ctx.batches[k][0])
+            return {}
+
+    assert issubclass(Baked, protocol.Technique)
+    return Baked()
+
+
+def test_a_technique_registered_at_run_time_bakes_with_its_own_property_hash_and_panel(tr, scene):
+    """What a technique declares reaches every layer without another file naming it: its property joins
+    Object.translucent, the Bake operator bakes it with its parameters, its hash part stales the bake, the object
+    panel lays out its property and says what its bake holds, and F12 draws from the bake."""
+    from test_ui import _Layout
+
+    techniques = ext_module(tr, "translucent_addon.techniques")
+    ui = ext_module(tr, "translucent_addon.blender.ui")
+    bake_inputs = ext_module(tr, "translucent_addon.blender.bake_inputs")
+    cube, plain = _lit_cube(scene)
+    assert "constant_test_strength" not in cube.translucent.bl_rna.properties
+    technique = baking_technique(tr)
+    techniques.register(technique)
+    try:
+        assert cube.translucent.constant_test_strength == 0.5  # its property, with its default
+        cube.translucent.method = "CONSTANT_TEST"
+        bpy.context.view_layer.objects.active = cube
+        cube.select_set(True)
+
+        def status():
+            return bake_inputs.bake_status(cube.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+
+        assert status() == "MISSING"
+        np.testing.assert_allclose(render(scene, 48, 48), plain, atol=1e-6)  # not baked: drawn as the base
+        cube.translucent.constant_test_strength = 0.8
+        assert bpy.ops.translucent.bake() == {"FINISHED"}
+        assert status() == "OK"
+        centre = render(scene, 48, 48)[20:28, 20:28, :3]
+        assert np.abs(centre - 0.8 * np.array(COLOUR[:3], np.float32)).max() < 1e-3
+        layout = _Layout()
+        ui.draw_object(layout, bpy.context, cube)
+        assert ("TranslucentObjectSettings", "constant_test_strength") in layout.props()
+        assert "Strength 0.8 baked" in layout.labels() and "Bake up to date" in layout.labels()
+        cube.translucent.constant_test_strength = 0.3  # its hash part: the bake is stale
+        assert status() == "STALE"
+        cube.translucent.method = "OFF"
+    finally:
+        techniques.unregister(technique)
+    assert "constant_test_strength" not in cube.translucent.bl_rna.properties  # gone with it

@@ -30,7 +30,7 @@ def _baked_ball(scene, tr, location=(0, 0, 0.05), preset="skin1", segments=32, r
 
 
 def _capture(tr):
-    return ext_module(tr, "translucent_addon.blender.engine").LAST_CAPTURE
+    return ext_module(tr, "translucent_addon.blender.session").current().capture
 
 
 def _maps(tr):

@@ -15,6 +15,7 @@ from translucent_addon.techniques.texture_space import model as tsd
 from translucent_addon.techniques.texture_space import proxy
 from translucent_addon.techniques.texture_space import throughput as lensch
 from translucent_addon.techniques.texture_space.atlas import build_atlas, rasterize, texel_mm
+from translucent_addon.techniques.texture_space.bake import BakeParameters
 
 SKIN = load_presets()["skin1"]
 MATERIAL = lensch.Material(tuple(SKIN.sigma_a), tuple(SKIN.sigma_s_prime), SKIN.eta)  # the exact profile
@@ -350,7 +351,7 @@ def test_a_finer_proxy_spacing_refines_and_decimates_to_shorter_edges():
     inputs = registry.BakeInputs(name="s", method="TEXTURE_SPACE", vertices=v.astype(np.float32),
                                  triangles=f.astype(np.int32), mm_per_unit=1.0, sigma_a=(0.1,) * 3,
                                  sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0)
-    assert inputs.hash() != dataclasses.replace(inputs, proxy_spacing=2.5).hash()
+    assert inputs.hash() != dataclasses.replace(inputs, params=BakeParameters(proxy_spacing=2.5)).hash()
 
 
 def test_an_atlas_whose_kernels_would_not_fit_the_gpu_table_is_refused(monkeypatch):
@@ -359,7 +360,8 @@ def test_an_atlas_whose_kernels_would_not_fit_the_gpu_table_is_refused(monkeypat
     v, f = sphere()
     inputs = registry.BakeInputs(name="Ball", method="TEXTURE_SPACE", vertices=v.astype(np.float32),
                                  triangles=f.astype(np.int32), mm_per_unit=1.0, sigma_a=(0.1,) * 3,
-                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0, atlas_resolution=64)
+                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0,
+                                 params=BakeParameters(atlas_resolution=64))
     monkeypatch.setattr(tsd, "KERNEL_TEXELS_MAX", 49 * 100)
     with pytest.raises(registry.BakeInputError, match=r"'Ball': the atlas at 64 texels has [\d,]+ surface texels; "
                                                       r"the GPU's kernel table holds 100: lower Atlas resolution"):
@@ -463,7 +465,8 @@ def stored_sphere():
     v, f = sphere(radius_mm=20.0, rings=8, segments=12)
     inputs = registry.BakeInputs(name="s", method="TEXTURE_SPACE", vertices=v.astype(np.float32),
                                  triangles=f.astype(np.int32), mm_per_unit=1.0, sigma_a=(0.01,) * 3,
-                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0, atlas_resolution=64)
+                                 sigma_s_prime=(1.0,) * 3, eta=1.3, g=0.0,
+                                 params=BakeParameters(atlas_resolution=64))
     job = registry.run(inputs)
     try:
         while True:

@@ -189,7 +189,7 @@ def test_the_demo_button_says_which_scene_it_adds(tr, scene):
     cls = bpy.types.TRANSLUCENT_OT_add_demo_scene
     assert cls.description(bpy.context, types.SimpleNamespace(kind="BUNNY")) == (
         "Add a new scene: a back-lit marble stanford bunny on a ground plane")
-    assert "glass ball" in cls.description(bpy.context, types.SimpleNamespace(kind="CAUSTICS"))
+    assert "glass ball" in cls.description(bpy.context, types.SimpleNamespace(kind="GLASS_BALL"))
 
 
 def test_a_job_in_progress_greys_out_the_bake_buttons(tr, scene):

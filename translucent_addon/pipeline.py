@@ -27,7 +27,7 @@ from .gpu import blocks, draw_state, shaders
 from .gpu.environment import environment
 from .gpu.frame_context import FrameContext
 from .gpu.targets import clear_target, read_pixels, screen_quad
-from .techniques import REGISTRY
+from .techniques import REGISTRY, get
 
 
 class Pipeline:
@@ -277,15 +277,16 @@ SHAPE_REUSE = 0.01  # a deforming mesh keeps its shape operators while its corne
 
 
 def shapes_drawn(mesh: MeshInstance) -> bool:
-    """Whether IMAGE_SPACE shifts the light entering this mesh at an angle (its base batch carries the corners'
-    shape operators)."""
-    return mesh.method == "IMAGE_SPACE" and mesh.medium is not None and bool(
+    """Whether the mesh's method shifts the light entering it at an angle (``Technique.base_entry_shift``: its
+    base batch carries the corners' shape operators)."""
+    technique = get(mesh.method)
+    return technique is not None and technique.base_entry_shift and mesh.medium is not None and bool(
         oblique_entry.medium_shift_mm(mesh.medium).any())
 
 
 def shape_attributes(mesh: MeshInstance) -> dict:
     """The base batch's curv_d and curv_o: each corner's shape operator (object space, diagonal and xy, xz, yz;
-    ``oblique_entry.corner_shape_operators``) where IMAGE_SPACE shifts light entering at an angle, else 0."""
+    ``oblique_entry.corner_shape_operators``) where its method shifts light entering at an angle, else 0."""
     n = len(mesh.positions)
     if not shapes_drawn(mesh):
         return {"curv_d": np.zeros((n, 3), np.float32), "curv_o": np.zeros((n, 3), np.float32)}

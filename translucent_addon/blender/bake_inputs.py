@@ -5,41 +5,53 @@ import json
 
 import numpy as np
 
+from .. import techniques
 from ..core import bake_store as store
 from ..core.geometry.mesh_measures import stretch_of
-from ..core.geometry.mesh_subdivide import midpoint_subdivision
 from ..core.geometry.orientation import outward_normals, turned
-from ..techniques.quadgraph.bake import proxy_triangles
 from ..techniques.quality_auto import ObjectView
 from ..techniques.registry import BakeInputError, BakeInputs, check_physical_size, needs_bake, refuse_size
-from ..techniques.texture_space.proxy import surface_area, target_triangles
+from ..techniques.texture_space.proxy import surface_area
 from . import bake_files, medium_source, mesh_read
 from .bvh_tracer import BVHTracer
 from .demo import mesh_from_arrays
 from .props import bounded
+from .session import Session
+from .session import current as current_session
+
+
+def technique_values(group, names) -> dict:
+    """The named properties of a property group (``Object.translucent``) as a technique reads them (``bounded``)."""
+    return {name: bounded(group, name) for name in names}
 
 
 def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, proxies: bool = True,
-           mode: str = "VIEWPORT", read=None) -> BakeInputs:
-    """Inputs of a bake from an evaluated object (modifiers applied).
+           mode: str = "VIEWPORT", read=None, session: Session | None = None) -> BakeInputs:
+    """Inputs of a bake from an evaluated object (modifiers applied): the geometry and the medium, and the
+    method's own part from the properties it names (``Technique.bake_parameters``).
 
     ``for_bake``: check what only a bake refuses and, with ``proxies``, make what only the bake itself needs
     (``make_proxies``), which the per-frame status check must not pay for. The Bake operator makes the proxies
-    as its job's first steps instead, under its progress bar.
+    as its job's first steps instead, under its progress bar. The mesh as read is kept on ``session`` (None: the
+    extension's).
     """
+    session = session or current_session()
     original = ob_eval.original
     if ob_eval.type != "MESH":
         raise BakeInputError(f"'{original.name}' is a {ob_eval.type.lower()}, not a mesh")
     if for_bake and read is None:  # the size first: nothing is made of a mesh no bake takes
-        read = _read(ob_eval, mode)
+        read = _read(ob_eval, mode, session)
         refuse_size(original.name, len(read.tri_face))
-    vertices, triangles, corner_normals, read_triangles = mesh_arrays(
-        ob_eval, corner_normals=(method or original.translucent.method) == "TEXTURE_SPACE", mode=mode, read=read)
     props = original.translucent
+    method = method or props.method
+    technique = techniques.get(method)
+    vertices, triangles, corner_normals, read_triangles = mesh_arrays(
+        ob_eval, corner_normals=technique is not None and technique.bake_corner_normals, mode=mode, read=read,
+        session=session)
     medium = medium_source.resolve(original)
     inputs = BakeInputs(
         name=original.name,
-        method=method or props.method,
+        method=method,
         vertices=vertices,
         triangles=triangles,
         read_triangles=read_triangles,
@@ -50,19 +62,14 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, proxie
         eta=medium.eta,
         g=medium.g,
         profile=homogeneous_profile(medium.profile),
-        atlas_resolution=bounded(props, "atlas_resolution"),
-        proxy_spacing=float(props.proxy_spacing),
-        blending=bool(props.texture_blending),
         stretch=stretch_of(np.array(ob_eval.matrix_world)[:3, :3]),
-        quadgraph_K=float(props.quadgraph_K),
-        quadgraph_levels=bounded(props, "quadgraph_levels"),
-        geocube_resolution=bounded(props, "geocube_resolution"),
-        tracer_factory=BVHTracer,  # GEOCUBE casts its rays through Blender's BVH
+        params=technique.bake_parameters(technique_values(props, technique.bake_properties)) if technique else None,
+        tracer_factory=BVHTracer,  # a bake that casts rays casts them through Blender's BVH
     )
     if for_bake and len(inputs.triangles):  # before Blender's decimation, xatlas or fTetWild see the geometry
         check_physical_size(inputs)
-    if for_bake and inputs.method == "GEOCUBE" and inputs.geocube_resolution == 0:
-        inputs.screen_pixels = screen_pixels(ob_eval)  # the automatic cube resolution follows it
+    if for_bake and technique is not None and technique.needs_screen_pixels(inputs.params):
+        inputs.screen_pixels = screen_pixels(ob_eval)
     if for_bake and proxies:
         for _ in make_proxies(inputs):
             pass
@@ -70,23 +77,12 @@ def gather(ob_eval, method: str | None = None, *, for_bake: bool = False, proxie
 
 
 def make_proxies(inputs: BakeInputs):
-    """Generator of (fraction, text): the proxies the bake needs, written into ``inputs`` (TEXTURE_SPACE: the
-    mesh decimated by Blender to the atlas's spacing; QUADGRAPH: one surface per level). Each is one call into
-    Blender, a minute or two on a large mesh: the text says what comes before it runs."""
-    n = len(inputs.triangles)
-    if inputs.method == "TEXTURE_SPACE" and n:
-        target = target_triangles(surface_area(inputs.vertices * inputs.mm_per_unit, inputs.triangles),
-                                  inputs.atlas_resolution, inputs.proxy_spacing)
-        if target < 0.8 * n:
-            yield 0.0, f"TEXTURE_SPACE: decimating {n:,} triangles to {target:,} for the atlas"
-            inputs.proxy_vertices, inputs.proxy_triangles = decimated(inputs.vertices, inputs.triangles, target)
-    if inputs.method == "QUADGRAPH" and n:
-        counts = proxy_triangles(inputs.quadgraph_K, inputs.quadgraph_levels, n)
-        levels = []
-        for k, count in enumerate(counts):
-            yield k / len(counts), f"QUADGRAPH: proxy surface {k + 1} of {len(counts)} ({count:,} triangles)"
-            levels.append(proxy_surface(inputs.vertices, inputs.triangles, count))
-        inputs.proxy_levels = levels
+    """Generator of (fraction, text): the proxies the method's bake needs made by Blender
+    (``Technique.make_proxies``, with Blender's ``decimated``), written into ``inputs.params``. Each is one call
+    into Blender, a minute or two on a large mesh: the text says what comes before it runs."""
+    technique = techniques.get(inputs.method)
+    if technique is not None:
+        yield from technique.make_proxies(inputs, decimated)
 
 
 def homogeneous_profile(setting: str) -> str:
@@ -95,28 +91,26 @@ def homogeneous_profile(setting: str) -> str:
     return "DIPOLE" if setting == "DIPOLE" else "EXACT"
 
 
-_ARRAYS: dict = {}  # (read key, corner normals?) -> (MeshRead, arrays): a bake's geometry, per mesh as read
-_HASHES: dict = {}  # (mode, object, method) -> (geometry arrays, parameters as JSON, inputs hash)
-
-
-def _read(ob_eval, mode: str) -> mesh_read.MeshRead:
+def _read(ob_eval, mode: str, session: Session) -> mesh_read.MeshRead:
     """The evaluated object's mesh through ``mesh_read`` (cached under its depsgraph mode and name)."""
     mesh = ob_eval.to_mesh()
     try:
-        return mesh_read.read(mesh, (mode, ob_eval.original.name))
+        return session.reads.read(mesh, (mode, ob_eval.original.name))
     finally:
         ob_eval.to_mesh_clear()
 
 
-def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT", read=None):
+def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT", read=None,
+                session: Session | None = None):
     """The evaluated mesh (modifiers applied) as (vertices (V, 3) float32, triangles (T, 3) int32 with inward
     parts turned, corner normals (T, 3, 3) or None, the triangles as read), in bulk; made again only when the
     mesh changed (``mesh_read``; ``mode``: the depsgraph's, which names its cache entry; ``read``: the mesh as
     the caller read it, not read again)."""
+    session = session or current_session()
     key = (mode, ob_eval.original.name)
     if read is None:
-        read = _read(ob_eval, mode)
-    cached = _ARRAYS.get((key, corner_normals))
+        read = _read(ob_eval, mode, session)
+    cached = session.bake_arrays.get((key, corner_normals))
     if cached is not None and cached[0] is read:
         return cached[1]
     vertices, triangles = read.vertices, read.triangles
@@ -128,7 +122,7 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT"
         if normals is not None:
             normals = outward_normals(vertices[triangles], turned(flip, normals), flip)
     arrays = (vertices, triangles, normals, read.triangles)
-    _ARRAYS[(key, corner_normals)] = (read, arrays)
+    session.bake_arrays[(key, corner_normals)] = (read, arrays)
     return arrays
 
 
@@ -162,21 +156,6 @@ def screen_pixels(ob_eval) -> float | None:
     pts = np.array([tuple(world_to_camera_view(scene, cam, m @ Vector(c)))[:2] for c in ob_eval.bound_box])
     pts = np.clip(pts, -0.5, 1.5) * size
     return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-
-
-def proxy_surface(vertices: np.ndarray, triangles: np.ndarray, target: int):
-    """A surface of about ``target`` triangles (QUADGRAPH's density K): the mesh itself within 20 %,
-    else Blender's collapse decimation of the mesh, midpoint-subdivided first until it has more than
-    target / 0.8 triangles where it has fewer (collapsing the subdivided mesh shortens its longest
-    edges: the cow's largest from 0.98 to 0.56 at 7,370 triangles, its 90th percentile from 0.39 to
-    0.33). Without the subdivision a mesh with fewer triangles than the target kept them, and K changed
-    nothing on its surface."""
-    n = len(triangles)
-    if 0.8 * n <= target <= 1.25 * n:
-        return vertices, triangles
-    while target >= 0.8 * len(triangles):
-        vertices, triangles = midpoint_subdivision(vertices, triangles)
-    return decimated(vertices, triangles, target)
 
 
 def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
@@ -213,7 +192,8 @@ def decimated(vertices: np.ndarray, triangles: np.ndarray, target: int):
     return v.reshape(-1, 3)[used], t.reshape(-1, 3).astype(np.int32)
 
 
-def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read=None) -> str:
+def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read=None,
+                session: Session | None = None) -> str:
     """'NONE' (method bakes nothing), 'MISSING', 'STALE' or 'OK' (``mode``: the depsgraph's)."""
     method = method or ob_eval.original.translucent.method
     if not needs_bake(method):
@@ -221,7 +201,8 @@ def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read
     holder = bake_files.owner(ob_eval.original, method)
     if store.stored_hash(holder, method) is None:
         return "MISSING"
-    return store.status(holder, method, inputs_hash(gather(ob_eval, method, mode=mode, read=read), mode))
+    inputs = gather(ob_eval, method, mode=mode, read=read, session=session)
+    return store.status(holder, method, inputs_hash(inputs, mode, session))
 
 
 def serves_others(ob, method: str, digest: str) -> bool:
@@ -248,22 +229,18 @@ def serves_others(ob, method: str, digest: str) -> bool:
     return False
 
 
-def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT") -> str:
+def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT", session: Session | None = None) -> str:
     """``inputs.hash()``, hashed again only when the mesh or a parameter changed: a frame and a panel redraw ask
     for it every time. The geometry is compared by identity: ``mesh_arrays`` hands out the same arrays while the
     mesh is unchanged, and the memo holds them, so an equal identity is equal content."""
     geometry, params = inputs.hash_parts()
     key = (mode, inputs.name, inputs.method)
     text = json.dumps(params, sort_keys=True, default=float)
-    cached = _HASHES.get(key)
+    hashes = (session or current_session()).bake_hashes
+    cached = hashes.get(key)
     if (cached is not None and cached[1] == text and cached[0].keys() == geometry.keys()
             and all(cached[0][k] is a for k, a in geometry.items())):
         return cached[2]
     digest = store.inputs_hash(geometry, params)
-    _HASHES[key] = (geometry, text, digest)
+    hashes[key] = (geometry, text, digest)
     return digest
-
-
-def clear_caches() -> None:
-    _ARRAYS.clear()
-    _HASHES.clear()

@@ -21,6 +21,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from .. import techniques
 from ..core.geometry.camera import pixel_rays
 from ..core.geometry.orientation import orient_outward
 from ..core.metrics import median_relative_error, relative_rmse, ssim
@@ -29,7 +30,6 @@ from ..core.reference.dipole_model import Medium, render_dipole
 from ..core.reference.lambert import scene_triangles
 from ..core.report.report import (
     Entry,
-    error_against_samples_chart,
     reference_noise,
     save_error_png,
     save_image_png,
@@ -37,12 +37,12 @@ from ..core.report.report import (
     write_report,
 )
 from ..techniques import registry
-from ..techniques.texture_space.proxy import SPACING_TEXELS
+from ..techniques.protocol import Variant
 from . import bake_files, extract, medium_source, twin_materials
-from . import engine as engine_mod
-from .bake_inputs import gather
+from .bake_inputs import bake_status, gather
 from .bvh_tracer import BVHTracer
 from .quality_apply import apply_auto
+from .session import current as current_session
 from .versions import EEVEE_IDS, eevee_engine_id
 
 
@@ -50,17 +50,8 @@ class CompareError(RuntimeError):
     """The comparison cannot run; the message says what and why."""
 
 
-OUR_QUALITY = (
-    {"label": "k=8", "splat_overlap": 8.0},
-    {"label": "k=16", "splat_overlap": 16.0},
-    {"label": "k=32", "splat_overlap": 32.0},
-    {"label": "k=48", "splat_overlap": 48.0, "splat_max_grid": 2048},
-)
-
-
 @dataclasses.dataclass
 class CompareSettings:
-    our_quality: tuple = OUR_QUALITY  # Scene.translucent overrides per setting, with a label
     cycles_random_walk_samples: tuple = (4, 16, 64, 256)
     cycles_brute_force_samples: tuple = (16, 64)
     eevee_samples: tuple = (1, 4, 16, 64)
@@ -69,19 +60,45 @@ class CompareSettings:
     model_reference_samples: int = 200_000  # CPU dipole model (0: off)
     cycles_bounces: int = 1024
     cache_dir: str = ""  # default: <output_dir>/cache
-    # TEXTURE_SPACE series: atlas resolutions baked and drawn (the objects' method is restored after).
-    texture_space_atlas: tuple = (256, 512)
-    quadgraph_K: tuple = ()  # QUADGRAPH series: densities baked and drawn (the benchmark: 2, 1, 0.5)
-    # Quality = Auto at these target errors, for IMAGE_SPACE and TEXTURE_SPACE (the benchmark: 0.05)
-    auto_targets: tuple = ()
+    # Our methods' series: technique id -> the values its ``compare_variants`` draws (splat overlaps, atlas
+    # resolutions, densities K), () for none; a method not named here draws its own defaults
+    # (``Technique.compare_defaults``, or ``compare_quick``) where an object uses it. The objects' method and
+    # values are restored after.
+    series: dict = dataclasses.field(default_factory=dict)
+    quick: bool = False
+    auto_targets: tuple = ()  # Quality = Auto at these target errors (the benchmark: 0.05)
+    auto_methods: tuple = ()  # ... for these methods; (): the objects' methods that have an Auto
 
     @classmethod
-    def quick(cls) -> "CompareSettings":
+    def quick_settings(cls) -> "CompareSettings":
         """Minutes-not-hours settings for tests and a first look."""
-        return cls(our_quality=OUR_QUALITY[:2], cycles_random_walk_samples=(4, 16),
-                   cycles_brute_force_samples=(16,), eevee_samples=(1, 4), reference_samples=64,
-                   brute_force_reference_samples=64, model_reference_samples=20_000, texture_space_atlas=())
+        return cls(cycles_random_walk_samples=(4, 16), cycles_brute_force_samples=(16,), eevee_samples=(1, 4),
+                   reference_samples=64, brute_force_reference_samples=64, model_reference_samples=20_000,
+                   quick=True)
 
+    def variants(self, methods=()) -> list:
+        """(technique, Variant) of every image of ours, in registry order: the series named here, and the
+        defaults of the objects' ``methods`` not named."""
+        out = []
+        for t in techniques.REGISTRY:
+            if t.id in self.series:
+                values = tuple(self.series[t.id])
+                chosen = t.compare_variants(values) if values else []
+            elif t.id in methods:
+                values = t.compare_quick if self.quick else t.compare_defaults
+                chosen = t.compare_variants(values) if values else [Variant("as set")]
+            else:
+                continue
+            out += [(t, v) for v in chosen]
+        return out
+
+    def auto_series(self, methods=()) -> list:
+        """The methods drawn at Quality = Auto (those that have one) when there are targets."""
+        if not self.auto_targets:
+            return []
+        named = self.auto_methods or tuple(methods)
+        return [t for t in techniques.REGISTRY if t.id in named
+                and type(t).auto_quality is not techniques.Technique.auto_quality]
 
     def cycles_pixel_samples(self) -> int:
         """Samples per pixel the comparison asks of Cycles, every render together (the reference's two halves,
@@ -89,14 +106,13 @@ class CompareSettings:
         return int(2 * max(1, self.reference_samples // 2) + self.brute_force_reference_samples
                    + sum(self.cycles_random_walk_samples) + sum(self.cycles_brute_force_samples))
 
-    def renders(self) -> int:
+    def renders(self, methods=()) -> int:
         return (2 + bool(self.brute_force_reference_samples) + len(self.cycles_random_walk_samples)
-                + len(self.cycles_brute_force_samples) + len(self.eevee_samples) + len(self.our_quality)
-                + 2 * len(self.texture_space_atlas) + len(self.quadgraph_K) + 2 * len(self.auto_targets))
+                + len(self.cycles_brute_force_samples) + len(self.eevee_samples) + len(self.variants(methods))
+                + len(self.auto_targets) * len(self.auto_series(methods)))
 
 
 REFERENCE_SEEDS = (1001, 1002)
-_CYCLES_RATE: dict = {}  # (scene, width, height) -> (seconds per render, seconds per sample), measured
 
 
 def cycles_rate(scene) -> tuple[float, float]:
@@ -105,26 +121,29 @@ def cycles_rate(scene) -> tuple[float, float]:
     random walk as the scene stands; about a second), kept for the session."""
     width, height = extract.output_size(scene.render)
     key = (scene.name, width, height)
-    if key not in _CYCLES_RATE:
+    rates = current_session().cycles_rates
+    if key not in rates:
         small = (max(1, width // 2), max(1, height // 2))
         timed = []
         for samples in (1, 1, 5):  # the first loads the kernels and builds the BVH: not timed
             with engine_setup(scene, "CYCLES", **cycles_options(samples, 64)):
                 timed.append(render_pixels(scene, *small)[1])
         per_sample = max(timed[2] - timed[1], 1e-4) / 4.0 * (width * height) / (small[0] * small[1])
-        _CYCLES_RATE[key] = (max(timed[1] - per_sample / 4.0, 0.0), per_sample)
-    return _CYCLES_RATE[key]
+        rates[key] = (max(timed[1] - per_sample / 4.0, 0.0), per_sample)
+    return rates[key]
 
 
 def expected_seconds(scene, settings: CompareSettings) -> float:
     """About how long a comparison takes here: Cycles at its measured rate (``cycles_rate``), the rest at a
-    few seconds a render (bakes of the TEXTURE_SPACE series at about a minute each). Cached references count
+    few seconds a render (a variant of a method that bakes at about a minute more). Cached references count
     as nothing only when they are found; this says the time without a cache."""
     overhead, per_sample = cycles_rate(scene)
     cycles_renders = (2 + bool(settings.brute_force_reference_samples) + len(settings.cycles_random_walk_samples)
                       + len(settings.cycles_brute_force_samples))
     cycles = cycles_renders * overhead + settings.cycles_pixel_samples() * per_sample
-    others = 3.0 * (settings.renders() - cycles_renders) + 60.0 * len(settings.texture_space_atlas)
+    methods = object_methods(translucent_objects(scene))
+    baked = sum(bool(t.bake_stages) for t, _ in settings.variants(methods))
+    others = 3.0 * (settings.renders(methods) - cycles_renders) + 60.0 * baked
     return cycles + others
 
 
@@ -143,6 +162,11 @@ def exact_reference_converges(scene, objects) -> tuple[bool, str]:
     return False, (f"Cycles random walk, not exact transport: Cycles brute force does not converge with "
                    f"{' and '.join(small)} lights behind a refracting boundary (set IOR 1 or use area lights "
                    f"for an exact reference)")
+
+
+def object_methods(objects) -> list[str]:
+    """The objects' methods, each once, in their order."""
+    return list(dict.fromkeys(ob.translucent.method for ob in objects))
 
 
 def translucent_objects(scene) -> list:
@@ -367,7 +391,7 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     description = scene_description(depsgraph, frame, objects)
     images: dict[str, np.ndarray] = {}
     entries: list[Entry] = []
-    total = settings.renders() + bool(settings.model_reference_samples) + 1  # and the report
+    total = settings.renders(object_methods(objects)) + bool(settings.model_reference_samples) + 1  # and the report
     steps = [0]
 
     def step(text):
@@ -430,34 +454,19 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
                 warm_eevee(scene, width, height)
             img, sec = render_pixels(scene, width, height)
         add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
-    methods = sorted({ob.translucent.method for ob in objects})
-    for quality in settings.our_quality:
-        options = {f"translucent_{k}": v for k, v in quality.items() if k != "label"}
-        yield step(f"Translucent ({', '.join(methods)}) {quality['label']} ...")
-        with engine_setup(scene, "TRANSLUCENT_RT", **options):
-            img, sec = render_pixels(scene, width, height)
-        add(f"Translucent ({', '.join(methods)})", "TRANSLUCENT_RT", quality["label"], sec, img,
-            methods=methods, **{k: v for k, v in quality.items() if k != "label"})
-    for (res, spacing), product, bake_seconds, _, img, sec in texture_space_series(
-            scene, objects, settings.texture_space_atlas, width, height, lambda text: None):
-        label = f"{texture_space_label(res, spacing)}, {product} product"
-        yield step(f"Translucent (TEXTURE_SPACE) {label}: done")
-        add("Translucent (TEXTURE_SPACE)", "TRANSLUCENT_RT", label, sec, img, methods=["TEXTURE_SPACE"],
-            atlas_resolution=res, proxy_spacing=spacing, product=product, bake_seconds=bake_seconds)
-    for K in settings.quadgraph_K:
-        yield step(f"Translucent (QUADGRAPH) K={K:g} ...")
-        with method_applied(objects, "QUADGRAPH", quadgraph_K=K):
-            bake_seconds, _ = bake_objects(objects, "QUADGRAPH", lambda text: None)
-            img, sec = warm_render(scene, width, height)
-        add("Translucent (QUADGRAPH)", "TRANSLUCENT_RT", f"K={K:g}", sec, img, methods=["QUADGRAPH"], quadgraph_K=K,
-            bake_seconds=bake_seconds)
+    methods = object_methods(objects)
+    for technique, variant in settings.variants(methods):
+        yield step(f"Translucent ({technique.id}) {variant.label} ...")
+        bake_seconds, img, sec = draw_variant(scene, objects, technique, variant, width, height)
+        add(f"Translucent ({technique.id})", "TRANSLUCENT_RT", variant.label, sec, img, methods=[technique.id],
+            **variant.record, **({"bake_seconds": bake_seconds} if technique.bake_stages else {}))
     for target in settings.auto_targets:
-        for method in ("IMAGE_SPACE", "TEXTURE_SPACE"):
+        for technique in settings.auto_series(methods):
+            method = technique.id
             yield step(f"Translucent Auto ({method}), target {target:g} ...")
             with method_applied(objects, method, quality="AUTO", target_error=target), scene_kept(scene):
-
                 choices = [apply_auto(bpy.context, ob) for ob in objects]
-                bake_seconds = bake_objects(objects, method, lambda text: None)[0] if method != "IMAGE_SPACE" else 0.0
+                bake_seconds = bake_objects(objects, method, lambda text: None)[0] if technique.bake_stages else 0.0
                 img, sec = warm_render(scene, width, height)
             add(f"Translucent Auto ({method})", "TRANSLUCENT_RT", f"target {100 * target:g} %", sec, img,
                 methods=[method], target_error=target, bake_seconds=bake_seconds,
@@ -528,11 +537,27 @@ def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict
     return time.perf_counter() - t0, metas
 
 
+def draw_variant(scene, objects, technique, variant, width: int, height: int):
+    """The objects drawn with ``technique`` as ``variant`` sets them, baked first where the method bakes and the
+    bake is not current: (bake seconds, image, seconds of the second frame)."""
+    scene_options = {f"translucent_{k}": v for k, v in variant.scene_values.items()}
+    with method_applied(objects, technique.id, **variant.object_values):
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        stale = [ob for ob in objects if technique.bake_stages
+                 and bake_status(ob.evaluated_get(depsgraph), technique.id) != "OK"]
+        bake_seconds = bake_objects(stale, technique.id, lambda text: None)[0] if stale else 0.0
+        with engine_setup(scene, "TRANSLUCENT_RT", **scene_options):
+            render_pixels(scene, width, height)  # the first frame uploads a bake and starts a relaxation cold
+            img, sec = render_pixels(scene, width, height)
+    return bake_seconds, img, sec
+
+
 @contextlib.contextmanager
 def method_applied(objects, method: str, **props):
-    """The objects drawn with ``method`` and these Object.translucent values; every value restored after."""
-    names = ["method", *props, "atlas_resolution", "proxy_spacing", "quadgraph_K", "geocube_resolution",
-             "auto_summary"]
+    """The objects drawn with ``method`` and these Object.translucent values; every value restored after (those a
+    method's Auto quality sets too)."""
+    auto = [name for t in techniques.REGISTRY for name in (*t.bake_properties, *t.medium_properties)]
+    names = ["method", *props, *auto, "auto_summary"]
     saved = [(ob, {n: getattr(ob.translucent, n) for n in dict.fromkeys(names)}) for ob in objects]
     try:
         for ob in objects:
@@ -578,35 +603,6 @@ def warm_eevee(scene, width: int, height: int) -> None:
         scene.eevee.taa_render_samples = saved
 
 
-def texture_space_setting(item) -> tuple[int, float]:
-    """(atlas texels, proxy spacing in texels) from an atlas resolution or such a pair."""
-    res, spacing = (item, SPACING_TEXELS) if np.ndim(item) == 0 else item
-    return int(res), float(spacing)
-
-
-def texture_space_label(res: int, spacing: float) -> str:
-    return f"{res} texels" + ("" if spacing == SPACING_TEXELS else f", spacing {spacing:g}")
-
-
-def texture_space_series(scene, objects, settings, width: int, height: int, progress=print):
-    """TEXTURE_SPACE at each setting (an atlas resolution, or a pair of it and the proxy spacing): yields
-    ((resolution, spacing), product, bake seconds, bake metas, image, seconds).
-
-    Every setting is drawn with the GPU product; the first also with the CPU one (scipy.sparse).
-    The objects' method, resolution and spacing are restored afterwards.
-    """
-    for i, item in enumerate(settings):
-        res, spacing = texture_space_setting(item)
-        with method_applied(objects, "TEXTURE_SPACE", atlas_resolution=res, proxy_spacing=spacing):
-            bake_seconds, metas = bake_objects(objects, "TEXTURE_SPACE", progress)
-            for product in ("GPU", "CPU") if i == 0 else ("GPU",):
-                with engine_setup(scene, "TRANSLUCENT_RT", translucent_texture_product=product):
-                    progress(f"Translucent (TEXTURE_SPACE) {texture_space_label(res, spacing)}, {product} product ...")
-                    render_pixels(scene, width, height)  # first frame uploads the bake to the GPU
-                    img, sec = render_pixels(scene, width, height)
-                yield (res, spacing), product, bake_seconds, metas, img, sec
-
-
 def model_reference(frame, objects, tracer, samples: int, description: dict, cache_dir, progress):
     """The CPU dipole model of the translucent objects (cached): (image, seconds, from cache)."""
     # model 4: visibility by facet; the far side of thin parts in the far field; SH environment light;
@@ -630,7 +626,7 @@ def model_reference(frame, objects, tracer, samples: int, description: dict, cac
     return image, seconds, False
 
 
-def _model_setup(scene, objects, samples: int, cache_dir, progress):
+def model_setup(scene, objects, samples: int, cache_dir, progress):
     """The scene's size, the objects' interior mask and the CPU dipole model image (cached):
     (width, height, mask, model image, model seconds)."""
     width, height = extract.output_size(scene.render)
@@ -642,80 +638,6 @@ def _model_setup(scene, objects, samples: int, cache_dir, progress):
                                                     scene_description(depsgraph, frame, objects), Path(cache_dir),
                                                     progress)
     return width, height, mask, model_image, model_seconds
-
-
-def discretisation(scene, objects, output_dir, overlaps=(4.0, 8.0, 16.0, 32.0, 48.0), samples: int = 200_000,
-                   cache_dir=None, progress=print):
-    """Our engine at several splat overlaps against the CPU dipole model: error against splat count.
-
-    Measures the discretisation error of the GPU method apart from the dipole's model error, at the
-    scene's resolution; returns rows (overlap, light-view samples, seconds, rel. RMSE) and writes
-    discretisation.json and discretisation.png into output_dir.
-    """
-    import json
-
-    out = Path(output_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
-                                                                   progress)
-    rows = []
-    for k in overlaps:
-        grid = 2048 if k > 32 else 1024
-        with engine_setup(scene, "TRANSLUCENT_RT", translucent_splat_overlap=k, translucent_splat_max_grid=grid,
-                          translucent_capture_passes=True):
-            progress(f"IMAGE_SPACE k={k} ...")
-            img, sec = render_pixels(scene, width, height)
-        plan = engine_mod.LAST_CAPTURE.get("plan")
-        count = int(sum(s.sample_count for s in plan.samplings)) if plan else 0
-        lit = sum(int((pid[..., 3] > 0.5).sum()) for pid, _ in engine_mod.LAST_CAPTURE.get("samples", []))
-        rows.append({"overlap": k, "light_view_texels": count, "object_samples": lit, "seconds": sec,
-                     "rel_rmse_vs_model": relative_rmse(img, model_image, mask)})
-        save_error_png(out / f"image_space_k{int(k)}_vs_model_error.png", img, model_image, mask)
-        save_image_png(out / f"image_space_k{int(k)}.png", img)
-    save_image_png(out / "dipole_model.png", model_image)
-    engine_mod.LAST_CAPTURE.clear()
-    (out / "discretisation.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
-                                                          "model_seconds": model_seconds, "rows": rows}, indent=2))
-    error_against_samples_chart(rows, out / "discretisation.png", f"{scene.name}: IMAGE_SPACE against the "
-                                           f"dipole model ({width}x{height})")
-    return rows
-
-
-def texture_space_discretisation(scene, objects, output_dir, resolutions=(256, 512), samples: int = 200_000,
-                                 cache_dir=None, progress=print, name: str = "texture_space"):
-    """TEXTURE_SPACE at several atlas resolutions (or (resolution, proxy spacing) pairs) against the CPU
-    dipole model (its discretisation error).
-
-    Returns rows (atlas, spacing, proxy vertices, bake seconds, frame seconds, rel. RMSE, mean ratio) and
-    writes <name>.json and the images into output_dir.
-    """
-    import json
-
-    out = Path(output_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    width, height, mask, model_image, model_seconds = _model_setup(scene, objects, samples, cache_dir or out / "cache",
-                                                                   progress)
-    rows = []
-    for (res, spacing), product, bake_seconds, metas, img, sec in texture_space_series(scene, objects, resolutions,
-                                                                                         width, height, progress):
-        if product != "GPU":
-            continue
-        meta = metas[0]
-        ratio = img[mask][:, :3].sum(axis=0) / np.maximum(model_image[mask][:, :3].sum(axis=0), 1e-30)
-        rows.append({"atlas": res, "proxy_spacing": spacing, "proxy_vertices": meta.get("proxy_vertices"),
-                     "texel_mm": meta.get("texel_mm"),
-                     "form_factors": meta.get("form_factors"), "bake_seconds": round(bake_seconds, 2),
-                     "seconds": sec, "rel_rmse_vs_model": relative_rmse(img, model_image, mask),
-                     "mean_ratio_rgb": [round(float(x), 4) for x in ratio]})
-        tag = f"{res}" if spacing == SPACING_TEXELS else f"{res}_s{spacing:g}"
-        save_error_png(out / f"{name}_{tag}_vs_model_error.png", img, model_image, mask)
-        save_image_png(out / f"{name}_{tag}.png", img)
-        progress(f"TEXTURE_SPACE {texture_space_label(res, spacing)}: rel. RMSE against the dipole model "
-                 f"{rows[-1]['rel_rmse_vs_model']:.4f}")
-    save_image_png(out / "dipole_model.png", model_image)
-    (out / f"{name}.json").write_text(json.dumps({"size": [width, height], "model_samples": samples,
-                                                  "model_seconds": model_seconds, "rows": rows}, indent=2))
-    return rows
 
 
 def machine_description() -> dict:

@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from .. import techniques
 from ..core.data import DATA
 from ..core.geometry.mesh_io import load_npz
 from .props import apply_preset
@@ -111,7 +112,7 @@ def build_scene(name: str, scene: bpy.types.Scene | None = None) -> bpy.types.Sc
     settings.preset = spec["preset"]
     apply_preset(settings, spec["preset"])
     settings.scattering_scale = 1.0  # as measured, in the scene's metres
-    settings.method = "IMAGE_SPACE"
+    settings.method = techniques.default_method()
     # Stand it on z = 0, centred on the origin.
     corners = np.array([ob.matrix_basis @ Vector(c) for c in ob.bound_box])
     ob.location = (-corners[:, 0].mean(), -corners[:, 1].mean(), -corners[:, 2].min())

@@ -13,16 +13,11 @@ import bpy
 
 from ..pipeline import Pipeline
 from . import extract, preferences
-from .engine import LAST_TIMINGS, draw_settings
-
-_handle = None
-_frames = 0  # overlay frames drawn: the temporal coherence's sequence
-_overlay = None
-_pipeline: Pipeline | None = None
+from .engine import draw_settings
+from .session import current as current_session
 
 
 def _draw():
-    global _pipeline
     context = bpy.context
     scene = context.scene
     if scene is None or scene.render.engine == "TRANSLUCENT_RT" or not scene.translucent.overlay_other_engines:
@@ -33,19 +28,21 @@ def _draw():
     frame = overlay_frame(context.evaluated_depsgraph_get(), extract.viewport_camera(region, rv3d))
     if not frame.meshes:
         return
-    if _pipeline is None:
-        _pipeline = Pipeline()
-    _pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
-    _pipeline.draw(frame, clear=False)
+    session = current_session()
+    if session.overlay_pipeline is None:
+        session.overlay_pipeline = Pipeline()
+    session.overlay_pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
+    session.overlay_pipeline.draw(frame, clear=False)
 
 
 def overlay_frame(depsgraph, camera):
     """The translucent objects of the scene for the overlay, with the scene's settings (its splat overlap and
     Auto, texture product, QUADGRAPH tolerance, temporal coherence), as the engine's viewport draws them."""
-    global _frames
-    frame = extract.frame_inputs(depsgraph, camera, only_translucent=True)
-    _frames += 1
-    return dataclasses.replace(frame, settings=draw_settings(depsgraph.scene, frame, "overlay", _frames, False))
+    session = current_session()
+    frame = extract.frame_inputs(depsgraph, camera, only_translucent=True, session=session)
+    session.overlay_frames += 1
+    return dataclasses.replace(frame, settings=draw_settings(depsgraph.scene, frame, "overlay",
+                                                             session.overlay_frames, False, session))
 
 
 def timing_lines(timings: dict) -> list[str]:
@@ -72,32 +69,29 @@ def _draw_overlay():
     blf.size(font, 12)
     blf.color(font, 1.0, 1.0, 1.0, 0.9)
     y = region.height - 60
-    for line in timing_lines(LAST_TIMINGS):
+    for line in timing_lines(current_session().timings):
         blf.position(font, 20, y, 0)
         blf.draw(font, line)
         y -= 16
 
 
 def register() -> None:
-    global _handle, _overlay
-    if _handle is None:
-        _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
-    if _overlay is None:
-        _overlay = bpy.types.SpaceView3D.draw_handler_add(_draw_overlay, (), "WINDOW", "POST_PIXEL")
+    handlers = current_session().handlers
+    if "draw" not in handlers:
+        handlers["draw"] = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+    if "overlay" not in handlers:
+        handlers["overlay"] = bpy.types.SpaceView3D.draw_handler_add(_draw_overlay, (), "WINDOW", "POST_PIXEL")
 
 
 def unregister() -> None:
-    global _handle, _overlay, _pipeline
-    if _handle is not None:
-        bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
-        _handle = None
-    if _overlay is not None:
-        bpy.types.SpaceView3D.draw_handler_remove(_overlay, "WINDOW")
-        _overlay = None
-    if _pipeline is not None:
-        _pipeline.free()
-        _pipeline = None
+    session = current_session()
+    for handle in session.handlers.values():
+        bpy.types.SpaceView3D.draw_handler_remove(handle, "WINDOW")
+    session.handlers.clear()
+    if session.overlay_pipeline is not None:
+        session.overlay_pipeline.free()
+        session.overlay_pipeline = None
 
 
 def is_registered() -> bool:
-    return _handle is not None or _overlay is not None
+    return bool(current_session().handlers)

@@ -12,36 +12,18 @@ import numpy as np
 from ..core.frame import DrawSettings
 from ..pipeline import Pipeline, draw_to_region, render_offscreen
 from ..techniques import REGISTRY
-from ..techniques.image_space import quality as image_space_auto
-from ..techniques.image_space.model import SamplingSettings
 from . import extract
 from .props import bounded
-
-# Read-backs of the last F12's intermediate passes when Scene.translucent.capture_passes is on.
-LAST_CAPTURE: dict = {}
-# Seconds per pass of the last frame drawn (F12 or viewport), for the sidebar and the timing overlay.
-LAST_TIMINGS: dict = {}
-# IMAGE_SPACE's splat overlap of the last frame drawn, where AUTO objects chose it: {objects: {name: k},
-# overlap, max_grid}; empty when none did.
-LAST_AUTO_OVERLAP: dict = {}
+from .session import Session
+from .session import current as current_session
 
 
-def _keep_timings(pipeline, source: str, **outside: float) -> None:
+def _keep_timings(session: Session, pipeline, source: str, **outside: float) -> None:
     """The passes' seconds, and the frame's wall time (``frame``) and reading the scene (``extract``)."""
-    LAST_TIMINGS.clear()
-    LAST_TIMINGS.update(pipeline.last_timings)
-    LAST_TIMINGS.update(outside)
-    LAST_TIMINGS["source"] = source
-
-
-def auto_sampling(frame, manual: SamplingSettings) -> SamplingSettings:
-    """IMAGE_SPACE's sampling for this frame: k as its AUTO objects need it seen by its camera
-    (``image_space_auto``), what they asked for kept in LAST_AUTO_OVERLAP for the panel."""
-    sampling, asked = image_space_auto.frame_sampling(frame, manual)
-    LAST_AUTO_OVERLAP.clear()
-    if asked:
-        LAST_AUTO_OVERLAP.update(objects=asked, overlap=sampling.overlap, max_grid=sampling.max_grid)
-    return sampling
+    session.timings.clear()
+    session.timings.update(pipeline.last_timings)
+    session.timings.update(outside)
+    session.timings["source"] = source
 
 
 def technique_settings(scene) -> dict:
@@ -51,28 +33,26 @@ def technique_settings(scene) -> dict:
             if t.scene_properties}
 
 
-def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, capture: bool) -> DrawSettings:
-    """What travels with the frame: the techniques' settings (IMAGE_SPACE's k chosen for this frame's
-    camera), the sample-coherence sequence (when the scene asks for it) and whether to read passes back."""
-    techniques = technique_settings(scene)
-    techniques["IMAGE_SPACE"] = auto_sampling(frame, techniques["IMAGE_SPACE"])
-    return DrawSettings(techniques, coherence_key if scene.translucent.temporal_coherence else None,
-                        coherence_frame, capture)
+def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, capture: bool,
+                  session: Session | None = None) -> DrawSettings:
+    """What travels with the frame: the techniques' settings, each adjusted to this frame by its technique
+    (IMAGE_SPACE's k chosen for this frame's camera; what the panels say of it left in ``session.results``), the
+    sample-coherence sequence (when the scene asks for it) and whether to read passes back."""
+    results = (session or current_session()).results
+    settings = technique_settings(scene)
+    for t in REGISTRY:
+        settings[t.id] = t.frame_settings(frame, settings.get(t.id), results.setdefault(t.id, {}))
+    return DrawSettings({k: v for k, v in settings.items() if v is not None},
+                        coherence_key if scene.translucent.temporal_coherence else None, coherence_frame, capture)
 
 
-_FINAL: dict = {}  # the F12 / animation pipeline, kept across renders: Blender makes an engine per frame
-
-
-def final_pipeline() -> Pipeline:
-    """The pipeline of F12 and batch renders, whose uploads (vertex batches, targets) outlive one render."""
-    if "pipeline" not in _FINAL:
-        _FINAL["pipeline"] = Pipeline()
-    return _FINAL["pipeline"]
-
-
-def free() -> None:
-    """Drop the F12 pipeline (the extension is disabled)."""
-    _FINAL.clear()
+def final_pipeline(session: Session | None = None) -> Pipeline:
+    """The pipeline of F12 and batch renders, whose uploads (vertex batches, targets) outlive one render
+    (Blender makes an engine per frame): the session's."""
+    session = session or current_session()
+    if session.final_pipeline is None:
+        session.final_pipeline = Pipeline()
+    return session.final_pipeline
 
 
 class Viewport:
@@ -112,7 +92,7 @@ class Viewport:
         t1 = time.perf_counter()
         self.pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
         draw_to_region(self.pipeline, frame, size, bind_display, unbind_display)
-        _keep_timings(self.pipeline, "viewport", extract=t1 - t0, frame=time.perf_counter() - t0)
+        _keep_timings(current_session(), self.pipeline, "viewport", extract=t1 - t0, frame=time.perf_counter() - t0)
         return frame
 
 
@@ -164,16 +144,17 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             self.report({"ERROR"}, f"Translucent: {err}")
             self._empty_frame(width, height)
             return
+        session = current_session()
         t0 = time.perf_counter()
-        frame = extract.frame_inputs(depsgraph, camera)
+        frame = extract.frame_inputs(depsgraph, camera, session=session)
         t1 = time.perf_counter()
         self.update_stats("Translucent", f"drawing {len(frame.meshes)} meshes, {len(frame.emitters)} emitters")
         frame = dataclasses.replace(frame, settings=draw_settings(
-            scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes))
-        pipeline = final_pipeline()
+            scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes, session))
+        pipeline = final_pipeline(session)
         pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
         pixels = render_offscreen(pipeline, frame)
-        _keep_timings(pipeline, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
+        _keep_timings(session, pipeline, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
         for message in frame.warnings:  # after drawing: the passes add their own
             self.report({"WARNING"}, f"Translucent: {message}")
         lost = frame.lost
@@ -182,9 +163,9 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             for message in lost:
                 print(f"Translucent: frame {scene.frame_current}: {message}", file=sys.stderr, flush=True)
             self.report({"ERROR"}, f"Translucent: frame {scene.frame_current} lost {len(lost)} object(s): {lost[0]}")
-        LAST_CAPTURE.clear()
+        session.capture.clear()
         if pipeline.capture is not None:
-            LAST_CAPTURE.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))
+            session.capture.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))
         if not np.isfinite(pixels).all():
             self.report({"ERROR"}, "Translucent: the frame has non-finite pixels (NaN or inf)")
         result = self.begin_result(0, 0, width, height)

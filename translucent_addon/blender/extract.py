@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import itertools
 from collections.abc import Callable
 
 import numpy as np
 
+from .. import techniques
 from ..core import bake_store
 from ..core.frame import (
     NEUTRAL_PAINT,
@@ -35,9 +35,10 @@ from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
 from . import bake_files, medium_source, mesh_read
-from .bake_inputs import bake_status, homogeneous_profile
-from .bake_inputs import clear_caches as clear_bake_inputs
+from .bake_inputs import bake_status, homogeneous_profile, technique_values
 from .props import bounded
+from .session import Session
+from .session import current as current_session
 
 # Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
 BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
@@ -78,13 +79,10 @@ def world_color(scene, env: Environment | None = None) -> np.ndarray:
     return np.array(world.color[:3], dtype=np.float64)
 
 
-_environment_cache: dict = {}
-
-
-def world_environment(scene) -> Environment | None:
+def world_environment(scene, session: Session) -> Environment | None:
     """The world's Environment Texture (equirectangular) feeding its Background, as linear radiance
     times the strength; None for any other world. Read once per image and strength (every frame while the image
-    is dirty: painted, or set from a script)."""
+    is dirty: painted, or set from a script), kept on ``session``."""
     world = scene.world
     tree = getattr(world, "node_tree", None) if world is not None else None
     if tree is None:
@@ -101,7 +99,7 @@ def world_environment(scene) -> Environment | None:
         return None
     strength = float(bg.inputs["Strength"].default_value)
     key = (_image_stamp(img), strength, img.colorspace_settings.name)
-    env = _environment_cache.get(key)
+    env = session.environment.get(key)
     if env is None or img.is_dirty:  # an image painted or set from a script is read again every frame
         px = np.empty(w * h * img.channels, np.float32)
         img.pixels.foreach_get(px)
@@ -113,8 +111,8 @@ def world_environment(scene) -> Environment | None:
         digest = hashlib.blake2b(rgb.tobytes(), digest_size=12).hexdigest()
         if env is None or env.key != digest:
             env = Environment(key=digest, image=rgb, mean=equirect_mean(rgb))
-        _environment_cache.clear()
-        _environment_cache[key] = env
+        session.environment.clear()
+        session.environment[key] = env
     return env
 
 
@@ -232,23 +230,20 @@ def grass_layer(original, frame_warnings) -> GrassLayer | None:
     return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
 
 
-_height_cache: dict = {}
-
-
-def height_image(image) -> tuple[np.ndarray, str]:
+def height_image(image, session: Session) -> tuple[np.ndarray, str]:
     """(heights, digest): (H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0
     at the bottom (Blender's pixel order, so v = 0 is row 0), and a digest of them (the GPU texture's
     cache key). Read once per image and kept while the image is unchanged (not dirty: a painted image is
     read again every frame, so the relief follows the brush)."""
     key = _image_stamp(image)
-    cached = _height_cache.get(key)
+    cached = session.heights.get(key)
     if cached is not None and not image.is_dirty:
         return cached
     height = _read_height(image)
     entry = (height, hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest())
-    if len(_height_cache) > 16:
-        _height_cache.clear()
-    _height_cache[key] = entry
+    if len(session.heights) > 16:
+        session.heights.clear()
+    session.heights[key] = entry
     return entry
 
 
@@ -263,7 +258,7 @@ def _read_height(image) -> np.ndarray:
     return np.clip(rgb.mean(axis=-1), 0.0, 1.0).astype(np.float32)
 
 
-def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> ReliefSurface | None:
+def relief_surface(original, mesh, tri_loops, positions, frame_warnings, session: Session) -> ReliefSurface | None:
     """The height field of an object (Shah ch. 3), or None (with a warning when it cannot be drawn)."""
     s = original.translucent
     if s.relief == "OFF":
@@ -275,7 +270,7 @@ def relief_surface(original, mesh, tri_loops, positions, frame_warnings) -> Reli
         frame_warnings.append(f"'{original.name}': a height field needs a UV map; drawn flat")
         return None
     try:
-        height, digest = height_image(s.relief_image)
+        height, digest = height_image(s.relief_image, session)
     except ValueError as err:
         frame_warnings.append(f"'{original.name}': {err}; drawn flat")
         return None
@@ -294,9 +289,6 @@ def caustic_settings(s) -> CausticSettings:
                            guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
                            texels=bounded(s, "caustics_map"),
                            splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
-
-
-TURNED: dict[str, int] = {}  # object name -> closed parts drawn turned outward in its last frame
 
 
 def turn_outward(flip: np.ndarray, positions: np.ndarray, normals: np.ndarray, tri_loops: np.ndarray):
@@ -336,10 +328,6 @@ class DrawnMesh:
                                        and np.array_equal(self.tint_source[0], tint_source[0]))
 
 
-_DRAWN: dict = {}  # (depsgraph mode, object name) -> DrawnMesh
-_drawn_serials = itertools.count(1)
-
-
 def _palette(ob) -> np.ndarray:
     """(slots, 3) float32 base colours of the object's material slots."""
     return np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
@@ -351,18 +339,18 @@ def _corner_colors(palette: np.ndarray, read: mesh_read.MeshRead) -> np.ndarray:
     return palette[np.clip(read.material_index, 0, len(palette) - 1)].repeat(3, axis=0)
 
 
-def _drawn_key(cache_key) -> str:
+def _drawn_key(cache_key, session: Session) -> str:
     """A new GPU-cache key for an object's arrays: object, depsgraph mode and a serial."""
     mode, name = cache_key
-    return f"{name}:{mode}#{next(_drawn_serials)}"
+    return f"{name}:{mode}#{next(session.drawn_serials)}"
 
 
-def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key) -> DrawnMesh:
+def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key, session: Session) -> DrawnMesh:
     """The object's ``DrawnMesh``: the cached one when made of the same read, materials and paint."""
     name = ob.original.name
     palette = _palette(ob)
     weights, tint_source = paint_sources(ob, mesh)
-    old = _DRAWN.get(cache_key)
+    old = session.drawn.get(cache_key)
     if old is not None and old.made_of(read, palette, weights, tint_source):
         return old
     positions, normals = read.corner_arrays()
@@ -377,20 +365,20 @@ def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key) -> DrawnMesh:
         paint = np.tile(np.asarray(NEUTRAL_PAINT, np.float32), (len(tri_loops), 1))
         tint = np.ones((len(tri_loops), 3), np.float32)
     drawn = DrawnMesh(read, palette, weights, tint_source, positions, normals, colors, paint, tint, tri_loops, note,
-                      key=_drawn_key(cache_key))
-    _DRAWN[cache_key] = drawn
+                      key=_drawn_key(cache_key, session))
+    session.drawn[cache_key] = drawn
     return drawn
 
 
-def recoloured(ob, drawn: DrawnMesh, cache_key) -> DrawnMesh:
+def recoloured(ob, drawn: DrawnMesh, cache_key, session: Session) -> DrawnMesh:
     """A trusted object's ``DrawnMesh`` with its materials' colours read again (a material edit updates the
     material, not the object)."""
     palette = _palette(ob)
     if np.array_equal(palette, drawn.palette):
         return drawn
     new = dataclasses.replace(drawn, palette=palette, colors=_corner_colors(palette, drawn.read),
-                              key=_drawn_key(cache_key))
-    _DRAWN[cache_key] = new
+                              key=_drawn_key(cache_key, session))
+    session.drawn[cache_key] = new
     return new
 
 
@@ -413,7 +401,8 @@ def medium_of(original, method: str, frame_warnings, scene=None) -> tuple[str, M
         frame_warnings.append(Lost(f"{err}; drawn with its base colour"))
         return "OFF", None
     layer = {}
-    if m.profile == "MULTIPOLE" and method == "IMAGE_SPACE":  # the one method that draws a layer over a base
+    technique = techniques.get(method)
+    if m.profile == "MULTIPOLE" and technique is not None and technique.draws_layers:
         thickness_mm = m.layer_thickness * m.mm_per_unit
         problem = layer_problem(m.sigma_a, m.sigma_s_prime, thickness_mm)
         if problem:  # every pass then draws the top layer alone, the entry shift of the base pass included
@@ -421,19 +410,17 @@ def medium_of(original, method: str, frame_warnings, scene=None) -> tuple[str, M
         else:
             layer = dict(layer_thickness_mm=thickness_mm, base_sigma_a=m.base_sigma_a,
                          base_sigma_s_prime=m.base_sigma_s_prime)
-    if method == "QUADGRAPH":
-        layer = dict(veins=float(s.veins), veins_spacing_mm=float(s.veins_scale) * m.mm_per_unit,
-                     single_scattering=bool(s.single_scattering))
-    if method == "GEOCUBE":
-        layer = dict(max_steps=bounded(s, "geocube_steps"))
+    extras = None
+    if technique is not None and technique.medium_properties:  # what the method adds to the medium
+        extras = technique.medium_extras(technique_values(s, technique.medium_properties), m.mm_per_unit)
     return method, Medium(m.sigma_a, m.sigma_s_prime, m.eta, m.mm_per_unit, m.g,
-                          profile=homogeneous_profile(m.profile), **layer)
+                          profile=homogeneous_profile(m.profile), extras=extras, **layer)
 
 
-def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHandle | None:
+def bake_handle(ob, method: str, mode: str, frame_warnings, session: Session, read=None) -> BakeHandle | None:
     """The handle of the object's current bake, or None (and a warning) when it is missing or stale."""
     original = ob.original
-    status = bake_status(ob, method, mode, read=read)
+    status = bake_status(ob, method, mode, read=read, session=session)
     if status != "OK":
         frame_warnings.append(
             f"'{original.name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake")
@@ -442,7 +429,7 @@ def bake_handle(ob, method: str, mode: str, frame_warnings, read=None) -> BakeHa
                       lambda o=original, m=method: bake_files.read(o, m).arrays)
 
 
-def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False, scene=None) -> dict | None:
+def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool = False, scene=None) -> dict | None:
     """What every instance of an evaluated object shares in a frame (MeshInstance fields but the matrix), or
     None when it has no faces. ``trusted``: the caller knows the object's geometry and paint unchanged since
     its last frame (the viewport's depsgraph updates said so): its mesh is not read again."""
@@ -450,31 +437,32 @@ def _object_parts(ob, mode: str, frame_warnings, trusted: bool = False, scene=No
     name = original.name
     cache_key = (mode, name)
     s = original.translucent
-    drawn = _DRAWN.get(cache_key) if trusted and s.relief == "OFF" else None
+    drawn = session.drawn.get(cache_key) if trusted and s.relief == "OFF" else None
     relief = None
     if drawn is not None:
-        drawn = recoloured(ob, drawn, cache_key)
+        drawn = recoloured(ob, drawn, cache_key, session)
     else:
         mesh = ob.to_mesh()
         try:
             if mesh is None or len(mesh.polygons) == 0:
                 return None
-            read = mesh_read.read(mesh, cache_key)
+            read = session.reads.read(mesh, cache_key)
             if not read.finite:
                 frame_warnings.append(Lost(f"'{name}': the mesh has vertices that are not numbers (NaN or inf); "
                                            f"not drawn"))
                 return None
-            drawn = drawn_mesh(ob, mesh, read, cache_key)
-            relief = relief_surface(original, mesh, drawn.tri_loops, drawn.positions, frame_warnings)
+            drawn = drawn_mesh(ob, mesh, read, cache_key, session)
+            relief = relief_surface(original, mesh, drawn.tri_loops, drawn.positions, frame_warnings, session)
         finally:
             ob.to_mesh_clear()
-    TURNED[name] = drawn.read.orientation.turned  # for the object panel, which must not read meshes
+    session.turned[name] = drawn.read.orientation.turned  # for the object panel, which must not read meshes
     if drawn.note:
         frame_warnings.append(drawn.note)
     # Read settings from the original: editing a property does not re-evaluate the object.
     method = s.method
     baked = method != "OFF" and bake_registry.needs_bake(method)
-    handle = bake_handle(ob, method, mode, frame_warnings, drawn.read) if baked else None  # the mesh as read here
+    # The bake's status from the mesh as read here.
+    handle = bake_handle(ob, method, mode, frame_warnings, session, drawn.read) if baked else None
     method, medium = medium_of(original, method, frame_warnings, scene)
     return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
                 method=method, medium=medium, paint=drawn.paint, tint=drawn.tint,
@@ -496,16 +484,18 @@ def collapsed(matrix_world: np.ndarray) -> bool:
 
 
 def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = False,
-                 trusted: Callable[[str], bool] | None = None) -> FrameInputs:
+                 trusted: Callable[[str], bool] | None = None, session: Session | None = None) -> FrameInputs:
     """Everything of the evaluated scene that the pipeline draws. ``trusted(name)``: whether an object's geometry
     is known unchanged since the last frame of this depsgraph (the viewport's updates); None: nothing is
-    (F12, animation: every mesh is read and compared)."""
+    (F12, animation: every mesh is read and compared). What is read is kept on ``session`` (None: the
+    extension's)."""
+    session = session or current_session()
     scene = depsgraph.scene
     settings = scene.translucent
     meshes, emitters, warnings = [], [], []
     shared: dict = {}
     mode = depsgraph.mode
-    mesh_read.sweep()
+    session.reads.sweep()
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type in GEOMETRY_TYPES:
@@ -515,7 +505,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
                 continue  # scaled to zero (a common way to hide in animation): drawn as if hidden
             identity = (ob.original.name, ob.as_pointer())
             if identity not in shared:  # instances of one object read it once
-                shared[identity] = _object_parts(ob, mode, warnings,
+                shared[identity] = _object_parts(ob, mode, warnings, session,
                                                  trusted is not None and not inst.is_instance
                                                  and trusted(ob.original.name), scene)
             parts = shared[identity]
@@ -544,7 +534,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
             emitters += lit
     if not emitters and meshes:
         warnings.append("the scene has no lights: objects are lit by the world only")
-    environment = world_environment(scene)
+    environment = world_environment(scene, session)
     return FrameInputs(
         meshes=meshes,
         emitters=emitters,
@@ -600,13 +590,3 @@ def render_camera(depsgraph, width: int, height: int) -> CameraView:
 def viewport_camera(region, region_data) -> CameraView:
     return CameraView(np.array(region_data.view_matrix), np.array(region_data.window_matrix),
                       region.width, region.height)
-
-
-def clear_caches() -> None:
-    """The world images and height fields read from Blender (when the extension is disabled)."""
-    _environment_cache.clear()
-    _height_cache.clear()
-    _DRAWN.clear()
-    mesh_read.clear()
-    clear_bake_inputs()
-    TURNED.clear()

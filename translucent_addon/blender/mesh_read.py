@@ -18,9 +18,6 @@ import numpy as np
 
 from ..core.geometry.orientation import Orientation, components, orient_parts
 
-_CACHE: dict = {}  # key -> MeshRead
-_SEEN: dict = {}  # key -> the sweep it was last read in (``sweep``)
-_sweep = 0
 KEEP_SWEEPS = 4  # a key not read in this many sweeps (frames) is forgotten
 
 
@@ -111,20 +108,57 @@ def _same(old: np.ndarray, new: np.ndarray) -> bool:
     return old.shape == new.shape and np.array_equal(old, new)
 
 
-def sweep() -> None:
-    """Start a new frame's reads: keys not read for ``KEEP_SWEEPS`` frames are forgotten."""
-    global _sweep
-    _sweep += 1
-    for key in [k for k, s in _SEEN.items() if s < _sweep - KEEP_SWEEPS]:
-        _CACHE.pop(key, None)
-        _SEEN.pop(key, None)
+class Reads:
+    """The meshes last read under each key (object, depsgraph mode), and when: one per ``session.Session``."""
+
+    def __init__(self):
+        self.cache: dict = {}  # key -> MeshRead
+        self.seen: dict = {}  # key -> the sweep it was last read in (``sweep``)
+        self.sweeps = 0
+
+    def sweep(self) -> None:
+        """Start a new frame's reads: keys not read for ``KEEP_SWEEPS`` frames are forgotten."""
+        self.sweeps += 1
+        for key in [k for k, s in self.seen.items() if s < self.sweeps - KEEP_SWEEPS]:
+            self.cache.pop(key, None)
+            self.seen.pop(key, None)
+
+    def read(self, mesh, key) -> MeshRead:
+        """The mesh's arrays: the cached ``MeshRead`` of ``key`` when Blender's arrays equal it, else a new one.
+
+        ``key`` names the mesh across frames (object, depsgraph mode); equal content is what makes a cache hit,
+        so a wrong key costs a re-read, never a stale frame."""
+        vertices, corner_vert, corner_normals, tri_face, face_material = _arrays(mesh)
+        self.seen[key] = self.sweeps
+        old = self.cache.get(key)
+        topology = old is not None and _same(old.corner_vert, corner_vert) and _same(old.tri_face, tri_face)
+        moved = old is None or not _same(old.vertices, vertices)
+        if (topology and not moved and _same(old.corner_normals, corner_normals)
+                and _same(old.face_material, face_material)):
+            return old
+        n_loop = len(corner_vert)
+        all_triangles = len(tri_face) * 3 == n_loop
+        if topology and (all_triangles or not moved):
+            tri_loops, parts = old.tri_loops, old.parts
+        elif all_triangles:  # Blender's triangle of a triangle face is its corners in order
+            tri_loops, parts = np.arange(n_loop, dtype=np.int32).reshape(-1, 3), None
+        else:  # quads and n-gons: how Blender split them (it can depend on the positions)
+            tri_loops = np.empty(len(tri_face) * 3, np.int32)
+            mesh.loop_triangles.foreach_get("loops", tri_loops)
+            tri_loops, parts = tri_loops.reshape(-1, 3), (old.parts if topology else None)
+        new = MeshRead(vertices, corner_vert, corner_normals, tri_face, tri_loops, face_material, all_triangles,
+                       parts=parts)
+        self.cache[key] = new
+        return new
+
+    def clear(self) -> None:
+        self.cache.clear()
+        self.seen.clear()
 
 
-def read(mesh, key) -> MeshRead:
-    """The mesh's arrays: the cached ``MeshRead`` of ``key`` when Blender's arrays equal it, else a new one.
-
-    ``key`` names the mesh across frames (object, depsgraph mode); equal content is what makes a cache hit,
-    so a wrong key costs a re-read, never a stale frame."""
+def _arrays(mesh):
+    """(vertices, corner vertices, corner normals, loop triangles' faces, face materials): Blender's attribute
+    arrays, each one block copy."""
     n_vert, n_loop = len(mesh.vertices), len(mesh.loops)
     vertices = _attribute(mesh, "position", "vector", 3, n_vert, np.float32)
     if vertices is None:
@@ -144,29 +178,4 @@ def read(mesh, key) -> MeshRead:
     face_material = _attribute(mesh, "material_index", "value", 1, len(mesh.polygons), np.int32)
     if face_material is None:
         face_material = np.zeros(len(mesh.polygons), np.int32)
-
-    _SEEN[key] = _sweep
-    old = _CACHE.get(key)
-    topology = old is not None and _same(old.corner_vert, corner_vert) and _same(old.tri_face, tri_face)
-    moved = old is None or not _same(old.vertices, vertices)
-    if (topology and not moved and _same(old.corner_normals, corner_normals)
-            and _same(old.face_material, face_material)):
-        return old
-    all_triangles = len(tri_face) * 3 == n_loop
-    if topology and (all_triangles or not moved):
-        tri_loops, parts = old.tri_loops, old.parts
-    elif all_triangles:  # Blender's triangle of a triangle face is its corners in order
-        tri_loops, parts = np.arange(n_loop, dtype=np.int32).reshape(-1, 3), None
-    else:  # quads and n-gons: how Blender split them (it can depend on the positions)
-        tri_loops = np.empty(len(tri_face) * 3, np.int32)
-        mesh.loop_triangles.foreach_get("loops", tri_loops)
-        tri_loops, parts = tri_loops.reshape(-1, 3), (old.parts if topology else None)
-    new = MeshRead(vertices, corner_vert, corner_normals, tri_face, tri_loops, face_material, all_triangles,
-                   parts=parts)
-    _CACHE[key] = new
-    return new
-
-
-def clear() -> None:
-    _CACHE.clear()
-    _SEEN.clear()
+    return vertices, corner_vert, corner_normals, tri_face, face_material

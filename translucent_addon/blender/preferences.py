@@ -17,7 +17,7 @@ class TranslucentPreferences(bpy.types.AddonPreferences):
     default_quality: bpy.props.EnumProperty(
         name="Default quality",
         description="Resolutions set when a method is chosen for an object, and by Apply Quality for the scene",
-        items=[(t, t.capitalize(), f"{t.capitalize()} resolutions (translucent_addon/core/quality.py)") for t in TIERS],
+        items=[(t, t.capitalize(), f"{t.capitalize()} resolutions of every method") for t in TIERS],
         default="STANDARD",
     )
     timing_overlay: bpy.props.BoolProperty(

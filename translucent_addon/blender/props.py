@@ -103,7 +103,7 @@ def _on_method(self, context):
 
     prefs = preferences.get(context)
     if prefs is not None and prefs.default_quality != "STANDARD":
-        quality.apply(self, quality.OBJECT, prefs.default_quality)
+        quality.apply(self, techniques.tier_table("object"), prefs.default_quality)
 
 
 def _on_preset(self, context):
@@ -117,8 +117,10 @@ def _method_property():
 
 
 def refresh_methods() -> None:
-    """Rebuild the method property after the registry changed (a technique registered at run time)."""
+    """Rebuild the method property after the registry changed (a technique registered at run time), and bring
+    the technique's own properties (or take an unregistered one's away)."""
     TranslucentObjectSettings.method = _method_property()
+    _sync_technique_properties()
 
 
 def _get_mm_per_unit(self) -> float:
@@ -153,8 +155,9 @@ def _medium_properties() -> dict:
             # Numbered: files store the number, and EXACT came after the other two.
             items=[("EXACT", "Exact", "Homogeneous medium, profile of exact transport (half-space Monte Carlo)", 2),
                    ("DIPOLE", "Dipole", "Homogeneous medium, the papers' dipole diffusion (Jensen 2001)", 0),
-                   ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium: multipole, "
-                                                    "Donner & Jensen 2005 (IMAGE_SPACE)", 1)],
+                   ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium (Donner & Jensen "
+                                                    "2005): Image Space draws both, the other methods the layer alone",
+                    1)],
             default="EXACT"),
         layer_thickness=bpy.props.FloatProperty(
             name="Layer", description="Thickness of the layer over the base (at least one mean free path)",
@@ -249,7 +252,7 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
         description="Where new bakes keep their arrays",
         items=(("SIDECAR", "Beside the .blend", "In a folder next to the .blend (<name>_translucent): a small "
                                                  "file, one copy for linked duplicates, light undo", 0),
-               ("PACKED", "In the .blend", "Inside the .blend, one file to hand on; a TEXTURE_SPACE bake can add "
+               ("PACKED", "In the .blend", "Inside the .blend, one file to hand on; a Texture Space bake can add "
                                            "100 MB, for every copy", 1)),
         default="SIDECAR",
     )
@@ -280,17 +283,34 @@ def _bpy_property(p: Prop):
     return getattr(bpy.props, p.kind)(**p.options)
 
 
+_TECHNIQUE_GROUPS = ((TranslucentObjectSettings, "object_props"), (TranslucentSceneSettings, "scene_props"),
+                     (TranslucentLightSettings, "light_props"))
+
+
 def _join_technique_properties() -> None:
     """Each technique's own settings join the property groups before registration (``Technique.object_props``,
     ``scene_props``, ``light_props``): the groups above hold only what every object, scene and light shares."""
-    for group, attr in ((TranslucentObjectSettings, "object_props"), (TranslucentSceneSettings, "scene_props"),
-                        (TranslucentLightSettings, "light_props")):
+    for group, attr in _TECHNIQUE_GROUPS:
         for technique in techniques.REGISTRY:
             for p in getattr(technique, attr):
                 group.__annotations__[p.name] = _bpy_property(p)
 
 
 _join_technique_properties()
+
+
+def _sync_technique_properties() -> None:
+    """The property groups after the registry changed: a property a registered technique declares that the group
+    lacks is added; one the group gained at run time that no technique declares now is removed."""
+    base = set(bpy.types.PropertyGroup.bl_rna.properties.keys())
+    for group, attr in _TECHNIQUE_GROUPS:
+        declared = {p.name: p for technique in techniques.REGISTRY for p in getattr(technique, attr)}
+        present = set(group.bl_rna.properties.keys())
+        for name, p in declared.items():
+            if name not in present:
+                setattr(group, name, _bpy_property(p))
+        for name in present - set(declared) - set(group.__annotations__) - base:
+            delattr(group, name)
 
 
 def bounded(group, name: str):

@@ -1,16 +1,17 @@
 """AUTO quality applied to a Blender object (thin: the choice is ``quality_auto``'s)."""
 from __future__ import annotations
 
+from .. import techniques
 from ..techniques import quality_auto
 from ..techniques.registry import BakeInputError
 from .bake_inputs import object_view
 
 
 def apply_auto(context, ob, previous: dict | None = None) -> quality_auto.Choice:
-    """AUTO quality on one object: choose its method's resolutions and write them. IMAGE_SPACE's one
-    resolution, the scene's splat overlap, is not written: the engine chooses it again every frame from the
-    camera that draws it (``render.methods.image_space_auto``); the summary says what the scene camera
-    needs now. ``previous``, if given, receives the values it overwrites (``restore`` puts them back)."""
+    """AUTO quality on one object: choose its method's resolutions and write them. A resolution the method
+    chooses again every frame (IMAGE_SPACE's splat overlap, from the camera that draws it) is not written: the
+    summary says what the scene camera needs now, and the method's ``auto_note`` says so. ``previous``, if
+    given, receives the values it overwrites (``restore`` puts them back)."""
     s = ob.translucent
     view = object_view(ob.evaluated_get(context.evaluated_depsgraph_get()))
     tile_mm = s.grass_tile * s.mm_per_unit if s.grass else None
@@ -28,8 +29,9 @@ def apply_auto(context, ob, previous: dict | None = None) -> quality_auto.Choice
         previous.update({name: getattr(s, name) for name in (*choice.settings, "auto_summary")})
     for name, value in choice.settings.items():
         setattr(s, name, value)
-    if choice.method == "IMAGE_SPACE":
-        choice.notes.append("at the scene camera; chosen again every frame from the camera that draws it")
+    technique = techniques.get(choice.method)
+    if technique is not None and technique.auto_note:
+        choice.notes.append(technique.auto_note)
     s.auto_summary = choice.summary()
     return choice
 

@@ -3,13 +3,13 @@ from __future__ import annotations
 
 import bpy
 
+from .. import techniques
 from ..techniques import METHOD_DESCRIPTIONS
 from ..techniques.grass import bake as grass_btf
-from . import bake_files, medium_source
+from . import bake_files, medium_source, session
 from .bake_inputs import bake_status
 from .draw_handler import timing_lines
-from .engine import LAST_AUTO_OVERLAP, LAST_TIMINGS
-from .extract import TURNED, grass_status
+from .extract import grass_status
 from .props import PRESET_PROBLEMS
 from .versions import EEVEE_IDS
 
@@ -32,93 +32,121 @@ def draw_object(layout, context, ob) -> None:
         layout.label(text="Select a mesh object", icon="INFO")
         return
     s = ob.translucent
+    technique = techniques.get(s.method)
+    _method(layout, ob)
+    _medium(layout, ob)
+    _size(layout, context, ob)
+    if s.method != "OFF" or s.grass:
+        _quality(layout, ob, technique)
+    if technique is not None:
+        for names in technique.panel:  # the method's own properties, as it lays them out
+            col = layout.column(align=True)
+            for name in names:
+                col.prop(s, name)
+    _bake(layout, context, ob, technique)
+    _caustics_box(layout, s)
+    _grass_box(layout, ob)
+    _relief_box(layout, ob)
+    if technique is not None and technique.draws_paint:
+        _paint_box(layout)
+
+
+def _method(layout, ob) -> None:
+    """The method, what it is, and how the last frame found the mesh's winding."""
+    s = ob.translucent
     layout.prop(s, "method")
     layout.label(text=METHOD_DESCRIPTIONS[s.method])
-    turned = TURNED.get(ob.name, 0)
+    turned = session.current().turned.get(ob.name, 0)
     if turned:  # as the last frame found it (extract.frame_inputs): the panel reads no mesh
         parts = "the mesh is" if turned == 1 else f"{turned} closed parts are"
         layout.label(text=f"{parts.capitalize()} wound inward: drawn turned outward", icon="ERROR")
         layout.label(text="Mesh > Normals > Recalculate Outside fixes the mesh")
-    _medium(layout, ob)
+
+
+def _size(layout, context, ob) -> None:
+    """The scattering scale and the size helper: scattering depends on the real size."""
+    s = ob.translucent
     layout.prop(s, "scattering_scale")
-    longest = max(ob.dimensions)
-    if longest > 0:  # the size helper: scattering depends on the real size
+    if max(ob.dimensions) > 0:
         row = layout.row(align=True)
         mm = medium_source.mm_per_unit(s, context.scene)
-        size_mm = [d * mm for d in ob.dimensions]
-        row.label(text="Scatters as: " + " x ".join(_length(d) for d in size_mm), icon="DRIVER_DISTANCE")
+        row.label(text="Scatters as: " + " x ".join(_length(d * mm) for d in ob.dimensions), icon="DRIVER_DISTANCE")
         row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
-    if s.method != "OFF" or s.grass:
-        box = layout.box()
-        row = box.row(align=True)
-        row.prop(s, "quality", expand=True)
-        if s.quality == "AUTO":
-            row = box.row(align=True)
-            row.prop(s, "target_error")
-            row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
-            for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
-                box.label(text=line)
-            if s.method == "IMAGE_SPACE":
 
-                k = LAST_AUTO_OVERLAP.get("objects", {}).get(ob.name)
-                if k is not None:
-                    box.label(text=f"Last frame: splat overlap {k:g} for this object, "
-                                   f"{LAST_AUTO_OVERLAP['overlap']:g} in the scene", icon="CAMERA_DATA")
-    if s.method == "TEXTURE_SPACE":
-        col = layout.column(align=True)
-        col.prop(s, "atlas_resolution")
-        col.prop(s, "proxy_spacing")
-        col.prop(s, "texture_blending")
-    if s.method == "QUADGRAPH":
-        col = layout.column(align=True)
-        col.prop(s, "quadgraph_K")
-        col.prop(s, "quadgraph_levels")
-        col.prop(s, "single_scattering")
-        col = layout.column(align=True)
-        col.prop(s, "veins")
-        col.prop(s, "veins_scale")
-    if s.method == "GEOCUBE":
-        col = layout.column(align=True)
-        col.prop(s, "geocube_resolution")
-        col.prop(s, "geocube_steps")
+
+def _quality(layout, ob, technique) -> None:
+    """Quality tiers; under Auto its target, what it chose, and what the method says of the last frame."""
+    s = ob.translucent
+    box = layout.box()
+    row = box.row(align=True)
+    row.prop(s, "quality", expand=True)
+    if s.quality != "AUTO":
+        return
+    row = box.row(align=True)
+    row.prop(s, "target_error")
+    row.operator("translucent.auto_quality", text="", icon="FILE_REFRESH")
+    for line in _wrap(s.auto_summary or "Chosen at the next bake, or now with the button", 60):
+        box.label(text=line)
+    if technique is not None:
+        for line in technique.panel_notes(session.current().results.get(technique.id, {}), ob.name):
+            box.label(text=line, icon="CAMERA_DATA")
+
+
+def _bake(layout, context, ob, technique) -> None:
+    """The bake's status, what it holds (the method says), Bake, Clear and Compare."""
+    s = ob.translucent
     status = bake_status(ob.evaluated_get(context.evaluated_depsgraph_get()), s.method)
     layout.label(text=_STATUS_TEXT[status], icon=_STATUS_ICON[status])
-    if status in {"OK", "STALE"} and s.method in {"TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"}:
-        _bake_statistics(layout, ob, s.method)
+    if status in {"OK", "STALE"} and technique is not None:
+        meta = bake_files.read_meta(ob, s.method)  # read without loading the arrays
+        if meta is not None:
+            col = layout.column(align=True)
+            col.scale_y = 0.8
+            for line in technique.bake_summary(meta):
+                col.label(text=line)
     row = layout.row(align=True)
     row.operator("translucent.bake", icon="RENDER_STILL")
     row.operator("translucent.clear_bake", icon="TRASH")
     layout.operator("translucent.compare_cycles", icon="IMAGE_REFERENCE")
+
+
+def _caustics_box(layout, s) -> None:
     box = layout.box()
     box.prop(s, "caustics_caster")
-    if s.caustics_caster != "NONE":
-        col = box.column(align=True)
-        if s.caustics_caster == "REFRACTIVE":
-            col.prop(s, "caustics_ior")
-            col.prop(s, "caustics_surfaces")
-            col.prop(s, "caustics_dispersion")
-            col.prop(s, "caustics_color")
-            col.prop(s, "caustics_distance")
-        else:
-            col.prop(s, "caustics_color", text="Reflectance")
-    _grass_box(layout, ob)
+    if s.caustics_caster == "NONE":
+        return
+    col = box.column(align=True)
+    if s.caustics_caster == "REFRACTIVE":
+        for name in ("caustics_ior", "caustics_surfaces", "caustics_dispersion", "caustics_color",
+                     "caustics_distance"):
+            col.prop(s, name)
+    else:
+        col.prop(s, "caustics_color", text="Reflectance")
+
+
+def _relief_box(layout, ob) -> None:
+    s = ob.translucent
     box = layout.box()
     box.prop(s, "relief")
-    if s.relief != "OFF":
-        col = box.column(align=True)
-        col.template_ID(s, "relief_image", open="image.open")
-        for name in ("relief_depth", "relief_linear_steps", "relief_iterations", "relief_shadows"):
-            col.prop(s, name)
-        if not ob.data.uv_layers:
-            box.label(text="Needs a UV map", icon="ERROR")
-    if s.method in {"IMAGE_SPACE", "QUADGRAPH"}:  # QUADGRAPH carries the paint into its volume
-        box = layout.box()
-        box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
-        grid = box.grid_flow(columns=2, align=True)
-        for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
-                             ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
-            op = grid.operator("translucent.add_paint_layer", text=label)
-            op.layer = layer
+    if s.relief == "OFF":
+        return
+    col = box.column(align=True)
+    col.template_ID(s, "relief_image", open="image.open")
+    for name in ("relief_depth", "relief_linear_steps", "relief_iterations", "relief_shadows"):
+        col.prop(s, name)
+    if not ob.data.uv_layers:
+        box.label(text="Needs a UV map", icon="ERROR")
+
+
+def _paint_box(layout) -> None:
+    """Buttons adding the painted layers (Shah ch. 7) the method draws."""
+    box = layout.box()
+    box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
+    grid = box.grid_flow(columns=2, align=True)
+    for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
+                         ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):
+        op = grid.operator("translucent.add_paint_layer", text=label)
+        op.layer = layer
 
 
 def _coefficients(layout, group, multipole: bool = True) -> None:
@@ -234,37 +262,10 @@ def _length(mm: float) -> str:
     return f"{mm:.3g} mm"
 
 
-def _bake_statistics(layout, ob, method) -> None:
-    """What the bake holds, from its metadata (read without loading the arrays)."""
-
-    meta = bake_files.read_meta(ob, method)
-    if meta is None:
-        return
-    col = layout.column(align=True)
-    col.scale_y = 0.8
-    mb = meta.get("bytes", 0) / 2**20
-    if method == "QUADGRAPH":
-        col.label(text=f"Nodes: {meta.get('surface_nodes', 0):,} surface, {meta.get('inner_nodes', 0):,} inner "
-                       f"({len(meta.get('levels', []))} levels, link {meta.get('link_mm', 0.0):.1f} mm)")
-        col.label(text=f"Proxy: {meta.get('proxy_triangles', 0):,} triangles; {mb:.0f} MB; baked in "
-                       f"{meta.get('seconds', 0.0):.1f} s")
-        return
-    if method == "GEOCUBE":
-        col.label(text=f"Cubes: {meta.get('geocube_cubes', 0)} of {meta.get('geocube_res', 0)}^2 texels a face, "
-                       f"{100 * meta.get('geocube_coverage', 0.0):.1f} % of the surface seen")
-        col.label(text=f"Stored: {mb:.1f} MB, baked in {meta.get('seconds', meta.get('geocube_seconds', 0.0)):.1f} s")
-        return
-    col.label(text=f"Proxy: {meta.get('proxy_vertices', 0):,} vertices, atlas {meta.get('atlas', ['?', '?'])[0]}"
-                   f" x {meta.get('atlas', ['?', '?'])[1]}")
-    col.label(text=f"Texels: {meta.get('surface_texels', 0):,} ({meta.get('texel_mm', 0.0):.2f} mm), "
-                   f"form factors: {meta.get('form_factors', 0):,}")
-    col.label(text=f"Stored: {mb:.0f} MB, baked in {meta.get('seconds', 0.0):.1f} s")
-
-
 def _last_frame(layout) -> None:
     """The last frame's milliseconds per pass (F12 or viewport)."""
 
-    lines = timing_lines(LAST_TIMINGS)
+    lines = timing_lines(session.current().timings)
     box = layout.box()
     if not lines:
         box.label(text="Last frame: none drawn yet", icon="TIME")
@@ -288,46 +289,38 @@ def _scene_general(layout, context) -> None:
     layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")
 
 
-def _scene_image_space(layout, context) -> None:
-    s = context.scene.translucent
-    col = layout.column(align=True)
-    for name in ("splat_threshold", "splat_overlap", "splat_max_grid"):
-        col.prop(s, name)
-    if LAST_AUTO_OVERLAP:
-        col.label(text=f"Last frame: overlap {LAST_AUTO_OVERLAP['overlap']:g}, {LAST_AUTO_OVERLAP['max_grid']} "
-                       "per side, chosen by Auto objects", icon="INFO")
-    for name in ("splat_world_layers", "splat_world_overlap", "temporal_coherence"):
-        col.prop(s, name)
+def _scene_technique(layout, context, technique) -> None:
+    """A technique's Scene.translucent properties as it lays them out, what it says of the last frame after the
+    first column."""
+    for i, names in enumerate(technique.scene_panel):
+        col = layout.column(align=True)
+        for name in names:
+            col.prop(context.scene.translucent, name)
+        if i == 0:
+            for line in technique.scene_panel_notes(session.current().results.get(technique.id, {})):
+                col.label(text=line, icon="INFO")
 
 
-def _scene_texture_space(layout, context) -> None:
-    layout.prop(context.scene.translucent, "texture_product")
+def _technique_section(technique):
+    return technique.scene_panel_label or technique.label, lambda layout, context: _scene_technique(
+        layout, context, technique)
 
 
-def _scene_quadgraph(layout, context) -> None:
-    col = layout.column(align=True)
-    col.prop(context.scene.translucent, "quadgraph_tolerance")
-    col.prop(context.scene.translucent, "quadgraph_iterations")
-
-
-def _scene_caustics(layout, context) -> None:
-    col = layout.column(align=True)
-    for name in ("caustics_grid", "caustics_estimator", "caustics_iterations", "caustics_guard", "caustics_map",
-                 "caustics_splat", "caustics_adaptive"):
-        col.prop(context.scene.translucent, name)
+def scene_sections() -> list:
+    """(label, draw) of the scene's settings in sections: each technique's that has any, then the last frame."""
+    return [_technique_section(t) for t in techniques.REGISTRY if t.scene_panel] + [("Last Frame", _scene_last_frame)]
 
 
 def _scene_last_frame(layout, context) -> None:
     _last_frame(layout)
     row = layout.row(align=True)
     row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
-    row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "CAUSTICS"
+    row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "GLASS_BALL"
 
 
-# The scene's settings in sections: each a sub-panel of the Render properties, all of them in the sidebar.
-SCENE_SECTIONS = (("Image Space", _scene_image_space), ("Texture Space", _scene_texture_space),
-                  ("QuadGraph Solver", _scene_quadgraph), ("Caustics", _scene_caustics),
-                  ("Last Frame", _scene_last_frame))
+# The scene's settings in sections: each a sub-panel of the Render properties (those registered with the
+# extension), all of them in the sidebar (a technique registered later too).
+SCENE_SECTIONS = tuple(scene_sections())
 
 
 class VIEW3D_PT_translucent_object(bpy.types.Panel):
@@ -353,7 +346,7 @@ class VIEW3D_PT_translucent_scene(bpy.types.Panel):
 
     def draw(self, context):
         _scene_general(self.layout, context)
-        for label, draw in SCENE_SECTIONS:
+        for label, draw in scene_sections():
             self.layout.label(text=label)
             draw(self.layout, context)
 

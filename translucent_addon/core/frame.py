@@ -32,11 +32,8 @@ class Medium:
     layer_thickness_mm: float | None = None
     base_sigma_a: tuple | None = None
     base_sigma_s_prime: tuple | None = None
-    # QUADGRAPH: procedural marble veins in the volume (strength 0..1, spacing in mm).
-    veins: float = 0.0
-    veins_spacing_mm: float = 20.0
-    single_scattering: bool = True  # QUADGRAPH: draw the surface term (single and local multiple scattering)
-    max_steps: int = 32  # GEOCUBE: cap on the exit search's steps
+    # What the method drawing it adds of its own (its ``Technique.medium_extras``: frozen and hashable), or None.
+    extras: Any = None
 
 
 @dataclasses.dataclass(frozen=True)

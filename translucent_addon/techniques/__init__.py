@@ -8,6 +8,7 @@ time, as the tests' constant-colour technique does).
 """
 from __future__ import annotations
 
+from ..core import quality
 from ..gpu import shaders
 from .caustics import passes as _caustics
 from .geocube import passes as _geocube
@@ -55,6 +56,23 @@ def _refresh() -> None:
 
 def get(technique_id: str) -> Technique | None:
     return next((t for t in REGISTRY if t.id == technique_id), None)
+
+
+def tier_table(kind: str) -> dict:
+    """Tier -> the values of every registered technique at it, for ``"object"`` (Object.translucent) or
+    ``"scene"`` (Scene.translucent, with the scene-wide ones of ``core.quality``)."""
+    table = {tier: dict(quality.SCENE[tier]) if kind == "scene" else {} for tier in quality.TIERS}
+    for t in REGISTRY:
+        for tier, values in (t.scene_tiers if kind == "scene" else t.object_tiers).items():
+            table[tier].update(values)
+    return table
+
+
+def default_method() -> str:
+    """The method a translucent object starts with where the user has not chosen one (a demo scene, a painted
+    layer on an Off object): the first that needs no bake and draws the painted layers."""
+    methods = sorted((t for t in REGISTRY if t.method_number is not None), key=lambda t: t.method_number)
+    return next((t.id for t in methods if not t.bake_stages and t.draws_paint), OFF[0])
 
 
 def register(technique: Technique) -> None:

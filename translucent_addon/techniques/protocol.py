@@ -19,10 +19,30 @@ Its own properties (``object_props``, ``scene_props``, ``light_props``) join ``O
 (``FrameInputs.settings``); ``shader_specs`` joins the shader table; ``bake`` runs its ``bake_stages``
 (``registry.run``); ``auto_quality`` is its Auto quality (``quality_auto.choose``); ``clear_caches`` runs when
 the extension is disabled.
+
+What an object of its method carries it declares too, so that no other layer names it: the Object.translucent
+properties its medium reads (``medium_properties`` -> ``medium_extras``, the frame's ``Medium.extras``), its bake
+reads (``bake_properties`` -> ``bake_parameters``, the bake's ``BakeInputs.params``; ``make_proxies``,
+``hash_parts``, ``bake_summary``), and its object panel (``panel``, ``panel_notes``). ``frame_settings`` adjusts
+its settings to the frame about to be drawn (IMAGE_SPACE's Auto splat overlap) and leaves what the panel says
+in the frame's results (``blender.session.Session.results``).
 """
 from __future__ import annotations
 
+import dataclasses
+
 from ..gpu.frame_context import FrameContext
+
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """One way Compare with Cycles draws an object of a method: a label, the Object.translucent and
+    Scene.translucent values it is drawn with, and what the report records of it besides the label."""
+
+    label: str
+    object_values: dict = dataclasses.field(default_factory=dict)
+    scene_values: dict = dataclasses.field(default_factory=dict)
+    record: dict = dataclasses.field(default_factory=dict)
 
 
 class Technique:
@@ -43,6 +63,24 @@ class Technique:
     bake_errors: tuple[type, ...] = ()  # its bake's refusals, shown as one line (BakeInputError)
     no_bake_reason: str = ""  # why Bake does nothing for it, where it needs none
     emitter_timing: str = "lights"  # the key its ``emitter`` hook is counted under
+    # -- an object of its method -------------------------------------------------------------------------------
+    medium_properties: tuple[str, ...] = ()  # the Object.translucent properties ``medium_extras`` reads
+    draws_layers: bool = False  # draws a medium that is a layer over a base (multipole); others draw the top alone
+    draws_paint: bool = False  # draws the painted layers (blur, glow, mask, tint: Shah ch. 7)
+    base_entry_shift: bool = False  # the base pass shifts light entering at an angle (``physics.oblique_entry``)
+    panel: tuple[tuple[str, ...], ...] = ()  # its Object.translucent properties in the object panel, by column
+    auto_note: str = ""  # what the Auto summary adds for it
+    scene_panel: tuple[tuple[str, ...], ...] = ()  # its Scene.translucent properties in its scene section, by column
+    scene_panel_label: str = ""  # that section's title ("": its label)
+    # Quality tiers: its Object.translucent and Scene.translucent values at Draft, Standard and High (tier -> values).
+    object_tiers: dict = {}
+    scene_tiers: dict = {}
+    # Compare with Cycles: what ``compare_variants`` draws by default, in a full comparison and a quick one.
+    compare_defaults: tuple = ()
+    compare_quick: tuple = ()
+    # -- its bake -----------------------------------------------------------------------------------------------
+    bake_properties: tuple[str, ...] = ()  # the Object.translucent properties ``bake_parameters`` reads
+    bake_corner_normals: bool = False  # its bake lights with the display's corner normals (BakeInputs.corner_normals)
 
     def settings(self, values: dict):
         """This technique's frame settings from its ``scene_properties`` values (name -> value)."""
@@ -52,6 +90,52 @@ class Technique:
         """Generator for one of its ``bake_stages``: yields (fraction, text); returns (arrays, meta) to store
         (``registry.run``)."""
         raise NotImplementedError(f"{self.id} has no bake")
+
+    def bake_parameters(self, values: dict):
+        """Its part of a bake's inputs (``BakeInputs.params``) from its ``bake_properties`` values (name -> value;
+        a name left out takes its default)."""
+        return None
+
+    def needs_screen_pixels(self, params) -> bool:
+        """Whether its bake needs the object's size on the camera's image (``BakeInputs.screen_pixels``)."""
+        return False
+
+    def make_proxies(self, inputs, decimate):
+        """Generator of (fraction, text): what only its bake needs made by Blender before it runs, written into
+        ``inputs.params``; ``decimate(vertices, triangles, target)`` is Blender's collapse decimation."""
+        yield from ()
+
+    def hash_parts(self, inputs, geometry: dict, material: dict) -> tuple[dict, dict]:
+        """(geometry arrays, parameters) its bake depends on, from the common ones (``BakeInputs.hash_parts``):
+        by default the geometry and the material."""
+        return geometry, material
+
+    def bake_summary(self, meta: dict) -> list[str]:
+        """Lines saying what a bake of its holds, from the bake's metadata (the object panel)."""
+        return []
+
+    def medium_extras(self, values: dict, mm_per_unit: float):
+        """Its own part of an object's medium (``Medium.extras``: frozen and hashable) from its
+        ``medium_properties`` values, or None."""
+        return None
+
+    def compare_variants(self, values: tuple) -> list[Variant]:
+        """Compare with Cycles: the ways to draw its objects, one image each, from a series of values (its
+        resolutions, densities or overlaps; ``compare_defaults``); none: it is drawn as the objects are set."""
+        return [Variant("as set")]
+
+    def frame_settings(self, frame, settings, results: dict):
+        """Its settings for this frame (``FrameInputs``), from those of the scene; what the object panel should
+        say of the frame goes into ``results``."""
+        return settings
+
+    def scene_panel_notes(self, results: dict) -> list[str]:
+        """Lines for its scene section from the last frame's ``results`` of this technique."""
+        return []
+
+    def panel_notes(self, results: dict, object_name: str) -> list[str]:
+        """Lines for an object's panel from the last frame's ``results`` of this technique."""
+        return []
 
     def auto_quality(self, view, target: float, curves: str):
         """Auto quality (``quality_auto.choose``): the resolutions that reach ``target`` at the least cost for

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -17,7 +18,7 @@ from ..core import native
 from ..core.geometry.mesh_checks import check_mesh, self_intersections
 from ..core.physics.presets import validate_coefficients
 from . import get
-from .geocube import bake as geocube_bake
+from .protocol import Technique
 
 
 def method_stages(method: str) -> tuple[str, ...]:
@@ -43,6 +44,9 @@ class BakeInputError(ValueError):
 
 @dataclasses.dataclass
 class BakeInputs:
+    """What a bake is made of: the geometry and the medium, which every method's bake reads, and ``params``,
+    the method's own part (its ``Technique.bake_parameters``), which only its bake reads."""
+
     name: str
     method: str
     vertices: np.ndarray  # (V, 3) float32, object space of the evaluated mesh
@@ -54,33 +58,25 @@ class BakeInputs:
     g: float
     profile: str = "EXACT"  # the radial profile of a homogeneous medium (``physics.lut.PROFILES``)
     # The triangles as the mesh holds them, which the hash covers: turning follows the pose (a mirroring shape
-    # key turns a part inside out), and a QUADGRAPH bake must not go stale with the pose. None: ``triangles``.
+    # key turns a part inside out), and a geometry-only bake must not go stale with the pose. None: ``triangles``.
     read_triangles: np.ndarray | None = None
-    atlas_resolution: int = 512  # TEXTURE_SPACE
-    proxy_spacing: float = 3.5  # TEXTURE_SPACE: mean proxy edge in atlas texels (techniques/texture_space/proxy.py)
-    blending: bool = True  # TEXTURE_SPACE
-    # TEXTURE_SPACE: a decimated proxy made by Blender (object space), or None to derive it here.
-    proxy_vertices: np.ndarray | None = None
-    proxy_triangles: np.ndarray | None = None
-    # TEXTURE_SPACE: the shading normals at each triangle corner (T, 3, 3), object space, or None
-    # (smooth, angle-weighted): the illumination map lights each texel with the normal the display shows.
+    # The shading normals at each triangle corner (T, 3, 3), object space, where the method asks for them
+    # (``Technique.bake_corner_normals``), else None (smooth, angle-weighted).
     corner_normals: np.ndarray | None = None
     # The object's stretch (scale without rotation, 3x3, the symmetric factor of the polar
     # decomposition of its world matrix): the physical size is stretch @ vertex * mm_per_unit.
     stretch: np.ndarray | None = None
-    quadgraph_K: float = 1.0  # QUADGRAPH density (the paper's K; techniques/quadgraph/bake.py maps it)
-    quadgraph_levels: int = 3  # QUADGRAPH multi-resolution levels
-    # QUADGRAPH: decimated proxies, coarsest first, made by Blender ([(vertices, triangles)], object space).
-    proxy_levels: list | None = None
-    geocube_resolution: int = 0  # GEOCUBE cube face texels; 0: from screen_pixels
-    screen_pixels: float | None = None  # GEOCUBE: the object's size on the camera's image
-    # GEOCUBE: makes the ray tracer from the triangles ((T, 3, 3), bake frame): Blender's BVH, which the
-    # Blender side passes in (blender/bake_inputs.py); None: brute force (core/geometry/raycast.py).
-    # Not part of the hash: any tracer finds the same hits.
+    params: Any = None  # the method's own part (``Technique.bake_parameters``); None: its defaults
+    screen_pixels: float | None = None  # the object's size on the camera's image (``Technique.needs_screen_pixels``)
+    # Makes a ray tracer from the triangles ((T, 3, 3), bake frame): Blender's BVH, which the Blender side
+    # passes in (blender/bake_inputs.py); None: brute force (core/geometry/raycast.py). Not part of the hash:
+    # any tracer finds the same hits.
     tracer_factory: Callable | None = None
 
-    def geocube_res(self) -> int:
-        return int(self.geocube_resolution) or geocube_bake.resolution_for(self.screen_pixels)
+    def __post_init__(self) -> None:
+        if self.params is None:
+            technique = get(self.method)
+            self.params = technique.bake_parameters({}) if technique is not None else None
 
     def stretch_matrix(self) -> np.ndarray:
         return np.eye(3) if self.stretch is None else np.asarray(self.stretch, np.float64)
@@ -90,45 +86,31 @@ class BakeInputs:
         return store.inputs_hash(*self.hash_parts())
 
     def hash_parts(self) -> tuple[dict, dict]:
-        """(geometry arrays, parameters) the bake depends on. A QUADGRAPH bake is geometry only (kappa and mu are
-        set per node at run time), so editing its material keeps the bake current; and only its topology: moving
-        vertices (an armature, a lattice, shape keys) moves the nodes at run time instead."""
+        """(geometry arrays, parameters) the bake depends on: the method's own choice (``Technique.hash_parts``)
+        from the geometry and the material, with the method, its stages and the scale."""
         material = {"sigma_a": list(self.sigma_a), "sigma_s_prime": list(self.sigma_s_prime), "eta": self.eta,
                     "g": self.g}
-        stretch = {"stretch": np.round(self.stretch_matrix(), 9).ravel().tolist()}
-        extra = {}
-        if self.method == "TEXTURE_SPACE":
-            # thin_parts: F^0 carries light through thin parts (physics.slab_through); far_field: distant sources
-            # by cluster (texture_space/far_field.py); oblique_entry: the texels' curvature (bake.texel_curvature).
-            # Bakes before any of them are stale.
-            extra = {"atlas_resolution": int(self.atlas_resolution), "blending": bool(self.blending),
-                     "profile": self.profile, "thin_parts": 1, "far_field": 1, "oblique_entry": 1,
-                     "proxy_spacing": round(float(self.proxy_spacing), 4), **stretch}
-        elif self.method == "QUADGRAPH":
-            material = {}
-            extra = {"K": float(self.quadgraph_K), "levels": int(self.quadgraph_levels), **stretch}
-        elif self.method == "GEOCUBE":
-            material = {"eta": self.eta}  # cone C's half angle is the critical angle; the rest is geometry
-            # An automatic resolution is chosen once, at bake time: moving the camera later does not stale it.
-            extra = {"res": int(self.geocube_resolution) or "auto", **stretch}
         triangles = self.triangles if self.read_triangles is None else self.read_triangles
         geometry = {"vertices": self.vertices, "triangles": triangles}
-        if self.method == "TEXTURE_SPACE" and self.corner_normals is not None:
-            geometry["corner_normals"] = np.asarray(self.corner_normals, np.float32)
-        if self.method == "QUADGRAPH":
-            geometry = {"triangles": triangles}
-            extra["vertex_count"] = int(len(self.vertices))
+        technique = get(self.method)
+        if technique is not None:
+            geometry, material = technique.hash_parts(self, geometry, material)
         return geometry, {
             "method": self.method,
             "stages": list(method_stages(self.method)),
             "mm_per_unit": self.mm_per_unit,
             **material,
-            **extra,
         }
 
 
 def needs_bake(method: str) -> bool:
     return bool(method_stages(method))
+
+
+def bakes_auto(method: str) -> bool:
+    """Whether a bake of ``method`` uses the resolutions Auto quality chooses (it bakes and has an Auto)."""
+    technique = get(method)
+    return needs_bake(method) and type(technique).auto_quality is not Technique.auto_quality
 
 
 def refuse_size(name: str, triangles: int) -> None:

@@ -160,11 +160,23 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
                  shadow_atlas) -> None:
     """The caustics of every caster under one emitter, added to the bound target ``fb``; ``shadow_atlas``
     (this emitter's, from the shadow pass) drops grid vertices that another object hides from the light."""
-    import gpu
-
-    s = plan.settings
-    N = int(s.texels)
+    N = int(plan.settings.texels)
     atlas_size = (3 * N, 2 * N)
+    recv_tex = _draw_receivers(plan, frame, e, light_ubo, objects, pipeline, N, atlas_size)
+    flux_fb, (flux_tex,), _ = _target(pipeline, "caustic_flux", atlas_size)
+    with flux_fb.bind():
+        clear_target(flux_fb, (0.0, 0.0, 0.0, 0.0), depth=None)
+    keep_alive = _draw_casters(plan, frame, e, light_ubo, objects, pipeline, shadow_atlas, recv_tex, flux_fb,
+                               atlas_size)
+    _capture(pipeline, "caustic_flux", flux_fb, atlas_size)
+    if not keep_alive or not plan.lit:
+        return
+    _apply_caustic(plan, light_ubo, batches, objects, frame_ubo, fb, keep_alive[0], flux_tex, recv_tex)
+
+
+def _draw_receivers(plan: Plan, frame: FrameInputs, e, light_ubo, objects, pipeline, N: int, atlas_size):
+    """Step 1: receiver positions from the light, an N x N tile per face; returns the atlas the trace reads."""
+    import gpu
 
     # 1. Receiver positions from the light.
     recv_fb, (recv_tex,), _recv_depth = _target(pipeline, "caustic_receivers", atlas_size, depth=True)
@@ -181,10 +193,15 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
                 shader.uniform_block("object", objects[k])
                 shader.draw(_batch(pipeline, "caustic_receiver", frame.meshes[k], False))
     _capture(pipeline, "caustic_receivers", recv_fb, atlas_size)
+    return recv_tex
 
-    flux_fb, (flux_tex,), _ = _target(pipeline, "caustic_flux", atlas_size)
-    with flux_fb.bind():
-        clear_target(flux_fb, (0.0, 0.0, 0.0, 0.0), depth=None)
+
+def _draw_casters(plan: Plan, frame: FrameInputs, e, light_ubo, objects, pipeline, shadow_atlas, recv_tex, flux_fb,
+                  atlas_size) -> list:
+    """Steps 2 to 4 per caster, splatted into ``flux_fb``; returns the caustic blocks, kept alive until drawn."""
+    import gpu
+
+    s = plan.settings
     G = int(s.grid)
     caster_shader = shaders.pass_shader("caustic_caster")
     trace_shader = shaders.pass_shader("caustic_trace")
@@ -198,58 +215,85 @@ def draw_emitter(plan: Plan, frame: FrameInputs, e, light_ubo, batches, objects,
             continue
         ubo = gpu.types.GPUUniformBuf(blocks.caustic_block(grid.view_proj, G, grid.half_extent, mesh.caster, s))
         keep_alive.append(ubo)
-        # 2. The caster on its grid: nearest (front) and farthest (back) surfaces.
-        maps = []
-        for name, depth_clear, test in (("caustic_front", 1.0, "LESS_EQUAL"), ("caustic_back", 0.0, "GREATER_EQUAL")):
-            grid_fb, textures, _depth = _target(pipeline, name, (G, G), depth=True, attachments=2)
-            with draw_pass(grid_fb, depth_test=test, depth_write=True):
-                clear_target(grid_fb, (0.0, 0.0, 0.0, 0.0), depth=depth_clear)
-                gpu.state.viewport_set(0, 0, G, G)
-                caster_shader.bind()
-                caster_shader.uniform_block("caustic", ubo)
-                caster_shader.uniform_block("object", objects[k])
-                caster_shader.draw(_batch(pipeline, "caustic_caster", mesh, True))
-            maps.append(textures)
-            _capture(pipeline, name + "_position", grid_fb, (G, G), 0)
-            _capture(pipeline, name + "_normal", grid_fb, (G, G), 1)
-        # 3. Refract and estimate the landing points.
-        channels = 3 if (mesh.caster.dispersion > 0 and mesh.caster.mode != "REFLECTIVE") else 1
-        trace_size = (G * channels, G)
-        trace_fb, (landing_tex, trace_flux_tex), _ = _target(pipeline, "caustic_trace", trace_size, attachments=2)
-        with draw_pass(trace_fb):
-            gpu.state.viewport_set(0, 0, *trace_size)
-            trace_shader.bind()
-            trace_shader.uniform_block("light", light_ubo)
-            trace_shader.uniform_block("caustic", ubo)
-            trace_shader.uniform_sampler("front_position", maps[0][0])
-            trace_shader.uniform_sampler("front_normal", maps[0][1])
-            trace_shader.uniform_sampler("back_position", maps[1][0])
-            trace_shader.uniform_sampler("back_normal", maps[1][1])
-            trace_shader.uniform_sampler("receiver_atlas", recv_tex)
-            trace_shader.uniform_sampler("shadow_atlas", shadow_atlas)
-            trace_shader.draw(screen_quad(pipeline, "caustic_trace"))
-        _capture(pipeline, "caustic_landing", trace_fb, trace_size, 0)
-        _capture(pipeline, "caustic_trace_flux", trace_fb, trace_size, 1)
-        # 4. Splat into the caustic atlas.
-        with draw_pass(flux_fb, blend="ADDITIVE_PREMULT"):
-            gpu.state.viewport_set(0, 0, *atlas_size)
-            splat_shader.bind()
-            splat_shader.uniform_block("light", light_ubo)
-            splat_shader.uniform_block("caustic", ubo)
-            splat_shader.uniform_sampler("trace_landing", landing_tex)
-            splat_shader.uniform_sampler("trace_flux", trace_flux_tex)
-            splat_shader.draw_instanced(screen_quad(pipeline, "caustic_splat"), trace_size[0] * trace_size[1])
-    _capture(pipeline, "caustic_flux", flux_fb, atlas_size)
-    if not keep_alive or not plan.lit:
-        return
+        maps = _draw_caster_maps(caster_shader, ubo, objects[k], mesh, G, pipeline)
+        landing_tex, trace_flux_tex, trace_size = _draw_trace(trace_shader, light_ubo, ubo, maps, recv_tex,
+                                                              shadow_atlas, mesh, G, pipeline)
+        _draw_splats(splat_shader, light_ubo, ubo, landing_tex, trace_flux_tex, trace_size, flux_fb, atlas_size,
+                     pipeline)
+    return keep_alive
 
+
+def _draw_caster_maps(caster_shader, ubo, object_ubo, mesh: MeshInstance, G: int, pipeline) -> list:
+    """Step 2: the caster's front and back surfaces on its G x G grid; returns their (position, normal) textures."""
+    import gpu
+
+    # 2. The caster on its grid: nearest (front) and farthest (back) surfaces.
+    maps = []
+    for name, depth_clear, test in (("caustic_front", 1.0, "LESS_EQUAL"), ("caustic_back", 0.0, "GREATER_EQUAL")):
+        grid_fb, textures, _depth = _target(pipeline, name, (G, G), depth=True, attachments=2)
+        with draw_pass(grid_fb, depth_test=test, depth_write=True):
+            clear_target(grid_fb, (0.0, 0.0, 0.0, 0.0), depth=depth_clear)
+            gpu.state.viewport_set(0, 0, G, G)
+            caster_shader.bind()
+            caster_shader.uniform_block("caustic", ubo)
+            caster_shader.uniform_block("object", object_ubo)
+            caster_shader.draw(_batch(pipeline, "caustic_caster", mesh, True))
+        maps.append(textures)
+        _capture(pipeline, name + "_position", grid_fb, (G, G), 0)
+        _capture(pipeline, name + "_normal", grid_fb, (G, G), 1)
+    return maps
+
+
+def _draw_trace(trace_shader, light_ubo, ubo, maps, recv_tex, shadow_atlas, mesh: MeshInstance, G: int, pipeline):
+    """Step 3: refract (or mirror) and estimate each grid vertex's landing; returns (landing, flux, trace size)."""
+    import gpu
+
+    # 3. Refract and estimate the landing points.
+    channels = 3 if (mesh.caster.dispersion > 0 and mesh.caster.mode != "REFLECTIVE") else 1
+    trace_size = (G * channels, G)
+    trace_fb, (landing_tex, trace_flux_tex), _ = _target(pipeline, "caustic_trace", trace_size, attachments=2)
+    with draw_pass(trace_fb):
+        gpu.state.viewport_set(0, 0, *trace_size)
+        trace_shader.bind()
+        trace_shader.uniform_block("light", light_ubo)
+        trace_shader.uniform_block("caustic", ubo)
+        trace_shader.uniform_sampler("front_position", maps[0][0])
+        trace_shader.uniform_sampler("front_normal", maps[0][1])
+        trace_shader.uniform_sampler("back_position", maps[1][0])
+        trace_shader.uniform_sampler("back_normal", maps[1][1])
+        trace_shader.uniform_sampler("receiver_atlas", recv_tex)
+        trace_shader.uniform_sampler("shadow_atlas", shadow_atlas)
+        trace_shader.draw(screen_quad(pipeline, "caustic_trace"))
+    _capture(pipeline, "caustic_landing", trace_fb, trace_size, 0)
+    _capture(pipeline, "caustic_trace_flux", trace_fb, trace_size, 1)
+    return landing_tex, trace_flux_tex, trace_size
+
+
+def _draw_splats(splat_shader, light_ubo, ubo, landing_tex, trace_flux_tex, trace_size, flux_fb, atlas_size,
+                 pipeline) -> None:
+    """Step 4: one Gaussian splat per traced vertex and channel, added into the caustic atlas ``flux_fb``."""
+    import gpu
+
+    # 4. Splat into the caustic atlas.
+    with draw_pass(flux_fb, blend="ADDITIVE_PREMULT"):
+        gpu.state.viewport_set(0, 0, *atlas_size)
+        splat_shader.bind()
+        splat_shader.uniform_block("light", light_ubo)
+        splat_shader.uniform_block("caustic", ubo)
+        splat_shader.uniform_sampler("trace_landing", landing_tex)
+        splat_shader.uniform_sampler("trace_flux", trace_flux_tex)
+        splat_shader.draw_instanced(screen_quad(pipeline, "caustic_splat"), trace_size[0] * trace_size[1])
+
+
+def _apply_caustic(plan: Plan, light_ubo, batches, objects, frame_ubo, fb, caustic_ubo, flux_tex, recv_tex) -> None:
+    """Step 5: the receivers drawn by the base pass add rho / pi times the caustic irradiance into ``fb``."""
     # 5. Receivers add the caustic.
     apply = shaders.pass_shader("caustic_apply")
     with draw_pass(fb, blend="ADDITIVE_PREMULT", depth_test="LESS_EQUAL"):
         apply.bind()
         apply.uniform_block("frame", frame_ubo)
         apply.uniform_block("light", light_ubo)
-        apply.uniform_block("caustic", keep_alive[0])  # only its settings are read
+        apply.uniform_block("caustic", caustic_ubo)  # only its settings are read
         apply.uniform_sampler("caustic_atlas", flux_tex)
         apply.uniform_sampler("receiver_atlas", recv_tex)
         for k in plan.lit:
@@ -385,6 +429,11 @@ class Caustics(Technique):
     id, label = "CAUSTICS", "Caustics"
     description = "Refractive and reflective caustics by caustic mapping (Shah 2007, ch. 5)"
     emitter_timing = "caustics"
+    scene_tiers = {"DRAFT": {"caustics_grid": 64, "caustics_map": 512},
+                   "STANDARD": {"caustics_grid": 128, "caustics_map": 1024},
+                   "HIGH": {"caustics_grid": 256, "caustics_map": 2048}}
+    scene_panel = (("caustics_grid", "caustics_estimator", "caustics_iterations", "caustics_guard", "caustics_map",
+                    "caustics_splat", "caustics_adaptive"),)
 
     def prepare(self, ctx: FrameContext):
         return prepare(ctx.frame)

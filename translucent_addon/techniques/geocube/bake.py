@@ -77,6 +77,37 @@ class GeocubeSet:
         return len(self.centres)
 
 
+@dataclasses.dataclass
+class BakeParameters:
+    """GEOCUBE's part of a bake's inputs (``BakeInputs.params``)."""
+
+    resolution: int = 0  # cube face texels; 0: from the object's size on the camera's image (``resolution_for``)
+
+    @classmethod
+    def from_values(cls, values: dict) -> "BakeParameters":
+        return cls(resolution=int(values.get("geocube_resolution", 0)))
+
+
+def hash_parts(inputs, geometry: dict, material: dict) -> tuple[dict, dict]:
+    """Cone C's half angle is the critical angle (eta); the rest is geometry. An automatic resolution is chosen
+    once, at bake time: moving the camera later does not stale it."""
+    return geometry, {"eta": material["eta"], "res": int(inputs.params.resolution) or "auto",
+                      "stretch": np.round(inputs.stretch_matrix(), 9).ravel().tolist()}
+
+
+def resolution_of(inputs) -> int:
+    """The cube face texels a bake makes: the chosen ones, else from the object's size on screen."""
+    return int(inputs.params.resolution) or resolution_for(inputs.screen_pixels)
+
+
+def summary(meta: dict) -> list[str]:
+    """What a GEOCUBE bake holds, for the object panel."""
+    mb = meta.get("bytes", 0) / 2**20
+    return [f"Cubes: {meta.get('geocube_cubes', 0)} of {meta.get('geocube_res', 0)}^2 texels a face, "
+            f"{100 * meta.get('geocube_coverage', 0.0):.1f} % of the surface seen",
+            f"Stored: {mb:.1f} MB, baked in {meta.get('seconds', meta.get('geocube_seconds', 0.0)):.1f} s"]
+
+
 def resolution_for(screen_pixels: float | None) -> int:
     """Cube face resolution from the object's size on screen (the paper used 64 everywhere): about one
     texel per two pixels across the object (a face spans 90 degrees, a quarter of the way around), as a
@@ -445,7 +476,7 @@ def bake(inputs):
     t0 = time.perf_counter()
     v = (inputs.stretch_matrix() @ np.asarray(inputs.vertices, np.float64).T).T * float(inputs.mm_per_unit)
     t = np.asarray(inputs.triangles, np.int64)
-    res = inputs.geocube_res()
+    res = resolution_of(inputs)
     tracer = default_tracer(v[t], inputs.tracer_factory)
     yield 0.0, f"geocube: {res}x{res}x6 cubes"
     job = build_steps(v, t, res, float(inputs.eta), tracer)

@@ -52,6 +52,13 @@ def cone_step(f, h, a, n, mu):
     return np.where(np.isfinite(out), out, 0.0)
 
 
+@dataclasses.dataclass(frozen=True)
+class MediumExtras:
+    """GEOCUBE's own part of an object's medium (``Medium.extras``)."""
+
+    max_steps: int = 32  # cap on the exit search's steps
+
+
 @dataclasses.dataclass
 class Atlases:
     """The GPU layout: cube c's six bordered faces in rows [c (res + 2), (c + 1)(res + 2))."""

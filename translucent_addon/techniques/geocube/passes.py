@@ -92,6 +92,12 @@ def prepare(frame) -> list[Active]:
                               lambda res, mesh: len(res.gset.start_cube) == mesh.triangle_count)
 
 
+def max_steps_of(medium) -> int:
+    """The exit search's cap on steps of a medium (its GEOCUBE part, else the default)."""
+    extras = medium.extras if isinstance(medium.extras, gcd.MediumExtras) else gcd.MediumExtras()
+    return extras.max_steps
+
+
 def block_for(a: Active, frame, mode: int = 0) -> bytes:
     m = a.mesh.medium
     chain, _ = environment(frame)
@@ -99,7 +105,7 @@ def block_for(a: Active, frame, mode: int = 0) -> bytes:
     g = a.resources.gset
     sigma_s = np.asarray(m.sigma_s_prime, np.float64) / max(1.0 - float(m.g), 1e-3)
     to_bake = gcd.bake_from_world(a.mesh.model, a.resources.stretch, m.mm_per_unit)
-    return gcd.gc_block(to_bake, m.sigma_a, sigma_s, m.eta, g.min_step, g.res, g.count, m.max_steps, chain,
+    return gcd.gc_block(to_bake, m.sigma_a, sigma_s, m.eta, g.min_step, g.res, g.count, max_steps_of(m), chain,
                         log_max, mode)
 
 
@@ -171,9 +177,29 @@ class Geocube(Technique):
     description = "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering"
     scene_properties = ("geocube_output",)
     bake_stages, bake_errors = ("geocube",), (GeocubeError,)
+    bake_properties = ("geocube_resolution",)
+    medium_properties = ("geocube_steps",)
+    panel = (("geocube_resolution", "geocube_steps"),)
+    object_tiers = {"DRAFT": {"geocube_resolution": 32}, "STANDARD": {"geocube_resolution": 0},
+                    "HIGH": {"geocube_resolution": 64}}
 
     def bake(self, inputs, stage: str):
         return geocube_bake.bake(inputs)
+
+    def bake_parameters(self, values: dict) -> geocube_bake.BakeParameters:
+        return geocube_bake.BakeParameters.from_values(values)
+
+    def needs_screen_pixels(self, params) -> bool:
+        return params is not None and params.resolution == 0  # the automatic cube resolution follows it
+
+    def hash_parts(self, inputs, geometry: dict, material: dict) -> tuple[dict, dict]:
+        return geocube_bake.hash_parts(inputs, geometry, material)
+
+    def bake_summary(self, meta: dict) -> list[str]:
+        return geocube_bake.summary(meta)
+
+    def medium_extras(self, values: dict, mm_per_unit: float) -> gcd.MediumExtras:
+        return gcd.MediumExtras(max_steps=int(values["geocube_steps"]))
 
     def settings(self, values: dict) -> int:
         return int(values["geocube_output"])

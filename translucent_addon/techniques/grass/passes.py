@@ -200,6 +200,8 @@ class Grass(Technique):
     shader_specs = SHADER_SPECS
     id, label = "GRASS", "Grass"
     description = "Grass fields from a compressed BTF with silhouettes (Shah 2007, ch. 4)"
+    object_tiers = {"DRAFT": {"grass_resolution": "64"}, "STANDARD": {"grass_resolution": "128"},
+                    "HIGH": {"grass_resolution": "256"}}
 
     def prepare(self, ctx: FrameContext):
         return prepare(ctx.frame) or None

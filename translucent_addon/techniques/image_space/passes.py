@@ -21,7 +21,7 @@ from ...gpu import blocks, shaders
 from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, new_target, read_pixels, screen_quad, texture_from_array
-from ..protocol import Technique
+from ..protocol import Technique, Variant
 from . import quality as image_space_quality
 from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
 
@@ -384,6 +384,46 @@ class ImageSpace(Technique):
     no_bake_reason = "IMAGE_SPACE needs no bake: it splats the profile every frame"
     scene_properties = ("splat_threshold", "splat_overlap", "splat_max_grid", "splat_world_layers",
                         "splat_world_overlap")
+    draws_layers = True  # the one method that draws a layer over a base (the multipole, Shah 6.5)
+    draws_paint = True
+    base_entry_shift = True
+    # Its one resolution, the scene's splat overlap, is chosen every frame from the camera that draws it.
+    auto_note = "at the scene camera; chosen again every frame from the camera that draws it"
+
+    def frame_settings(self, frame, settings, results: dict) -> SamplingSettings:
+        """k as the frame's AUTO objects need it seen by its camera (``quality.frame_sampling``); what they asked
+        for goes into ``results`` ({objects: {name: k}, overlap, max_grid}; empty when none did)."""
+        sampling, asked = image_space_quality.frame_sampling(frame, settings or SamplingSettings())
+        results.clear()
+        if asked:
+            results.update(objects=asked, overlap=sampling.overlap, max_grid=sampling.max_grid)
+        return sampling
+
+    scene_panel = (("splat_threshold", "splat_overlap", "splat_max_grid"),
+                   ("splat_world_layers", "splat_world_overlap", "temporal_coherence"))
+
+    def scene_panel_notes(self, results: dict) -> list[str]:
+        if not results:
+            return []
+        return [f"Last frame: overlap {results['overlap']:g}, {results['max_grid']} per side, chosen by Auto objects"]
+
+    compare_defaults, compare_quick = (8.0, 16.0, 32.0, 48.0), (8.0, 16.0)
+    scene_tiers = {"DRAFT": {"splat_overlap": 16.0}, "STANDARD": {"splat_overlap": 32.0},
+                   "HIGH": {"splat_overlap": 48.0}}
+
+    def compare_variants(self, values: tuple) -> list[Variant]:
+        """One image per splat overlap k (past 32, with up to 2048 samples a side)."""
+        variants = []
+        for k in values:
+            scene_values = {"splat_overlap": float(k), **({"splat_max_grid": 2048} if k > 32 else {})}
+            variants.append(Variant(f"k={k:g}", scene_values=scene_values, record=scene_values))
+        return variants
+
+    def panel_notes(self, results: dict, object_name: str) -> list[str]:
+        k = results.get("objects", {}).get(object_name)
+        if k is None:
+            return []
+        return [f"Last frame: splat overlap {k:g} for this object, {results['overlap']:g} in the scene"]
 
     def settings(self, values: dict) -> SamplingSettings:
         return SamplingSettings(epsilon=values["splat_threshold"], overlap=values["splat_overlap"],

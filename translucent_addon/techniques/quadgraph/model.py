@@ -218,6 +218,21 @@ def vein_field(positions_mm: np.ndarray, spacing_mm: float) -> np.ndarray:
     return (1.0 - np.abs(wave)) ** 6
 
 
+@dataclasses.dataclass(frozen=True)
+class MediumExtras:
+    """QUADGRAPH's own part of an object's medium (``Medium.extras``): procedural marble veins in the volume
+    (strength 0..1, spacing in mm) and whether the surface term (single and local multiple scattering) is drawn."""
+
+    veins: float = 0.0
+    veins_spacing_mm: float = 20.0
+    single_scattering: bool = True
+
+
+def extras_of(medium) -> MediumExtras:
+    """A medium's QUADGRAPH part (the defaults for a medium made without one)."""
+    return medium.extras if isinstance(medium.extras, MediumExtras) else MediumExtras()
+
+
 def node_material(positions_mm, sigma_a, sigma_s_prime, veins: float = 0.0, veins_spacing_mm: float = 20.0,
                   M_d: np.ndarray | None = None):
     """(kappa, mu) per node, (N, 3) each. Veins raise absorption (x8) and scattering (x2) along the

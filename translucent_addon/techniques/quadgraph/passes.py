@@ -52,7 +52,7 @@ from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import MediumTables, draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
-from ..protocol import Technique
+from ..protocol import Technique, Variant
 from . import bake as quadgraph_bake
 from . import model as qgd
 from . import quality as quadgraph_quality
@@ -224,14 +224,15 @@ class Resources:
         return cached[2]
 
     def set_material(self, medium) -> None:
-        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), medium.veins, medium.veins_spacing_mm)
+        extras = qgd.extras_of(medium)
+        key = (tuple(medium.sigma_a), tuple(medium.sigma_s_prime), extras.veins, extras.veins_spacing_mm)
         if key == self.material_key:
             return
         self.materials = []
         for lg, rest, M_d in zip(self.levels, self.rest_levels, self.M_d):
             # Veins are set at the rest pose's positions, so they stay in the material as it deforms.
             kappa, mu = qgd.node_material(rest.positions_mm, medium.sigma_a, medium.sigma_s_prime,
-                                          medium.veins, medium.veins_spacing_mm, M_d)
+                                          extras.veins, extras.veins_spacing_mm, M_d)
             lg.set_material(kappa, mu)
             self.materials.append((kappa, mu))
         self.material_key = key
@@ -349,6 +350,7 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
 
     for a in actives:
         m, res = a.mesh.medium, a.resources
+        surface_term = qgd.extras_of(m).single_scattering
         for lg in res.levels:
             draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, unit_texture(pipeline))
@@ -357,13 +359,13 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
         if mode == 0:
             with res.loss[0].bind():
                 clear_target(res.loss[0], depth=None)
-            if m.single_scattering:  # the world's flat-face response R q_world, drawn with its own law
+            if surface_term:  # the world's flat-face response R q_world, drawn with its own law
                 draw_illumination(res.loss_world[0], finest.points, finest.tables.layout.size, objects[a.index],
                                   frame_ubo, light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
             else:
                 with res.loss_world[0].bind():
                     clear_target(res.loss_world[0], depth=None)
-        elif m.single_scattering:
+        elif surface_term:
             draw_illumination(res.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
     draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size, output)
@@ -403,7 +405,7 @@ def draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode: int,
             shader.uniform_int("terms", {2: 1, 3: 2}.get(int(output), 3))
             for a in actives:
                 m = a.mesh.medium
-                if pass_mode == 1 and not m.single_scattering:
+                if pass_mode == 1 and not qgd.extras_of(m).single_scattering:
                     continue
                 sigma_s, sigma_t = ss.coefficients(m.sigma_a, m.sigma_s_prime, m.g)
                 shader.uniform_block("object", objects[a.index])
@@ -533,7 +535,7 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_sampler("loss", a.resources.loss[1][0])
             shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
             shader.uniform_sampler("loss_scale", a.resources.loss_scale())
-            term = a.mesh.medium.single_scattering
+            term = qgd.extras_of(a.mesh.medium).single_scattering
             shader.uniform_sampler("world_law",
                                    a.resources.world_law(a.mesh.medium) if term else unit_texture(pipeline))
             surface_term = single_target(pipeline, (frame.camera.width, frame.camera.height))[1]
@@ -642,9 +644,38 @@ class Quadgraph(Technique):
                    "re-baking")
     scene_properties = ("quadgraph_tolerance", "quadgraph_iterations", "quadgraph_output")
     bake_stages, bake_errors = ("quadgraph",), (TetrahedraError,)
+    bake_properties = ("quadgraph_K", "quadgraph_levels")
+    medium_properties = ("veins", "veins_scale", "single_scattering")
+    draws_paint = True  # carries the paint into its volume (kappa and mu per node)
+    panel = (("quadgraph_K", "quadgraph_levels", "single_scattering"), ("veins", "veins_scale"))
+    scene_panel, scene_panel_label = (("quadgraph_tolerance", "quadgraph_iterations"),), "QuadGraph Solver"
+    object_tiers = {"DRAFT": {"quadgraph_K": 2.0}, "STANDARD": {"quadgraph_K": 1.0}, "HIGH": {"quadgraph_K": 0.5}}
 
     def bake(self, inputs, stage: str):
         return quadgraph_bake.bake(inputs)
+
+    def bake_parameters(self, values: dict) -> quadgraph_bake.BakeParameters:
+        return quadgraph_bake.BakeParameters.from_values(values)
+
+    def make_proxies(self, inputs, decimate):
+        return quadgraph_bake.make_proxies(inputs, decimate)
+
+    def hash_parts(self, inputs, geometry: dict, material: dict) -> tuple[dict, dict]:
+        return quadgraph_bake.hash_parts(inputs, geometry, material)
+
+    def bake_summary(self, meta: dict) -> list[str]:
+        return quadgraph_bake.summary(meta)
+
+    compare_defaults = ()  # drawn at its own K; the benchmark names a series (2, 1, 0.5)
+
+    def compare_variants(self, values: tuple) -> list[Variant]:
+        """One image per density K."""
+        return [Variant(f"K={K:g}", {"quadgraph_K": float(K)}, {}, {"quadgraph_K": float(K)}) for K in values]
+
+    def medium_extras(self, values: dict, mm_per_unit: float) -> qgd.MediumExtras:
+        return qgd.MediumExtras(veins=float(values["veins"]),
+                                veins_spacing_mm=float(values["veins_scale"]) * mm_per_unit,
+                                single_scattering=bool(values["single_scattering"]))
 
     def settings(self, values: dict) -> QuadgraphSettings:
         return QuadgraphSettings(values["quadgraph_tolerance"], values["quadgraph_iterations"],

@@ -6,6 +6,7 @@ significant digits, the same as the GPU reads them).
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -21,6 +22,60 @@ from .model import check_kernel_table
 # A display corner may lie off its proxy triangle (the two meshes differ); its atlas position is
 # extrapolated at most this many texels past the triangle, into the chart's border.
 MAX_EXTRAPOLATION_TEXELS = 3.0
+
+
+@dataclasses.dataclass
+class BakeParameters:
+    """TEXTURE_SPACE's part of a bake's inputs (``BakeInputs.params``)."""
+
+    atlas_resolution: int = 512  # texels along the atlas's side
+    proxy_spacing: float = 3.5  # mean proxy edge in atlas texels (``proxy.py``)
+    blending: bool = True  # Lensch Sec. 5.4: local and global parts blended
+    # A decimated proxy made by Blender (object space, ``make_proxies``), or None to derive it here.
+    proxy_vertices: np.ndarray | None = None
+    proxy_triangles: np.ndarray | None = None
+
+    @classmethod
+    def from_values(cls, values: dict) -> "BakeParameters":
+        return cls(atlas_resolution=int(values.get("atlas_resolution", 512)),
+                   proxy_spacing=float(values.get("proxy_spacing", 3.5)),
+                   blending=bool(values.get("texture_blending", True)))
+
+
+def make_proxies(inputs, decimate):
+    """Generator of (fraction, text): the mesh decimated by Blender to the atlas's spacing, where the mesh is
+    much finer than the atlas needs, into ``inputs.params``."""
+    n, p = len(inputs.triangles), inputs.params
+    if not n:
+        return
+    target = proxy.target_triangles(proxy.surface_area(inputs.vertices * inputs.mm_per_unit, inputs.triangles),
+                                    p.atlas_resolution, p.proxy_spacing)
+    if target < 0.8 * n:
+        yield 0.0, f"TEXTURE_SPACE: decimating {n:,} triangles to {target:,} for the atlas"
+        p.proxy_vertices, p.proxy_triangles = decimate(inputs.vertices, inputs.triangles, target)
+
+
+def hash_parts(inputs, geometry: dict, material: dict) -> tuple[dict, dict]:
+    """The geometry (with the corner normals the illumination map lights with), the material and the atlas.
+    thin_parts: F^0 carries light through thin parts (physics.slab_through); far_field: distant sources by
+    cluster (far_field.py); oblique_entry: the texels' curvature (texel_curvature). Bakes before any of them are
+    stale."""
+    p = inputs.params
+    if inputs.corner_normals is not None:
+        geometry = {**geometry, "corner_normals": np.asarray(inputs.corner_normals, np.float32)}
+    return geometry, {**material, "atlas_resolution": int(p.atlas_resolution), "blending": bool(p.blending),
+                      "profile": inputs.profile, "thin_parts": 1, "far_field": 1, "oblique_entry": 1,
+                      "proxy_spacing": round(float(p.proxy_spacing), 4),
+                      "stretch": np.round(inputs.stretch_matrix(), 9).ravel().tolist()}
+
+
+def summary(meta: dict) -> list[str]:
+    """What a TEXTURE_SPACE bake holds, for the object panel."""
+    atlas = meta.get("atlas", ["?", "?"])
+    return [f"Proxy: {meta.get('proxy_vertices', 0):,} vertices, atlas {atlas[0]} x {atlas[1]}",
+            f"Texels: {meta.get('surface_texels', 0):,} ({meta.get('texel_mm', 0.0):.2f} mm), "
+            f"form factors: {meta.get('form_factors', 0):,}",
+            f"Stored: {meta.get('bytes', 0) / 2**20:.0f} MB, baked in {meta.get('seconds', 0.0):.1f} s"]
 
 
 def _display_uv(atlas, tri, bary) -> np.ndarray:
@@ -45,26 +100,27 @@ def bake(inputs):
     display_n = (vertex_normals(display_v, display_t, by_angle=True)[display_t] if inputs.corner_normals is None
                  else np.asarray(inputs.corner_normals, np.float64).reshape(-1, 3, 3) @ np.linalg.inv(S))
     refinement = None
-    if inputs.proxy_vertices is not None:
-        proxy_v = np.asarray(inputs.proxy_vertices, np.float64) @ S.T * mm
-        proxy_t = np.asarray(inputs.proxy_triangles, np.int64)
+    params = inputs.params
+    if params.proxy_vertices is not None:
+        proxy_v = np.asarray(params.proxy_vertices, np.float64) @ S.T * mm
+        proxy_t = np.asarray(params.proxy_triangles, np.int64)
         proxy_n = proxy.transfer_normals(display_v, display_t, display_n, proxy_v, proxy_t)[proxy_t]
     else:
-        refinement = proxy.refine_for_atlas(display_v, display_t, inputs.atlas_resolution, inputs.proxy_spacing)
+        refinement = proxy.refine_for_atlas(display_v, display_t, params.atlas_resolution, params.proxy_spacing)
         proxy_v, proxy_t = refinement.vertices, refinement.triangles
         # The refined display's corners carry its normals, interpolated like the positions.
         proxy_n = refinement.corners(display_n.reshape(-1, 3)).reshape(-1, 3, 3)
-    text = f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {inputs.atlas_resolution} texels"
+    text = f"TEXTURE_SPACE: atlas of {len(proxy_t):,} triangles at {params.atlas_resolution} texels"
     yield 0.05, text
     t_atlas = time.perf_counter()
     charts = yield from native.run(parametrize, {"vertices_mm": proxy_v, "triangles": proxy_t},
-                                   {"resolution": int(inputs.atlas_resolution)}, what="xatlas",
+                                   {"resolution": int(params.atlas_resolution)}, what="xatlas",
                                    timeout=native.time_limit(120.0, len(proxy_t), 1e-3), fraction=0.05, text=text)
-    atlas = build_atlas(proxy_v, proxy_t, inputs.atlas_resolution, proxy_n, charts=charts)
-    check_kernel_table(atlas.surface_count, len(lensch.LOCAL_OFFSETS), inputs.atlas_resolution)
+    atlas = build_atlas(proxy_v, proxy_t, params.atlas_resolution, proxy_n, charts=charts)
+    check_kernel_table(atlas.surface_count, len(lensch.LOCAL_OFFSETS), params.atlas_resolution)
     t_atlas = time.perf_counter() - t_atlas
     material = lensch.Material(tuple(inputs.sigma_a), tuple(inputs.sigma_s_prime), float(inputs.eta), inputs.profile)
-    job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=inputs.blending)
+    job = lensch.precompute(atlas, proxy_v, proxy_t, material, blend=params.blending)
     try:
         while True:
             fraction, text = next(job)
@@ -100,7 +156,7 @@ def bake(inputs):
     del arrays["lensch_kernel_taps"]  # recomputed from the atlas when loaded
     meta = {
         "proxy_vertices": int(len(proxy_v)), "proxy_triangles": int(len(proxy_t)),
-        "proxy_spacing": float(inputs.proxy_spacing), "atlas": [atlas.width, atlas.height],
+        "proxy_spacing": float(params.proxy_spacing), "atlas": [atlas.width, atlas.height],
         "surface_texels": int(atlas.surface_count),
         "border_texels": int(atlas.count - atlas.surface_count), "form_factors": int(len(tables.F_indices)),
         "far_entries": int(len(tables.G_indices)), "clusters": int(tables.cluster_count),

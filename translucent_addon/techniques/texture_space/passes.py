@@ -31,9 +31,10 @@ from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.illumination import MediumTables, draw_illumination, unit_texture
 from ...gpu.targets import clear_target, new_target, read_pixels, screen_quad, texture_from_array
-from ..protocol import Technique
+from ..protocol import Technique, Variant
 from . import bake as texture_space_bake
 from . import model as tsd
+from . import proxy
 from . import quality as texture_space_quality
 from .throughput import LenschBake, has_through, product_matrices, vertex_product
 
@@ -200,90 +201,143 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
 
     timings = {"ts_gather": 0.0, "ts_product": 0.0, "ts_filter": 0.0, "ts_display": 0.0}
     for a in actives:
-        res, t = a.resources, a.resources.tables
-        product_here = product if t.gpu_product else "CPU"
-        if product_here != product:
-            frame.warnings.append(f"'{a.mesh.name}': {t.form_factors:,} form factors are more than the GPU product "
-                                  "indexes; F^0 E runs on the CPU (a smaller atlas makes fewer)")
-        t0 = time.perf_counter()
-        irr_fb, (irradiance,), _ = res.irradiance
-        vin_fb, (E_vertex, B_direct), _ = res.vertex_in
-        _gather(vin_fb, res.gather_points, irradiance, t.vertex_size)
-        with vin_fb.bind():
-            if product_here == "CPU":
-                E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
-                B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
-        t1 = time.perf_counter()
-        T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
-        vout_fb, (B_vertex, B_through), _ = res.vertex_out
-        if product_here == "CPU":
-            B, B_t = (x / np.maximum(T_p, 1e-4) for x in res.cpu_product(E_g, B_d))
-            B_vertex = texture_from_array(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
-            B_through = texture_from_array(tsd.vertex_image(B_t.astype(np.float32), t.vertex_count), "RGBA32F")
-            res.cpu_vertex = (B_vertex, B_through)  # referenced until drawn
-        else:
-            T_p_texture = texture_from_array(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
-            E_cluster = unit_texture(pipeline)  # read by no entry where the bake has no far field
-            if res.cluster_in is not None:
-                cl_fb, (E_cluster, _), _ = res.cluster_in
-                _gather(cl_fb, res.cluster_points, E_vertex, t.cluster_size)
-            with draw_pass(vout_fb):
-                shader = shaders.pass_shader("ts_product")
-                shader.bind()
-                shader.uniform_sampler("F_indptr", res.F_indptr)
-                shader.uniform_sampler("F_indices", res.F_indices)
-                shader.uniform_sampler("F_data", res.F_data)
-                shader.uniform_sampler("E_vertex", E_vertex)
-                shader.uniform_sampler("B_direct", B_direct)
-                shader.uniform_sampler("T_p_vertex", T_p_texture)
-                shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
-                shader.uniform_int("vertex_count", t.vertex_count)
-                shader.uniform_int("cluster_count", t.cluster_count)
-                shader.uniform_sampler("E_cluster", E_cluster)
-                shader.uniform_int("row_split", tsd.ROW_SPLIT)
-                shader.uniform_float("z_r", t.z_r)
-                shader.draw(screen_quad(pipeline, "ts_product"))
-        t2 = time.perf_counter()
-        maps_fb, (local_map, global_map, through_map), _ = res.maps
-        with draw_pass(maps_fb):
-            clear_target(maps_fb, depth=None)
-            shader = shaders.pass_shader("ts_filter")
-            shader.bind()
-            shader.uniform_sampler("irradiance", irradiance)
-            shader.uniform_sampler("kernels", res.kernels)
-            shader.uniform_sampler("B_vertex", B_vertex)
-            shader.uniform_sampler("B_through", B_through)
-            shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
-            shader.uniform_int("local_half", t.local_half)
-            shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
-            shader.draw(res.filter_points)
-            if pipeline.capture is not None:
-                w, h = t.atlas_size
-                pipeline.capture.setdefault("texture_space", []).append({
-                    "name": a.mesh.name, "irradiance": None, "local": read_pixels(maps_fb, w, h, slot=0),
-                    "global": read_pixels(maps_fb, w, h, slot=1), "through": read_pixels(maps_fb, w, h, slot=2),
-                    "T_p_vertex": T_p, "arrays": res.arrays})
-        if pipeline.capture is not None:
-            with irr_fb.bind():
-                w, h = t.atlas_size
-                pipeline.capture["texture_space"][-1]["irradiance"] = read_pixels(irr_fb, w, h)
-        t3 = time.perf_counter()
-        with draw_pass(target_fb, depth_test="LESS_EQUAL"):
-            shader = shaders.pass_shader("ts_display")
-            shader.bind()
-            shader.uniform_block("frame", frame_ubo)
-            shader.uniform_block("object", objects[a.index])
-            shader.uniform_sampler("local_map", local_map)
-            shader.uniform_sampler("global_map", global_map)
-            shader.uniform_float("eta", float(a.mesh.medium.eta))
-            shader.uniform_sampler("angular_table", angular_texture(a))
-            shader.uniform_sampler("through_map", through_map)
-            shader.uniform_sampler("exit_table", exit_texture(a))
-            shader.draw(res.display_batch(a.mesh))
-        t4 = time.perf_counter()
-        for key, dt in zip(timings, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+        for key, dt in zip(timings, _finish_mesh(a, frame, frame_ubo, objects, target_fb, pipeline, product)):
             timings[key] += dt
     return timings
+
+
+def _finish_mesh(a: Active, frame, frame_ubo, objects, target_fb, pipeline, product: str) -> tuple:
+    """Steps 2 to 5 for one mesh; returns the seconds of gather, product, filter and display, for ``finish``."""
+    res, t = a.resources, a.resources.tables
+    product_here = _product_site(a, frame, product)
+    t0 = time.perf_counter()
+    E_vertex, B_direct, E_g, B_d = _gather_vertices(res, product_here)
+    t1 = time.perf_counter()
+    T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
+    if product_here == "CPU":
+        B_vertex, B_through = _product_on_cpu(res, T_p, E_g, B_d)
+    else:
+        B_vertex, B_through = _product_on_gpu(res, T_p, E_vertex, B_direct, pipeline)
+    t2 = time.perf_counter()
+    local_map, global_map, through_map = _filter_maps(a, T_p, B_vertex, B_through, pipeline)
+    t3 = time.perf_counter()
+    _display(a, frame_ubo, objects, target_fb, local_map, global_map, through_map)
+    t4 = time.perf_counter()
+    return t1 - t0, t2 - t1, t3 - t2, t4 - t3
+
+
+def _product_site(a: Active, frame, product: str) -> str:
+    """Where this mesh's product runs: ``product``, or the CPU (with a warning) past the GPU product's indexing."""
+    t = a.resources.tables
+    product_here = product if t.gpu_product else "CPU"
+    if product_here != product:
+        frame.warnings.append(f"'{a.mesh.name}': {t.form_factors:,} form factors are more than the GPU product "
+                              "indexes; F^0 E runs on the CPU (a smaller atlas makes fewer)")
+    return product_here
+
+
+def _gather_vertices(res: Resources, product_here: str) -> tuple:
+    """Step 2: E^g and B^d gathered to the vertices; returns their textures and, for the CPU product, their values."""
+    t = res.tables
+    E_g = B_d = None
+    _, (irradiance,), _ = res.irradiance
+    vin_fb, (E_vertex, B_direct), _ = res.vertex_in
+    _gather(vin_fb, res.gather_points, irradiance, t.vertex_size)
+    with vin_fb.bind():
+        if product_here == "CPU":
+            E_g = read_pixels(vin_fb, *t.vertex_size, slot=0).reshape(-1, 4)[:t.vertex_count, :3]
+            B_d = read_pixels(vin_fb, *t.vertex_size, slot=1).reshape(-1, 4)[:t.vertex_count, :3]
+    return E_vertex, B_direct, E_g, B_d
+
+
+def _product_on_cpu(res: Resources, T_p, E_g, B_d) -> tuple:
+    """Step 3 with SciPy: (B / T_p, B^t / T_p) as vertex textures, kept on ``res`` until drawn."""
+    t = res.tables
+    B, B_t = (x / np.maximum(T_p, 1e-4) for x in res.cpu_product(E_g, B_d))
+    B_vertex = texture_from_array(tsd.vertex_image(B.astype(np.float32), t.vertex_count), "RGBA32F")
+    B_through = texture_from_array(tsd.vertex_image(B_t.astype(np.float32), t.vertex_count), "RGBA32F")
+    res.cpu_vertex = (B_vertex, B_through)  # referenced until drawn
+    return B_vertex, B_through
+
+
+def _product_on_gpu(res: Resources, T_p, E_vertex, B_direct, pipeline) -> tuple:
+    """Step 3 on the GPU: cluster power E_P, then ``ts_product`` per vertex; returns the (B, B^t) / T_p textures."""
+    t = res.tables
+    vout_fb, (B_vertex, B_through), _ = res.vertex_out
+    T_p_texture = texture_from_array(tsd.vertex_image(T_p, t.vertex_count), "RGBA32F")
+    E_cluster = unit_texture(pipeline)  # read by no entry where the bake has no far field
+    if res.cluster_in is not None:
+        cl_fb, (E_cluster, _), _ = res.cluster_in
+        _gather(cl_fb, res.cluster_points, E_vertex, t.cluster_size)
+    with draw_pass(vout_fb):
+        shader = shaders.pass_shader("ts_product")
+        shader.bind()
+        shader.uniform_sampler("F_indptr", res.F_indptr)
+        shader.uniform_sampler("F_indices", res.F_indices)
+        shader.uniform_sampler("F_data", res.F_data)
+        shader.uniform_sampler("E_vertex", E_vertex)
+        shader.uniform_sampler("B_direct", B_direct)
+        shader.uniform_sampler("T_p_vertex", T_p_texture)
+        shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+        shader.uniform_int("vertex_count", t.vertex_count)
+        shader.uniform_int("cluster_count", t.cluster_count)
+        shader.uniform_sampler("E_cluster", E_cluster)
+        shader.uniform_int("row_split", tsd.ROW_SPLIT)
+        shader.uniform_float("z_r", t.z_r)
+        shader.draw(screen_quad(pipeline, "ts_product"))
+    return B_vertex, B_through
+
+
+def _filter_maps(a: Active, T_p, B_vertex, B_through, pipeline) -> tuple:
+    """Step 4: local response (Eq. 15) and interpolated global response (Eq. 12) per texel; returns the three maps."""
+    res, t = a.resources, a.resources.tables
+    irr_fb, (irradiance,), _ = res.irradiance
+    maps_fb, (local_map, global_map, through_map), _ = res.maps
+    with draw_pass(maps_fb):
+        clear_target(maps_fb, depth=None)
+        shader = shaders.pass_shader("ts_filter")
+        shader.bind()
+        shader.uniform_sampler("irradiance", irradiance)
+        shader.uniform_sampler("kernels", res.kernels)
+        shader.uniform_sampler("B_vertex", B_vertex)
+        shader.uniform_sampler("B_through", B_through)
+        shader.uniform_int("vertex_width", tsd.VERTEX_WIDTH)
+        shader.uniform_int("local_half", t.local_half)
+        shader.uniform_float("atlas_size", tuple(float(x) for x in t.atlas_size))
+        shader.draw(res.filter_points)
+        if pipeline.capture is not None:
+            _capture_maps(a, maps_fb, T_p, pipeline)
+    if pipeline.capture is not None:
+        with irr_fb.bind():
+            w, h = t.atlas_size
+            pipeline.capture["texture_space"][-1]["irradiance"] = read_pixels(irr_fb, w, h)
+    return local_map, global_map, through_map
+
+
+def _capture_maps(a: Active, maps_fb, T_p, pipeline) -> None:
+    """For the tests: the bound maps, T_p and the bake's arrays of one mesh (its irradiance is added after)."""
+    res = a.resources
+    w, h = res.tables.atlas_size
+    pipeline.capture.setdefault("texture_space", []).append({
+        "name": a.mesh.name, "irradiance": None, "local": read_pixels(maps_fb, w, h, slot=0),
+        "global": read_pixels(maps_fb, w, h, slot=1), "through": read_pixels(maps_fb, w, h, slot=2),
+        "T_p_vertex": T_p, "arrays": res.arrays})
+
+
+def _display(a: Active, frame_ubo, objects, target_fb, local_map, global_map, through_map) -> None:
+    """Step 5: the mesh drawn over the base pass, reading both maps through its atlas coordinates (Eq. 1, 14)."""
+    with draw_pass(target_fb, depth_test="LESS_EQUAL"):
+        shader = shaders.pass_shader("ts_display")
+        shader.bind()
+        shader.uniform_block("frame", frame_ubo)
+        shader.uniform_block("object", objects[a.index])
+        shader.uniform_sampler("local_map", local_map)
+        shader.uniform_sampler("global_map", global_map)
+        shader.uniform_float("eta", float(a.mesh.medium.eta))
+        shader.uniform_sampler("angular_table", angular_texture(a))
+        shader.uniform_sampler("through_map", through_map)
+        shader.uniform_sampler("exit_table", exit_texture(a))
+        shader.draw(a.resources.display_batch(a.mesh))
 
 
 class TextureSpace(Technique):
@@ -334,9 +388,45 @@ class TextureSpace(Technique):
     description = "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects"
     scene_properties = ("texture_product",)
     bake_stages, bake_errors = ("texture_space",), (tsd.KernelTableError,)
+    bake_properties = ("atlas_resolution", "proxy_spacing", "texture_blending")
+    bake_corner_normals = True  # the illumination map lights each texel with the normal the display shows
+    panel = (("atlas_resolution", "proxy_spacing", "texture_blending"),)
+    scene_panel = (("texture_product",),)
+    # Its error follows the proxy's spacing more than the atlas's (back-lit cow against the dipole model, atlas
+    # 512: 9,833 vertices 7.0 %, 18,245 5.0 %, 28,889 4.5 %; atlas 768 at 9,697 vertices 6.7 %), so High refines
+    # the proxy and keeps the atlas.
+    object_tiers = {"DRAFT": {"atlas_resolution": 256, "proxy_spacing": 3.5},
+                    "STANDARD": {"atlas_resolution": 512, "proxy_spacing": 3.5},
+                    "HIGH": {"atlas_resolution": 512, "proxy_spacing": 2.4}}
 
     def bake(self, inputs, stage: str):
         return texture_space_bake.bake(inputs)
+
+    def bake_parameters(self, values: dict) -> texture_space_bake.BakeParameters:
+        return texture_space_bake.BakeParameters.from_values(values)
+
+    def make_proxies(self, inputs, decimate):
+        return texture_space_bake.make_proxies(inputs, decimate)
+
+    def hash_parts(self, inputs, geometry: dict, material: dict) -> tuple[dict, dict]:
+        return texture_space_bake.hash_parts(inputs, geometry, material)
+
+    def bake_summary(self, meta: dict) -> list[str]:
+        return texture_space_bake.summary(meta)
+
+    compare_defaults = (256, 512)
+
+    def compare_variants(self, values: tuple) -> list[Variant]:
+        """One image per atlas resolution (or pair of it and the proxy spacing), drawn with the GPU product; the
+        first also with the CPU one (scipy.sparse)."""
+        variants = []
+        for i, item in enumerate(values):
+            res, spacing = proxy.atlas_setting(item)
+            for product in ("GPU", "CPU") if i == 0 else ("GPU",):
+                object_values = {"atlas_resolution": res, "proxy_spacing": spacing}
+                variants.append(Variant(f"{proxy.atlas_label(res, spacing)}, {product} product", object_values,
+                                        {"texture_product": product}, {**object_values, "product": product}))
+        return variants
 
     def settings(self, values: dict) -> str:
         return values["texture_product"]

@@ -33,6 +33,16 @@ MAX_TRIANGLES = 60_000  # the paper stayed under 20k; the bunny at spacing 2.4 a
 ATLAS_FILL = 0.37
 
 
+def atlas_setting(item) -> tuple[int, float]:
+    """(atlas texels, proxy spacing in texels) from an atlas resolution or such a pair."""
+    res, spacing = (item, SPACING_TEXELS) if np.ndim(item) == 0 else item
+    return int(res), float(spacing)
+
+
+def atlas_label(res: int, spacing: float) -> str:
+    return f"{res} texels" + ("" if spacing == SPACING_TEXELS else f", spacing {spacing:g}")
+
+
 def surface_area(vertices: np.ndarray, triangles: np.ndarray) -> float:
     v = np.asarray(vertices, np.float64)
     t = np.asarray(triangles, np.int64)
