@@ -53,8 +53,7 @@ def unregister():
 
     _versioning.unregister()
     _bake_files.unregister()
-    _draw_handler.unregister()  # its handlers are the session's: before the session goes
-    _session.unregister()
+    _draw_handler.unregister()
     _techniques.clear_caches()
     _bake_cache.clear()
     _environment.clear_cache()
@@ -63,3 +62,4 @@ def unregister():
     _props.unregister_pointers()
     for cls in reversed(_classes):
         bpy.utils.unregister_class(cls)
+    _session.unregister()  # last: what the steps above took from it goes with it

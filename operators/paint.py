@@ -54,7 +54,7 @@ class TRANSLUCENT_OT_add_paint_layer(bpy.types.Operator):
             mode = "WEIGHT_PAINT"
         if ob.translucent.method == "OFF":
             ob.translucent.method = method = techniques.default_method()
-            self.report({"INFO"}, f"'{ob.name}': method set to {techniques.METHOD_LABELS[method]}, which draws "
+            self.report({"INFO"}, f"'{ob.name}': method set to {techniques.method_label(method)}, which draws "
                                   f"painted translucency")
         if self.enter_paint_mode and context.mode != "PAINT_" + mode.split("_")[0]:
             if bpy.ops.object.mode_set.poll():

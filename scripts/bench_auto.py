@@ -47,7 +47,7 @@ def main() -> int:
 
     demo = importlib.import_module(f"{package}.translucent_addon.blender.demo")
     runner = importlib.import_module(f"{package}.translucent_addon.blender.compare_runner")
-    engine = importlib.import_module(f"{package}.translucent_addon.blender.engine")
+    session = importlib.import_module(f"{package}.translucent_addon.blender.session")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     if args.cases and (out / "results.json").exists():
@@ -75,7 +75,8 @@ def main() -> int:
         def image_space(label, kind, target=None):
             img, sec = runner.warm_render(scene, width, height)
             # Auto's k is the frame's (the engine chooses it per frame), the manual one the scene's.
-            k = engine.LAST_AUTO_OVERLAP["overlap"] if kind == "auto" else scene.translucent.splat_overlap
+            chosen = session.current().results["IMAGE_SPACE"]
+            k = chosen["overlap"] if kind == "auto" else scene.translucent.splat_overlap
             rows.append({"case": case, "method": "IMAGE_SPACE", "kind": kind, "label": label, "target": target,
                          "k": k, "cost_seconds": sec, "frame_seconds": sec, "error": measured(img),
                          "summary": subject.translucent.auto_summary if kind == "auto" else ""})

@@ -87,13 +87,13 @@ def main() -> int:
             key.location.x += 0.002
             if path == "F12":
                 split = gpu_split.split(lambda: f12(scene))
-                wall = engine.LAST_TIMINGS["frame"]
-                extract = engine.LAST_TIMINGS["extract"]
+                wall = mod("blender.session").current().timings["frame"]
+                extract = mod("blender.session").current().timings["extract"]
             else:
                 moved = [viewport_probe.update_of(key, geometry=False, transform=True), *updates]
                 split = gpu_split.split(lambda: viewport_probe.frame(scene, f12, moved))
                 wall = viewport_probe.PROBE["seconds"]
-                extract = engine.LAST_TIMINGS["extract"]
+                extract = mod("blender.session").current().timings["extract"]
             # GPU calls happen only inside the engine's frame; what Blender does around it is not ours.
             outside = max(wall - split["gpu_calls"] - split.get("hook", 0.0), 0.0)
             samples.append({"wall": wall, "gpu_calls": split["gpu_calls"], "outside": outside, "extract": extract})

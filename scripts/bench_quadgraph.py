@@ -66,7 +66,7 @@ def main() -> int:
     metrics = importlib.import_module(f"{package}.translucent_addon.core.metrics")
     report = importlib.import_module(f"{package}.translucent_addon.core.report.report")
     extract = importlib.import_module(f"{package}.translucent_addon.blender.extract")
-    engine = importlib.import_module(f"{package}.translucent_addon.blender.engine")
+    session = importlib.import_module(f"{package}.translucent_addon.blender.session")
     qgd = importlib.import_module(f"{package}.translucent_addon.techniques.quadgraph.model")
     df = importlib.import_module(f"{package}.translucent_addon.core.physics.diffusion")
     bvh = importlib.import_module(f"{package}.translucent_addon.blender.bvh_tracer")
@@ -244,7 +244,7 @@ def main() -> int:
                 runner.render_pixels(scene, w, h)  # uploads the bake
                 img, sec = runner.render_pixels(scene, w, h)
             scene.translucent.capture_passes = False
-            (rec,) = engine.LAST_CAPTURE["quadgraph"]
+            (rec,) = session.current().capture["quadgraph"]
             res = rec["resources"]
             nodes = sum(t.count for t in res.levels_cpu)
             # links, weights, kappa, mu, q, phi x 2 (+ 4 level-link images above the coarsest), RGBA32F

@@ -212,7 +212,7 @@ def test_a_damaged_bake_is_refused_with_a_message_and_the_rest_drawn(tr, scene, 
         if damage == "nan_no_data_hash":
             del group["data_hash"]
     ext_module(tr, "translucent_addon.gpu.bake_cache").clear()  # as after reopening the file
-    ext_module(tr, "translucent_addon.blender.engine").free()
+    ext_module(tr, "translucent_addon.blender.session").current().final_pipeline = None  # a new F12 pipeline
     extract = ext_module(tr, "translucent_addon.blender.extract")
     # A batch render (these tests run in background mode) says so on stderr and fails: no FINISHED frame.
     capfd.readouterr()
@@ -364,7 +364,7 @@ def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(
 
     shutil.rmtree(other.parent / "moved_translucent")
     ext_module(tr, "translucent_addon.gpu.bake_cache").clear()
-    ext_module(tr, "translucent_addon.blender.engine").free()
+    ext_module(tr, "translucent_addon.blender.session").current().final_pipeline = None  # a new F12 pipeline
     with pytest.raises(RuntimeError, match=r"TEXTURE_SPACE bake is damaged: its file //moved_translucent/\w+\.npz "
                                            r"is missing \(was the \.blend moved without its bake folder\?\)"):
         render(bpy.context.scene, 32, 32)

@@ -41,8 +41,9 @@ def _footprint():
         "operators": "bake" in dir(bpy.ops.translucent),
         "draw_handler": bool(draw_handler and draw_handler.is_registered()),
         "compat_panels": len(compat) > 0,
-        # bake files: save_pre, save_post, load_post; settings: load_post; versioning: save_pre, load_post
-        "handlers": len(handlers) == 6,
+        # bake files: save_pre, save_post, load_post; settings: load_post; versioning: save_pre, load_post;
+        # the session: load_post
+        "handlers": len(handlers) == 7,
     }
 
 
@@ -126,7 +127,7 @@ def test_render_engine_and_properties_are_there(tr, scene):
     methods = ext_module(tr, "translucent_addon.techniques")
     ob = bpy.data.objects.new("Empty", None)
     items = [i.identifier for i in ob.translucent.bl_rna.properties["method"].enum_items]
-    assert tuple(items) == methods.METHOD_IDS
+    assert tuple(items) == methods.method_ids()
     assert scene.translucent.shadow_resolution == 1024
 
 

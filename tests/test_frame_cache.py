@@ -258,3 +258,36 @@ def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
     finally:
         session.reads.read = real
     assert sorted(reads) == ["Ball", "Ground", "Tri"]
+
+
+def test_two_sessions_keep_their_own_caches_side_by_side(tr, scene):
+    """The Blender layer's caches have one owner, handed down (issue 54): two sessions read the same scene into
+    their own caches; clearing one leaves the other, which draws its next frame from what it kept; the GPU
+    resources swapped for a block build their own programs and give the process's back after."""
+    session_mod = ext_module(tr, "translucent_addon.blender.session")
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    resources = ext_module(tr, "translucent_addon.gpu.resources")
+    _scene(scene)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    camera = extract.render_camera(depsgraph, SIZE, SIZE)
+    a, b = session_mod.Session(), session_mod.Session()
+    ball_a = next(m for m in extract.frame_inputs(depsgraph, camera, session=a).meshes if m.name == "Ball")
+    ball_b = next(m for m in extract.frame_inputs(depsgraph, camera, session=b).meshes if m.name == "Ball")
+    assert ball_a.key != ball_b.key, "each session names its own GPU arrays"
+    np.testing.assert_array_equal(ball_a.positions, ball_b.positions)
+    assert set(a.drawn) == set(b.drawn) and a.reads.cache.keys() == b.reads.cache.keys()
+    assert a.drawn[("VIEWPORT", "Ball")] is not b.drawn[("VIEWPORT", "Ball")]
+    a.clear()
+    assert not a.drawn and not a.reads.cache and b.drawn
+    again = next(m for m in extract.frame_inputs(depsgraph, camera, session=b).meshes if m.name == "Ball")
+    assert again.key == ball_b.key and again.positions is ball_b.positions, "b kept its arrays"
+    assert session_mod.current() is not a and session_mod.current() is not b
+
+    process = resources.current()
+    plain = render(scene, SIZE, SIZE)
+    own = resources.GpuResources(specs=process.specs)
+    with resources.use(own):
+        np.testing.assert_array_equal(render(scene, SIZE, SIZE), plain)
+        assert "base_lighting" in own.programs
+    assert resources.current() is process and own.programs["base_lighting"] is not process.programs.get(
+        "base_lighting")

@@ -67,7 +67,7 @@ def test_a_technique_registered_at_run_time_draws_and_leaves_nothing_behind(tr, 
     technique = constant_colour_technique(tr)
     techniques.register(technique)
     try:
-        assert "CONSTANT_TEST" in techniques.METHOD_IDS and "constant_test" in shaders.SPECS
+        assert "CONSTANT_TEST" in techniques.method_ids() and "constant_test" in shaders.SPECS
         items = [i.identifier for i in cube.translucent.bl_rna.properties["method"].enum_items]
         assert items[-1] == "CONSTANT_TEST" and items[:5] == ["OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH",
                                                               "GEOCUBE"]
@@ -80,7 +80,7 @@ def test_a_technique_registered_at_run_time_draws_and_leaves_nothing_behind(tr, 
     finally:
         techniques.unregister(technique)
 
-    assert "CONSTANT_TEST" not in techniques.METHOD_IDS and technique not in techniques.REGISTRY
+    assert "CONSTANT_TEST" not in techniques.method_ids() and technique not in techniques.REGISTRY
     assert "constant_test" not in shaders.SPECS
     items = [i.identifier for i in cube.translucent.bl_rna.properties["method"].enum_items]
     assert items == ["OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE"]
@@ -100,7 +100,7 @@ def test_the_registry_refuses_a_taken_id_or_method_number(tr):
     clash.id, clash.method_number = "ANOTHER", 3
     with pytest.raises(ValueError, match="method number 3 is taken"):
         techniques.register(clash)
-    assert techniques.METHOD_IDS == ("OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
+    assert techniques.method_ids() == ("OFF", "IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH", "GEOCUBE")
 
 
 def _refused_technique(tr, how: str, tmp_path):

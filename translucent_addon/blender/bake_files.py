@@ -24,6 +24,7 @@ import bpy
 
 from ..core import bake_store as store
 from ..gpu import bake_cache
+from .session import current as current_session
 
 
 def _writable(ob):
@@ -132,9 +133,6 @@ def _holders():
                 yield idblock
 
 
-_before_copy: list = []  # (ID name, collection, method, reference) as they were before saving a copy
-
-
 def _copy(source: Path, target: Path) -> None:
     """Copy a bake file whole or not at all (an interrupted copy leaves no truncated target)."""
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -145,15 +143,17 @@ def _copy(source: Path, target: Path) -> None:
 
 @bpy.app.handlers.persistent
 def relocate(filepath, *_args) -> None:
-    """save_pre: copy every bake file beside the .blend being saved (``filepath``) and refer to it there."""
-    _before_copy.clear()
+    """save_pre: copy every bake file beside the .blend being saved (``filepath``) and refer to it there; what
+    each referred to before is kept on the session (``restore``)."""
+    before = current_session().before_copy
+    before.clear()
     if not filepath:
         return
     old, new_folder = bpy.data.filepath, folder_for(filepath)
     for idblock in _holders():
         kind = "meshes" if isinstance(idblock, bpy.types.Mesh) else "objects"
         for method, ref in store.files(idblock).items():
-            _before_copy.append((idblock.name, kind, method, ref))
+            before.append((idblock.name, kind, method, ref))
             source = _path(ref, old)
             target = new_folder / source.name
             fresh = source.is_file() and (not target.is_file() or target.stat().st_size != source.stat().st_size)
@@ -166,12 +166,13 @@ def relocate(filepath, *_args) -> None:
 @bpy.app.handlers.persistent
 def restore(filepath, *_args) -> None:
     """save_post: after saving a copy (the session's file is still the old one), point the bakes back."""
+    before = current_session().before_copy
     if filepath and bpy.data.filepath != filepath:
-        for name, kind, method, ref in _before_copy:
+        for name, kind, method, ref in before:
             idblock = getattr(bpy.data, kind).get(name)
             if idblock is not None and method in store.files(idblock):
                 store.refer(idblock, method, ref)
-    _before_copy.clear()
+    before.clear()
 
 
 @bpy.app.handlers.persistent

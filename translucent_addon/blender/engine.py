@@ -38,10 +38,11 @@ def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, captur
     """What travels with the frame: the techniques' settings, each adjusted to this frame by its technique
     (IMAGE_SPACE's k chosen for this frame's camera; what the panels say of it left in ``session.results``), the
     sample-coherence sequence (when the scene asks for it) and whether to read passes back."""
-    results = (session or current_session()).results
+    session = session or current_session()
     settings = technique_settings(scene)
     for t in REGISTRY:
-        settings[t.id] = t.frame_settings(frame, settings.get(t.id), results.setdefault(t.id, {}))
+        settings[t.id] = t.frame_settings(frame, settings.get(t.id), session.results.setdefault(t.id, {}),
+                                          session.technique_caches.setdefault(t.id, {}))
     return DrawSettings({k: v for k, v in settings.items() if v is not None},
                         coherence_key if scene.translucent.temporal_coherence else None, coherence_frame, capture)
 

@@ -79,10 +79,11 @@ def world_color(scene, env: Environment | None = None) -> np.ndarray:
     return np.array(world.color[:3], dtype=np.float64)
 
 
-def world_environment(scene, session: Session) -> Environment | None:
+def world_environment(scene, session: Session | None = None) -> Environment | None:
     """The world's Environment Texture (equirectangular) feeding its Background, as linear radiance
     times the strength; None for any other world. Read once per image and strength (every frame while the image
-    is dirty: painted, or set from a script), kept on ``session``."""
+    is dirty: painted, or set from a script), kept on ``session`` (None: the extension's)."""
+    session = session or current_session()
     world = scene.world
     tree = getattr(world, "node_tree", None) if world is not None else None
     if tree is None:
@@ -230,11 +231,12 @@ def grass_layer(original, frame_warnings) -> GrassLayer | None:
     return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
 
 
-def height_image(image, session: Session) -> tuple[np.ndarray, str]:
+def height_image(image, session: Session | None = None) -> tuple[np.ndarray, str]:
     """(heights, digest): (H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0
     at the bottom (Blender's pixel order, so v = 0 is row 0), and a digest of them (the GPU texture's
     cache key). Read once per image and kept while the image is unchanged (not dirty: a painted image is
     read again every frame, so the relief follows the brush)."""
+    session = session or current_session()
     key = _image_stamp(image)
     cached = session.heights.get(key)
     if cached is not None and not image.is_dirty:
@@ -340,9 +342,9 @@ def _corner_colors(palette: np.ndarray, read: mesh_read.MeshRead) -> np.ndarray:
 
 
 def _drawn_key(cache_key, session: Session) -> str:
-    """A new GPU-cache key for an object's arrays: object, depsgraph mode and a serial."""
+    """A new GPU-cache key for an object's arrays: object, depsgraph mode, the session's mark and a serial."""
     mode, name = cache_key
-    return f"{name}:{mode}#{next(session.drawn_serials)}"
+    return f"{name}:{mode}#{session.mark}.{next(session.drawn_serials)}"
 
 
 def drawn_mesh(ob, mesh, read: mesh_read.MeshRead, cache_key, session: Session) -> DrawnMesh:

@@ -10,9 +10,7 @@ from ..core import quality
 from ..core.physics.presets import USER_PREFIX, load_presets, load_user_presets
 from ..core.properties import Prop
 from . import medium_source, preferences
-
-_PRESET_ITEMS: list = []
-PRESET_PROBLEMS: list[str] = []  # what the user presets file's last reading skipped (the object panel shows it)
+from .session import current as current_session
 
 
 def user_presets_path():
@@ -33,25 +31,33 @@ def user_preset_number(name: str) -> int:
 
 def refresh_preset_items() -> None:
     """Rebuild the preset list (after a user preset is saved or removed). Blender keeps pointers into these
-    strings: the list object stays the same and stays alive. Each item keeps its number (files store it)."""
-
-    _PRESET_ITEMS.clear()
-    _PRESET_ITEMS.append(("CUSTOM", "Custom", "Coefficients set by hand", 0))
+    strings: the list object (the session's ``preset_items``) stays the same and stays alive. Each item keeps its
+    number (files store it)."""
+    session = current_session()
+    items = session.preset_items
+    items.clear()
+    items.append(("CUSTOM", "Custom", "Coefficients set by hand", 0))
     for number, name in enumerate(sorted(load_presets()), start=1):
-        _PRESET_ITEMS.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)", number))
+        items.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)", number))
     problems: list[str] = []
     for name in sorted(load_user_presets(user_presets_path(), problems)):
-        _PRESET_ITEMS.append((USER_PREFIX + name, name, f"Your preset '{name}'", user_preset_number(name)))
-    if problems != PRESET_PROBLEMS:
+        items.append((USER_PREFIX + name, name, f"Your preset '{name}'", user_preset_number(name)))
+    if problems != session.preset_problems:
         for line in problems:
             print(f"Translucent: {line}")
-    PRESET_PROBLEMS[:] = problems
+    session.preset_problems[:] = problems
+
+
+def preset_problems() -> list[str]:
+    """What the user presets file's last reading skipped (the object panel shows it)."""
+    return current_session().preset_problems
 
 
 def _preset_items(self, context):
-    if not _PRESET_ITEMS:
+    items = current_session().preset_items
+    if not items:
         refresh_preset_items()
-    return _PRESET_ITEMS
+    return items
 
 
 def _preset_material(name: str):
@@ -61,26 +67,24 @@ def _preset_material(name: str):
     return load_presets().get(name)
 
 
-_applying = [False]  # set while a preset writes its coefficients
-
-
 def apply_preset(props, name: str) -> None:
     mat = _preset_material(name)
     if mat is None:
         return
-    _applying[0] = True
+    session = current_session()
+    session.applying_preset = True  # the coefficients below do not turn the preset to Custom one by one
     try:
         props.sigma_a = mat.sigma_a
         props.sigma_s_prime = mat.sigma_s_prime
         props.eta = mat.eta
         props.g = mat.g
     finally:
-        _applying[0] = False
+        session.applying_preset = False
 
 
 def _on_coefficients(self, context):
     """A coefficient edited by hand: the preset no longer describes the object, so it says Custom."""
-    if _applying[0] or self.preset == "CUSTOM":
+    if current_session().applying_preset or self.preset == "CUSTOM":
         return
     mat = _preset_material(self.preset)
     if mat is None:
@@ -349,7 +353,7 @@ def clamp_loaded_settings(*_args) -> None:
 
 
 def register_pointers() -> None:
-    techniques._listeners.append(refresh_methods)
+    techniques.REGISTRY.listeners.append(refresh_methods)
     bpy.types.Object.translucent = bpy.props.PointerProperty(type=TranslucentObjectSettings)
     bpy.types.Material.translucent = bpy.props.PointerProperty(type=TranslucentMaterialSettings)
     bpy.types.Scene.translucent = bpy.props.PointerProperty(type=TranslucentSceneSettings)
@@ -359,8 +363,8 @@ def register_pointers() -> None:
 
 
 def unregister_pointers() -> None:
-    if refresh_methods in techniques._listeners:
-        techniques._listeners.remove(refresh_methods)
+    if refresh_methods in techniques.REGISTRY.listeners:
+        techniques.REGISTRY.listeners.remove(refresh_methods)
     if clamp_loaded_settings in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.remove(clamp_loaded_settings)
     del bpy.types.Light.translucent

@@ -11,6 +11,7 @@ one documented piece of mutable module state of this layer.
 from __future__ import annotations
 
 import itertools
+import uuid
 
 import bpy
 
@@ -23,7 +24,10 @@ class Session:
     def __init__(self):
         self.reads = mesh_read.Reads()  # meshes as last read, per (depsgraph mode, object)
         self.drawn: dict = {}  # (depsgraph mode, object) -> extract.DrawnMesh
-        self.drawn_serials = itertools.count(1)  # names each new DrawnMesh's GPU arrays
+        # Names each new DrawnMesh's GPU arrays: this session's mark and a serial, so that two sessions drawing
+        # with one pipeline never hand it the same key for different arrays.
+        self.mark = uuid.uuid4().hex[:8]
+        self.drawn_serials = itertools.count(1)
         self.turned: dict[str, int] = {}  # object -> closed parts its last frame drew turned outward
         self.environment: dict = {}  # the world's image as last read (extract.world_environment)
         self.heights: dict = {}  # height maps as last read (extract.height_image)
@@ -33,7 +37,14 @@ class Session:
         self.timings: dict = {}  # seconds per pass of the last frame drawn (F12 or viewport)
         self.capture: dict = {}  # read-backs of the last F12's passes (Scene.translucent.capture_passes)
         self.results: dict = {}  # technique id -> what its ``frame_settings`` left of the last frame
+        self.technique_caches: dict = {}  # technique id -> its own cache across frames (``frame_settings``)
+        self.before_copy: list = []  # (ID, collection, method, reference) before saving a copy (bake_files)
         self.cycles_rates: dict = {}  # (scene, width, height) -> Cycles' measured cost (compare_runner.cycles_rate)
+        # Kept while the extension is enabled (``clear`` leaves them): Blender keeps pointers into the preset
+        # enum's item strings, and a preset's coefficients are being written (props.apply_preset).
+        self.preset_items: list = []
+        self.preset_problems: list[str] = []  # what the user presets file's last reading skipped
+        self.applying_preset = False
         self.overlay_pipeline = None  # the pipeline drawing over other engines' viewports (draw_handler)
         self.overlay_frames = 0  # overlay frames drawn: the temporal coherence's sequence
         # Registration, not a cache (``clear`` keeps it): the viewport draw handlers added (draw_handler).
@@ -44,7 +55,7 @@ class Session:
         handlers stay."""
         self.reads.clear()
         for d in (self.drawn, self.turned, self.environment, self.heights, self.bake_arrays, self.bake_hashes,
-                  self.timings, self.capture, self.results, self.cycles_rates):
+                  self.timings, self.capture, self.results, self.technique_caches, self.cycles_rates):
             d.clear()
         # Dropped, not freed: a load_post handler runs outside a GPU context, and the pipelines' GPU objects free
         # themselves when the last reference goes.

@@ -4,13 +4,12 @@ from __future__ import annotations
 import bpy
 
 from .. import techniques
-from ..techniques import METHOD_DESCRIPTIONS
 from ..techniques.grass import bake as grass_btf
 from . import bake_files, medium_source, session
 from .bake_inputs import bake_status
 from .draw_handler import timing_lines
 from .extract import grass_status
-from .props import PRESET_PROBLEMS
+from .props import preset_problems
 from .versions import EEVEE_IDS
 
 _STATUS_ICON = {"OK": "CHECKMARK", "STALE": "ERROR", "MISSING": "X", "NONE": "DOT"}
@@ -55,7 +54,7 @@ def _method(layout, ob) -> None:
     """The method, what it is, and how the last frame found the mesh's winding."""
     s = ob.translucent
     layout.prop(s, "method")
-    layout.label(text=METHOD_DESCRIPTIONS[s.method])
+    layout.label(text=techniques.method_description(s.method))
     turned = session.current().turned.get(ob.name, 0)
     if turned:  # as the last frame found it (extract.frame_inputs): the panel reads no mesh
         parts = "the mesh is" if turned == 1 else f"{turned} closed parts are"
@@ -157,7 +156,7 @@ def _coefficients(layout, group, multipole: bool = True) -> None:
     row.prop(group, "preset")
     row.operator("translucent.save_preset", text="", icon="ADD")
     row.operator("translucent.remove_preset", text="", icon="REMOVE")
-    for line in PRESET_PROBLEMS[:2]:  # the user presets file's entries that were skipped, and why
+    for line in preset_problems()[:2]:  # the user presets file's entries that were skipped, and why
         col.label(text=line, icon="ERROR")
     for name in ("sigma_a", "sigma_s_prime", "eta", "g"):
         col.prop(group, name)
@@ -435,20 +434,22 @@ NOT_OURS = ("RENDER_PT_eevee", "RENDER_PT_freestyle", "RENDER_PT_gpencil", "REND
             "EEVEE_WORLD_PT_sun", "EEVEE_WORLD_PT_volume", "EEVEE_WORLD_PT_lightprobe", "OBJECT_PT_shading",
             "OBJECT_PT_shadow_terminator", "SCENE_PT_eevee", "NODE_EEVEE", "VIEW3D_PT_shading_render_pass")
 _ENGINE = "TRANSLUCENT_RT"
-_patched: list = []
+
+
+def _eevee_panels():
+    """Blender's panels shown for EEVEE that act for our engine too (their COMPAT_ENGINES, a set)."""
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if not panel.__name__.startswith(NOT_OURS) and isinstance(engines, set) and engines.intersection(EEVEE_IDS):
+            yield panel
 
 
 def register_compat_panels() -> None:
-    for panel in bpy.types.Panel.__subclasses__():
-        engines = getattr(panel, "COMPAT_ENGINES", None)
-        if panel.__name__.startswith(NOT_OURS):
-            continue
-        if isinstance(engines, set) and engines.intersection(EEVEE_IDS) and _ENGINE not in engines:
-            engines.add(_ENGINE)
-            _patched.append(panel)
+    for panel in _eevee_panels():
+        panel.COMPAT_ENGINES.add(_ENGINE)
 
 
 def unregister_compat_panels() -> None:
-    for panel in _patched:
+    """Our engine out of every panel it was added to (found again: no list of them is kept)."""
+    for panel in _eevee_panels():
         panel.COMPAT_ENGINES.discard(_ENGINE)
-    _patched.clear()

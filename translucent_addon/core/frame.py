@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .lights import Emitter
-from .physics.sh_irradiance import project_environment, uniform_coefficients
+from .physics.sh_irradiance import project_equirect, uniform_coefficients
 
 
 @dataclasses.dataclass(frozen=True)
@@ -197,6 +197,15 @@ class Environment:
     key: str
     image: np.ndarray  # (H, W, 3) float32 linear radiance, row 0 at the bottom
     mean: np.ndarray  # (3,) its solid-angle-weighted average: the uniform world the base pass uses
+    _sh: np.ndarray | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
+
+    def sh(self) -> np.ndarray:
+        """Its radiance in SH bands 0-2 (``project_equirect``), projected once: the Blender layer hands the same
+        Environment to every frame while the image is unchanged, and the renderer and the references ask for it
+        every frame."""
+        if self._sh is None:
+            self._sh = project_equirect(self.image)
+        return self._sh
 
 
 @dataclasses.dataclass(frozen=True)
@@ -242,7 +251,7 @@ class FrameInputs:
 
         if self.environment is None:
             return uniform_coefficients(self.world_color)
-        return project_environment(self.environment.key, self.environment.image)
+        return self.environment.sh()
 
     def bounds(self) -> tuple[np.ndarray, float]:
         """Centre and radius of a sphere around every mesh (for directional shadow maps), computed once."""

@@ -8,9 +8,7 @@ import dataclasses
 
 from ..core.bake_store import DamagedBakeError
 from ..core.frame import Lost
-
-_entries: dict = {}
-_damaged: dict = {}  # bake key -> why it was refused (not read again every frame; a new bake forgets it)
+from . import resources
 
 
 @dataclasses.dataclass
@@ -44,25 +42,27 @@ def prepare(frame, method: str, build, matches) -> list[Active]:
 def checked(frame, name: str, label: str, handle, build):
     """``get``, or None when the bake is damaged: its arrays fail their checks (``core/bake_checks``), its
     data hash, or fit no table. The frame then says why once (``Lost``); the refusal is kept until a new bake."""
-    why = _damaged.get(handle.key)
+    damaged = resources.current().damaged  # bake key -> why (not read again every frame; a new bake forgets it)
+    why = damaged.get(handle.key)
     if why is None:
         try:
             return get(handle, build)
         except DamagedBakeError as err:
-            why = _damaged[handle.key] = str(err)
+            why = damaged[handle.key] = str(err)
         except (ValueError, IndexError, KeyError, TypeError) as err:  # arrays that fit no table: damaged too
-            why = _damaged[handle.key] = f"its arrays do not fit together ({type(err).__name__}: {err})"
+            why = damaged[handle.key] = f"its arrays do not fit together ({type(err).__name__}: {err})"
     frame.warnings.append(Lost(f"'{name}': {label} bake is damaged: {why}; drawn with its base colour. Press Bake"))
     return None
 
 
 def get(handle, build):
     """The GPU data of ``handle`` (a scene_data.BakeHandle): cached, or ``build(arrays)`` of its bake."""
-    res = _entries.get(handle.key)
+    entries = resources.current().bakes
+    res = entries.get(handle.key)
     if res is None:
         arrays = handle.load()
         forget(_owner(handle.key))  # the object's previous bake
-        res = _entries[handle.key] = build(arrays)
+        res = entries[handle.key] = build(arrays)
     return res
 
 
@@ -74,12 +74,13 @@ def _owner(key: str) -> str:
 def forget(owner: str) -> None:
     """Drop an object's GPU data: its bake was just rewritten or cleared. (A QUADGRAPH bake's key does not
     change with a new bake in another pose, since its hash follows the topology only.)"""
-    for key in [k for k in _entries if _owner(k) == owner]:
-        del _entries[key]
-    for key in [k for k in _damaged if _owner(k) == owner]:
-        del _damaged[key]
+    held = resources.current()
+    for table in (held.bakes, held.damaged):
+        for key in [k for k in table if _owner(k) == owner]:
+            del table[key]
 
 
 def clear() -> None:
-    _entries.clear()
-    _damaged.clear()
+    held = resources.current()
+    held.bakes.clear()
+    held.damaged.clear()

@@ -11,9 +11,8 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import functools
 import sys
-
-_apis: list | None = None
 
 # moderngl's standalone backend per platform (glcontext's module of that name): a headless EGL context on
 # Linux (X11/GLX needs a display, which background Blender has not), WGL on Windows, CGL on macOS (OpenGL
@@ -99,17 +98,17 @@ class _CGL:
         self.lib.CGLSetCurrentContext(*saved)
 
 
-def _available() -> list:
-    global _apis
-    if _apis is None:
-        kinds = {"win32": (_WGL,), "darwin": (_CGL,)}.get(sys.platform, (_EGL, _GLX))
-        _apis = []
-        for kind in kinds:
-            try:
-                _apis.append(kind())
-            except (OSError, AttributeError):
-                pass
-    return _apis
+@functools.cache
+def _available() -> tuple:
+    """The platform's context APIs that load here (found once: what the system offers does not change)."""
+    kinds = {"win32": (_WGL,), "darwin": (_CGL,)}.get(sys.platform, (_EGL, _GLX))
+    apis = []
+    for kind in kinds:
+        try:
+            apis.append(kind())
+        except (OSError, AttributeError):
+            pass
+    return tuple(apis)
 
 
 @contextlib.contextmanager

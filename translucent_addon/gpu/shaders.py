@@ -12,6 +12,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from . import resources
+
 SHADER_DIR = Path(__file__).resolve().parents[2] / "gpu_shaders"
 STRUCTS_FILE = "common/structs.glsl"
 
@@ -37,7 +39,7 @@ SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint
               ("VEC3", "curv_d"), ("VEC3", "curv_o"))  # curv: the shape operator (pipeline.shape_attributes)
 CURVATURE_OUT = (("smooth", "VEC3", "v_curv_d"), ("smooth", "VEC3", "v_curv_o"))
 
-SPECS = {  # the pipeline's own passes; each technique joins its own (techniques.register)
+PIPELINE_SPECS = {  # the pipeline's own passes; each technique joins its own (techniques.register)
     "shadow_distance": ShaderSpec(
         source="pipeline/shadow_distance.glsl",
         vertex_in=(("VEC3", "pos"),),
@@ -84,7 +86,14 @@ SPECS = {  # the pipeline's own passes; each technique joins its own (techniques
     ),
 }
 
-_cache: dict = {}
+resources.current().specs.update(PIPELINE_SPECS)
+
+
+def __getattr__(name: str):
+    """``SPECS``: the shader table (pass name -> spec) of the current GPU resources."""
+    if name == "SPECS":
+        return resources.current().specs
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def read_source(name: str) -> str:
@@ -123,12 +132,12 @@ def create_info(name: str, spec: ShaderSpec):
 
 def get(name: str):
     """The compiled shader for a pass, built on first use."""
-    shader = _cache.get(name)
+    held = resources.current()
+    shader = held.programs.get(name)
     if shader is None:
         import gpu
 
-        shader = gpu.shader.create_from_info(create_info(name, SPECS[name]))
-        _cache[name] = shader
+        shader = held.programs[name] = gpu.shader.create_from_info(create_info(name, held.specs[name]))
     return shader
 
 
@@ -203,18 +212,20 @@ def bind_lit(name: str, frame_ubo, light_ubo, shadow_atlas, mode: int) -> PassSh
 def add_specs(specs: dict) -> None:
     """Join a technique's shader specs to the table (``techniques.register``); a name taken by another spec
     is refused."""
+    table = resources.current().specs
     for name, spec in specs.items():
-        if name in SPECS and SPECS[name] is not spec:
+        if name in table and table[name] is not spec:
             raise ValueError(f"a shader named {name!r} is already registered")
-        SPECS[name] = spec
+        table[name] = spec
 
 
 def remove_specs(names) -> None:
     """Drop specs and their compiled shaders (``techniques.unregister``)."""
+    held = resources.current()
     for name in names:
-        SPECS.pop(name, None)
-        _cache.pop(name, None)
+        held.specs.pop(name, None)
+        held.programs.pop(name, None)
 
 
 def free_all() -> None:
-    _cache.clear()
+    resources.current().programs.clear()

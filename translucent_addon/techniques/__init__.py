@@ -21,16 +21,21 @@ from .texture_space import passes as _texture_space
 
 OFF = ("OFF", "Off", "Opaque: base colour with Lambert shading and shadows", 0)
 
+class Registry(list):
+    """The registered techniques, in the order their hooks run, and who is told when it changes (``listeners``:
+    the Blender layer rebuilds the method property and joins the technique's properties)."""
+
+    def __init__(self, techniques):
+        super().__init__(techniques)
+        self.listeners: list = []
+
+
 # Every technique the pipeline draws, in the order its hooks run within each pass: height fields and grass
 # replace or follow the base; maps lit in texture space before the caustics of the same emitter; IMAGE_SPACE,
-# TEXTURE_SPACE, QUADGRAPH, then GEOCUBE drawn over the base.
-REGISTRY: list[Technique] = [_image_space.TECHNIQUE, _relief.TECHNIQUE, _grass.TECHNIQUE, _texture_space.TECHNIQUE,
-                             _quadgraph.TECHNIQUE, _caustics.TECHNIQUE, _geocube.TECHNIQUE]
-
-METHOD_IDS: tuple[str, ...] = ()
-METHOD_LABELS: dict[str, str] = {}
-METHOD_DESCRIPTIONS: dict[str, str] = {}
-_listeners: list = []  # called after the registry changes (the Blender layer rebuilds the method property)
+# TEXTURE_SPACE, QUADGRAPH, then GEOCUBE drawn over the base. The one piece of mutable module state of this layer
+# (``register``, ``unregister``).
+REGISTRY = Registry([_image_space.TECHNIQUE, _relief.TECHNIQUE, _grass.TECHNIQUE, _texture_space.TECHNIQUE,
+                     _quadgraph.TECHNIQUE, _caustics.TECHNIQUE, _geocube.TECHNIQUE])
 
 
 def method_items() -> list[tuple[str, str, str, int]]:
@@ -40,18 +45,20 @@ def method_items() -> list[tuple[str, str, str, int]]:
     return [OFF] + [(t.id, t.label, t.description, t.method_number) for t in methods]
 
 
+def method_ids() -> tuple[str, ...]:
+    return tuple(i[0] for i in method_items())
+
+
+def method_label(method: str) -> str:
+    return next((i[1] for i in method_items() if i[0] == method), method)
+
+
+def method_description(method: str) -> str:
+    return next((i[2] for i in method_items() if i[0] == method), "")
+
+
 for _t in REGISTRY:
     shaders.add_specs(_t.shader_specs)
-
-
-def _refresh() -> None:
-    global METHOD_IDS
-    items = method_items()
-    METHOD_IDS = tuple(i[0] for i in items)
-    METHOD_LABELS.clear()
-    METHOD_LABELS.update({i[0]: i[1] for i in items})
-    METHOD_DESCRIPTIONS.clear()
-    METHOD_DESCRIPTIONS.update({i[0]: i[2] for i in items})
 
 
 def get(technique_id: str) -> Technique | None:
@@ -84,8 +91,7 @@ def register(technique: Technique) -> None:
         raise ValueError(f"method number {technique.method_number} is taken")
     shaders.add_specs(technique.shader_specs)
     REGISTRY.append(technique)
-    _refresh()
-    for listener in _listeners:
+    for listener in REGISTRY.listeners:
         listener()
 
 
@@ -94,8 +100,7 @@ def unregister(technique: Technique) -> None:
     REGISTRY.remove(technique)
     shaders.remove_specs(technique.shader_specs)
     technique.clear_caches()
-    _refresh()
-    for listener in _listeners:
+    for listener in REGISTRY.listeners:
         listener()
 
 
@@ -103,6 +108,3 @@ def clear_caches() -> None:
     """Every technique's caches (when the extension is disabled)."""
     for t in REGISTRY:
         t.clear_caches()
-
-
-_refresh()

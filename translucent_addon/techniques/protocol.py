@@ -124,9 +124,9 @@ class Technique:
         resolutions, densities or overlaps; ``compare_defaults``); none: it is drawn as the objects are set."""
         return [Variant("as set")]
 
-    def frame_settings(self, frame, settings, results: dict):
+    def frame_settings(self, frame, settings, results: dict, cache: dict):
         """Its settings for this frame (``FrameInputs``), from those of the scene; what the object panel should
-        say of the frame goes into ``results``."""
+        say of the frame goes into ``results``; ``cache`` is its own, kept across frames (both the session's)."""
         return settings
 
     def scene_panel_notes(self, results: dict) -> list[str]:

@@ -84,19 +84,6 @@ def uniform_coefficients(color: ArrayLike) -> np.ndarray:
     return out
 
 
-_projected: dict = {}
-
-
-def project_environment(key: str, image: ArrayLike) -> np.ndarray:
-    """``project_equirect`` of a world image, kept for its key (the image's name and strength): the
-    renderer and the reference ask for it every frame."""
-    found = _projected.get(key)
-    if found is None:
-        _projected.clear()
-        found = _projected[key] = project_equirect(image)
-    return found
-
-
 def transmittance_kernel(eta: float) -> np.ndarray:
     """A_l = 2 pi int_0^1 F_t(eta, mu) mu P_l(mu) d mu for l = 0, 1, 2 (Funk-Hecke of Shah's F'_t).
 

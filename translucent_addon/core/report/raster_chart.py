@@ -11,6 +11,7 @@ permissive licence, whose text is in chart_font_LICENSE.txt beside the atlas.
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -39,15 +40,11 @@ _POLYGONS = {"s": (4, 45, 1.15), "D": (4, 0, 1.2), "^": (3, 90, 1.25), "v": (3, 
 _SUBSTITUTES = str.maketrans({"\u2212": "-", "\u2013": "-", "\u2014": "-", "\u00d7": "x", "\u00b5": "u",
                               "\u2018": "'", "\u2019": "'", "\u201c": '"', "\u201d": '"', "\u00b2": "2"})
 
-_font_cache: dict = {}
-
-
+@functools.cache
 def _font() -> dict:
     """The glyph atlas and metrics (loaded once; no pickles)."""
-    if not _font_cache:
-        with np.load(Path(__file__).with_name("chart_font.npz"), allow_pickle=False) as data:
-            _font_cache.update({k: data[k] for k in data.files})
-    return _font_cache
+    with np.load(Path(__file__).with_name("chart_font.npz"), allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
 
 
 def _glyph_indices(text: str) -> np.ndarray:

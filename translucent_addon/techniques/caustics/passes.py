@@ -26,7 +26,7 @@ import numpy as np
 from ...core.frame import CausticSettings, FrameInputs, MeshInstance
 from ...core.geometry.mesh_checks import check_mesh
 from ...core.properties import Prop
-from ...gpu import blocks, shaders
+from ...gpu import blocks, resources, shaders
 from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, read_pixels, screen_quad
@@ -101,18 +101,15 @@ def bounding_sphere(mesh: MeshInstance) -> tuple[np.ndarray, float]:
     return centre, float(np.linalg.norm(p - centre, axis=1).max())
 
 
-_closed: dict[str, bool] = {}
-
-
 def is_closed(mesh: MeshInstance) -> bool:
     """Whether the mesh (corners welded by position) is a closed manifold; cached per geometry key."""
-    closed = _closed.get(mesh.key)
+    known = resources.current().cache("caustics/closed")
+    closed = known.get(mesh.key)
     if closed is None:
-
         vertices, triangles = np.unique(mesh.positions, axis=0, return_inverse=True)
-        closed = _closed[mesh.key] = check_mesh(vertices, triangles.reshape(-1, 3)).closed_manifold
-        if len(_closed) > 256:
-            _closed.clear()
+        closed = known[mesh.key] = check_mesh(vertices, triangles.reshape(-1, 3)).closed_manifold
+        if len(known) > 256:
+            known.clear()
     return closed
 
 
@@ -442,7 +439,7 @@ class Caustics(Technique):
         return bool(emitter.caustics)
 
     def clear_caches(self) -> None:
-        _closed.clear()
+        resources.current().cache("caustics/closed").clear()
 
     def emitter(self, ctx: FrameContext, state, emitter, light_ubo) -> None:
         if emitter.caustics:

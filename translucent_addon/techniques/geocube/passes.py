@@ -18,7 +18,7 @@ import numpy as np
 
 from ...core.physics.slab_transfer import transfer_table
 from ...core.properties import Prop
-from ...gpu import bake_cache, shaders
+from ...gpu import bake_cache, resources, shaders
 from ...gpu.bake_cache import Active
 from ...gpu.draw_state import draw_pass
 from ...gpu.environment import environment
@@ -44,8 +44,6 @@ SHADER_SPECS = {
         fragment_out=((0, "VEC4", "out_color"),),
     ),
 }
-
-_transfer_cache: dict = {}
 
 
 class Resources:
@@ -79,10 +77,11 @@ def transfer(g: float):
     """(texture, log(1 + tau_max)) of the slab transfer fit for anisotropy g (Monte Carlo, ~1 s, cached)."""
 
     key = round(float(g), 3)
-    cached = _transfer_cache.get(key)
+    transfers = resources.current().cache("geocube/transfer")
+    cached = transfers.get(key)
     if cached is None:
         image, log_max = gcd.transfer_image(transfer_table(key))
-        cached = _transfer_cache[key] = (texture_from_array(image), log_max)
+        cached = transfers[key] = (texture_from_array(image), log_max)
     return cached
 
 
@@ -136,7 +135,7 @@ def draw(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline, 
 
 
 def clear_caches() -> None:
-    _transfer_cache.clear()
+    resources.current().cache("geocube/transfer").clear()
 
 
 class Geocube(Technique):

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...core.physics.lut import TAIL_BLOCK, TAIL_REACH, TAIL_START
 from ...core.properties import Prop
-from ...gpu import blocks, shaders
+from ...gpu import blocks, resources, shaders
 from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, new_target, read_pixels, screen_quad, texture_from_array
@@ -88,14 +88,15 @@ SHADER_SPECS = {
     ),
 }
 
-# Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer,
-# camera and object matrices (two targets of each, used in turn). Module level, because every F12
-# makes a new engine.
-_history: dict = {}
+def _histories() -> dict:
+    """Temporal coherence: per sequence key, the previous frame's accumulated far field, G-buffer, camera and
+    object matrices (two targets of each, used in turn). Kept with the GPU resources, not a pipeline: every
+    F12 may draw with a new one."""
+    return resources.current().cache("image_space/history")
 
 
 def clear_history() -> None:
-    _history.clear()
+    _histories().clear()
 
 
 @dataclasses.dataclass
@@ -137,9 +138,10 @@ def _history_for(pipeline, frame, p: ImageSpacePlan, size):
     if key is None:
         return None
     signature = (tuple(size), tuple(sorted((frame.meshes[k].name, slot) for k, slot in p.slot_of.items())))
-    history = _history.get(key)
+    histories = _histories()
+    history = histories.get(key)
     if history is None or history["signature"] != signature:
-        history = _history[key] = {
+        history = histories[key] = {
             "signature": signature, "parity": 0, "frame": None, "view_proj": None, "models": None,
             "gbuffer": [new_target(size, depth=True, attachments=2) for _ in range(2)],
             "accum": [new_target(size, depth=False) for _ in range(2)],
@@ -390,10 +392,12 @@ class ImageSpace(Technique):
     # Its one resolution, the scene's splat overlap, is chosen every frame from the camera that draws it.
     auto_note = "at the scene camera; chosen again every frame from the camera that draws it"
 
-    def frame_settings(self, frame, settings, results: dict) -> SamplingSettings:
-        """k as the frame's AUTO objects need it seen by its camera (``quality.frame_sampling``); what they asked
-        for goes into ``results`` ({objects: {name: k}, overlap, max_grid}; empty when none did)."""
-        sampling, asked = image_space_quality.frame_sampling(frame, settings or SamplingSettings())
+    def frame_settings(self, frame, settings, results: dict, cache: dict) -> SamplingSettings:
+        """k as the frame's AUTO objects need it seen by its camera (``quality.frame_sampling``, their sizes kept
+        in ``cache``); what they asked for goes into ``results`` ({objects: {name: k}, overlap, max_grid}; empty
+        when none did)."""
+        shapes = cache.setdefault("shapes", {})
+        sampling, asked = image_space_quality.frame_sampling(frame, settings or SamplingSettings(), shapes)
         results.clear()
         if asked:
             results.update(objects=asked, overlap=sampling.overlap, max_grid=sampling.max_grid)

@@ -33,7 +33,6 @@ SPLAT_OVERLAP_RANGE = (4.0, 64.0)
 STEPS_PER_OCTAVE = 4
 LARGE_GRID_ABOVE = 32.0  # past this k the light view needs 2048 texels a side (quality_auto._image_space)
 
-_SHAPES: dict = {}  # (mesh key, model, mm per unit) -> (diagonal mm, area mm^2, world bounding box corners)
 
 
 @functools.lru_cache(maxsize=2)
@@ -81,28 +80,30 @@ def screen_diagonal(points_world: np.ndarray, view_proj: np.ndarray, width: int,
     return float(np.linalg.norm(uv.max(axis=0) - uv.min(axis=0)))
 
 
-def _shape(mesh: MeshInstance) -> tuple[float, float, np.ndarray]:
+def _shape(mesh: MeshInstance, shapes: dict | None = None) -> tuple[float, float, np.ndarray]:
     """Diagonal and area in mm (the model's scale applied, as ``bake.inputs.object_view``) and the object
-    space bounding box's corners in world space; cached by the mesh's geometry key and transform."""
+    space bounding box's corners in world space; kept in ``shapes`` (the caller's, across frames) by the mesh's
+    geometry key and transform."""
+    shapes = {} if shapes is None else shapes
     mm = mesh.medium.mm_per_unit
     key = (mesh.key, np.asarray(mesh.model, np.float64).tobytes(), mm)
-    hit = _SHAPES.get(key)
+    hit = shapes.get(key)
     if hit is None:
-        if len(_SHAPES) > 256:
-            _SHAPES.clear()
+        if len(shapes) > 256:
+            shapes.clear()
         model = np.asarray(mesh.model, np.float64)
         v_mm = np.asarray(mesh.positions, np.float64) @ stretch_of(model[:3, :3]).T * mm
         area = float(triangle_areas(v_mm, np.arange(len(v_mm)).reshape(-1, 3)).sum())
         lo, hi = mesh.positions.min(axis=0), mesh.positions.max(axis=0)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         world = corners @ model[:3, :3].T + model[:3, 3]
-        hit = _SHAPES[key] = (float(np.linalg.norm(np.ptp(v_mm, axis=0))), area, world)
+        hit = shapes[key] = (float(np.linalg.norm(np.ptp(v_mm, axis=0))), area, world)
     return hit
 
 
-def object_view(mesh: MeshInstance, camera: CameraView) -> ObjectView:
-    """``ObjectView`` of a drawn mesh, seen by this frame's camera."""
-    diagonal, area, corners = _shape(mesh)
+def object_view(mesh: MeshInstance, camera: CameraView, shapes: dict | None = None) -> ObjectView:
+    """``ObjectView`` of a drawn mesh, seen by this frame's camera (``shapes``: ``_shape``'s cache)."""
+    diagonal, area, corners = _shape(mesh, shapes)
     m = mesh.medium
     return ObjectView(diagonal_mm=diagonal, area_mm2=area,
                       screen_pixels=screen_diagonal(corners, camera.view_proj, camera.width, camera.height),
@@ -110,14 +111,16 @@ def object_view(mesh: MeshInstance, camera: CameraView) -> ObjectView:
                       triangles=len(mesh.positions) // 3, profile=m.profile)
 
 
-def frame_sampling(frame: FrameInputs, manual: SamplingSettings) -> tuple[SamplingSettings, dict]:
+def frame_sampling(frame: FrameInputs, manual: SamplingSettings,
+                   shapes: dict | None = None) -> tuple[SamplingSettings, dict]:
     """The sampling for this frame and the k each AUTO object asked for ({name: k}); ``manual`` itself
-    when no AUTO IMAGE_SPACE object is drawn."""
+    when no AUTO IMAGE_SPACE object is drawn. ``shapes``: the objects' sizes kept across frames (``_shape``)."""
     drawn = [m for m in frame.meshes if m.method == "IMAGE_SPACE" and m.medium is not None]
     autos = [m for m in drawn if m.auto_target is not None]
     if not autos:
         return manual, {}
-    asked = {m.name: quantised(splat_overlap_for(object_view(m, frame.camera), m.auto_target)[0]) for m in autos}
+    asked = {m.name: quantised(splat_overlap_for(object_view(m, frame.camera, shapes), m.auto_target)[0])
+             for m in autos}
     k = max(asked.values())
     if len(autos) < len(drawn):
         k = max(k, manual.overlap)

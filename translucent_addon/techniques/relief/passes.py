@@ -12,7 +12,7 @@ import hashlib
 import numpy as np
 
 from ...core.properties import Prop
-from ...gpu import shaders
+from ...gpu import resources, shaders
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
 from ..protocol import Technique
@@ -36,22 +36,19 @@ SHADER_SPECS = {
     ),
 }
 
-_height_textures: dict = {}
-
-
 def height_texture(surface):
     """The R32F texture of a height map, cached by its key (image name and content)."""
-
-    tex = _height_textures.get(surface.key)
+    textures = resources.current().cache("relief/heights")
+    tex = textures.get(surface.key)
     if tex is None:
-        if len(_height_textures) > 16:
-            _height_textures.clear()
-        tex = _height_textures[surface.key] = texture_from_array(surface.height[..., None], "R32F")
+        if len(textures) > 16:
+            textures.clear()
+        tex = textures[surface.key] = texture_from_array(surface.height[..., None], "R32F")
     return tex
 
 
 def clear_cache() -> None:
-    _height_textures.clear()
+    resources.current().cache("relief/heights").clear()
 
 
 def relief_block(surface, output: int) -> bytes:
