@@ -30,13 +30,15 @@ def _twin(tr, cap, caster_name="Glass ball"):
     e = frame.emitters[0]
     mesh = next(m for m in frame.meshes if m.name == caster_name)
     centre, radius = caustics.bounding_sphere(mesh)
-    grid = cm.caster_grid(e, centre, radius, frame.caustics.grid)
+    settings = frame.settings.of("CAUSTICS")
+    grid = cm.caster_grid(e, centre, radius, settings.grid)
     faces, _ = blocks.shadow_projection(e, *frame.bounds())
-    N = frame.caustics.texels
+    N = settings.texels
     receivers = cm.atlas_lookup(e, faces, cap["caustic_receivers"][0], N)
-    return cm.trace_grid(e, grid, mesh.caster, cap["caustic_front_position"][0], cap["caustic_front_normal"][0],
-                         cap["caustic_back_position"][0], cap["caustic_back_normal"][0], receivers,
-                         frame.caustics.iterations, frame.caustics.guard, frame.caustics.secant), grid
+    return cm.trace_grid(e, grid, mesh.extras["CAUSTICS"], cap["caustic_front_position"][0],
+                         cap["caustic_front_normal"][0], cap["caustic_back_position"][0],
+                         cap["caustic_back_normal"][0], receivers,
+                         settings.iterations, settings.guard, settings.secant), grid
 
 
 def _exact_on_floor(tr, scene):

@@ -164,14 +164,18 @@ def test_grass_without_a_current_btf_says_so(tr, scene):
     add_light(scene, "SUN", (0.0, 0.0, 1.0), energy=1.0)
     add_camera(scene, (0.0, -1.0, 0.5), (0.0, 0.0, 0.0))
     extract = ext_module(tr, "translucent_addon.blender.extract")
-    warnings = []
-    assert extract.grass_layer(ob, warnings) is None
-    assert warnings == ["'Ground': grass BTF is missing; no grass drawn. Press Bake Grass BTF"]
+
+    def grass_and_warnings():
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, 16, 16))
+        ground = next(m for m in frame.meshes if m.name == "Ground")
+        return ground.extras.get("GRASS"), [w for w in frame.warnings if "grass" in w]
+
+    assert grass_and_warnings() == (None, ["'Ground': grass BTF is missing; no grass drawn. Press Bake Grass BTF"])
     ob.translucent.grass_blade_height = 0.09
-    warnings.clear()
-    extract.grass_layer(ob, warnings)
-    assert warnings == ["'Ground': blade height must be 5-60 % of the tile (is 90 %): taller blades reach beyond "
-                        "the tiles the BTF renders around each tile; no grass drawn. Press Bake Grass BTF"]
+    assert grass_and_warnings() == (None, [
+        "'Ground': blade height must be 5-60 % of the tile (is 90 %): taller blades reach beyond the tiles the BTF "
+        "renders around each tile; no grass drawn. Press Bake Grass BTF"])
     bpy.context.view_layer.objects.active = ob
     with pytest.raises(RuntimeError, match="blade height must be 5-60 % of the tile"):
         bpy.ops.translucent.bake_grass_btf()

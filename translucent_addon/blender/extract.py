@@ -17,17 +17,12 @@ from ..core.frame import (
     NEUTRAL_PAINT,
     BakeHandle,
     CameraView,
-    Caster,
-    CausticSettings,
     Environment,
     FrameInputs,
-    GrassLayer,
     Lost,
     Medium,
     MeshInstance,
-    ReliefSurface,
 )
-from ..core.geometry.mesh_measures import uv_tangents
 from ..core.geometry.orientation import outward_normals, turned
 from ..core.lights import emitters_from_light, unnormalized_power
 from ..core.physics.lut import BLUR_MIN, layer_problem
@@ -189,108 +184,98 @@ def paint_arrays(weights, tint_source, tri_loops, loop_vert):
     return paint, tint
 
 
-def caster_settings(s) -> Caster | None:
-    """The caustics caster of an object's settings (``Object.translucent``), or None."""
-    if s.caustics_caster == "NONE":
-        return None
-    color = np.clip(np.asarray(s.caustics_color, np.float64), 1e-6, 1.0)
-    if s.caustics_caster == "REFLECTIVE":
-        return Caster("REFLECTIVE", float(s.caustics_ior), 0, (0.0, 0.0, 0.0), 0.0, tuple(color))
-    # Absorption K_a per scene unit from the colour reached after caustics_distance (scene units, Eq. 5.7).
-    sigma_a = -np.log(color) / float(s.caustics_distance)
-    return Caster("REFRACTIVE", float(s.caustics_ior), 1 if s.caustics_surfaces == "ONE" else 2,
-                  tuple(float(x) for x in sigma_a), float(s.caustics_dispersion))
-
-
 def grass_status(ob) -> tuple[str, str | None]:
     """('OK' | 'STALE' | 'MISSING' | 'INVALID', hash or the settings' error) of an object's grass BTF."""
-    s = ob.translucent
-    try:
-        params = grass_btf.params_from_settings(s.grass_tile, s.grass_blade_height, s.grass_blades, s.grass_seed)
-    except grass_btf.GrassSettingsError as err:
-        return "INVALID", str(err)
-    digest = grass_btf.settings_hash(params, int(s.grass_resolution), s.grass_target_error)
+    digest, why = grass_btf.settings_digest(technique_values(ob.translucent, grass_btf.SETTINGS))
+    if digest is None:
+        return "INVALID", why
     return bake_store.status(bake_files.owner(ob, grass_btf.BAKE_KEY), grass_btf.BAKE_KEY, digest), digest
 
 
-def grass_layer(original, frame_warnings) -> GrassLayer | None:
-    """The grass field of an object, if it has one with a current BTF (else a warning says why not)."""
-    s = original.translucent
-    if not s.grass:
-        return None
-    status, detail = grass_status(original)
-    if status != "OK":
-        why = detail if status == "INVALID" else f"grass BTF is {status.lower()}"
-        frame_warnings.append(f"'{original.name}': {why}; no grass drawn. Press Bake Grass BTF")
-        return None
-
-    def load(o=original):
-        record = bake_files.read(o, grass_btf.BAKE_KEY)
-        return record.arrays, record.meta
-
-    return GrassLayer(BakeHandle(f"{original.name}/grass#{detail}", load), float(s.grass_tile), float(s.grass_lod))
-
-
-def height_image(image, session: Session | None = None) -> tuple[np.ndarray, str]:
-    """(heights, digest): (H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB), row 0
-    at the bottom (Blender's pixel order, so v = 0 is row 0), and a digest of them (the GPU texture's
-    cache key). Read once per image and kept while the image is unchanged (not dirty: a painted image is
-    read again every frame, so the relief follows the brush)."""
+def image_data(image, derive, session: Session | None = None):
+    """(``derive(pixels)``, the image's name): ``derive`` of an image's pixels ((H, W, C) float32, row 0 at the
+    bottom, Blender's pixel order), kept on ``session`` while the image is unchanged (not dirty: a painted image
+    is read again every frame, so what is made of it follows the brush). ValueError for an image with no pixels."""
     session = session or current_session()
-    key = _image_stamp(image)
-    cached = session.heights.get(key)
+    key = (_image_stamp(image), derive.__module__, derive.__qualname__)
+    cached = session.images.get(key)
     if cached is not None and not image.is_dirty:
-        return cached
-    height = _read_height(image)
-    entry = (height, hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest())
-    if len(session.heights) > 16:
-        session.heights.clear()
-    session.heights[key] = entry
-    return entry
-
-
-def _read_height(image) -> np.ndarray:
+        return cached, image.name
     w, h = image.size
     if w == 0 or h == 0:
-        raise ValueError(f"height map '{image.name}' has no pixels (is the file missing?)")
+        raise ValueError(f"image '{image.name}' has no pixels (is the file missing?)")
     px = np.empty(w * h * image.channels, np.float32)
     image.pixels.foreach_get(px)
-    px = px.reshape(h, w, image.channels)
-    rgb = px[..., :3] if image.channels >= 3 else px[..., :1]
-    return np.clip(rgb.mean(axis=-1), 0.0, 1.0).astype(np.float32)
+    derived = derive(px.reshape(h, w, image.channels))
+    if len(session.images) > 16:
+        session.images.clear()
+    session.images[key] = derived
+    return derived, image.name
 
 
-def relief_surface(original, mesh, tri_loops, positions, frame_warnings, session: Session) -> ReliefSurface | None:
-    """The height field of an object (Shah ch. 3), or None (with a warning when it cannot be drawn)."""
-    s = original.translucent
-    if s.relief == "OFF":
-        return None
-    if s.relief_image is None:
-        frame_warnings.append(f"'{original.name}': height field has no height map; drawn flat")
-        return None
-    if mesh.uv_layers.active is None:
-        frame_warnings.append(f"'{original.name}': a height field needs a UV map; drawn flat")
-        return None
-    try:
-        height, digest = height_image(s.relief_image, session)
-    except ValueError as err:
-        frame_warnings.append(f"'{original.name}': {err}; drawn flat")
+class ObjectReader:
+    """What a technique's ``object_extras`` may read of one drawn object (``Technique.object_extras``): its
+    settings, its drawn corners, its UVs (its mesh opened only when asked), images and stored bakes; the lines
+    it writes join the frame's warnings."""
+
+    def __init__(self, ob, drawn: DrawnMesh, mesh, frame_warnings: list, session: Session):
+        self._ob, self._drawn, self._mesh, self._warnings, self._session = ob, drawn, mesh, frame_warnings, session
+        self.name = ob.original.name
+        self.positions = drawn.positions
+
+    def values(self, names) -> dict:
+        """The object's Object.translucent values (integers within their ranges)."""
+        return technique_values(self._ob.original.translucent, names)
+
+    def warn(self, text: str) -> None:
+        self._warnings.append(text)
+
+    def uv_corners(self) -> np.ndarray | None:
+        """(3T, 2) the active UV map at each drawn corner, or None when the mesh has none."""
+        if self._mesh is not None:
+            return _uv_corners(self._mesh, self._drawn.tri_loops)
+        mesh = self._ob.to_mesh()
+        try:
+            return _uv_corners(mesh, self._drawn.tri_loops)
+        finally:
+            self._ob.to_mesh_clear()
+
+    def image_data(self, image, derive):
+        """``extract.image_data`` on this frame's session."""
+        return image_data(image, derive, self._session)
+
+    def stored_bake(self, key: str, digest: str) -> tuple[str, BakeHandle | None]:
+        """(status, handle) of the object's stored bake under ``key`` for inputs ``digest``: a handle (loading
+        (arrays, meta)) only when it is current ('OK')."""
+        original = self._ob.original
+        status = bake_store.status(bake_files.owner(original, key), key, digest)
+        if status != "OK":
+            return status, None
+
+        def load(o=original):
+            record = bake_files.read(o, key)
+            return record.arrays, record.meta
+
+        return status, BakeHandle(f"{self.name}/{key.lower()}#{digest}", load)
+
+
+def _uv_corners(mesh, tri_loops: np.ndarray) -> np.ndarray | None:
+    if mesh is None or mesh.uv_layers.active is None:
         return None
     uv_loops = np.empty(len(mesh.loops) * 2, np.float32)
     mesh.uv_layers.active.data.foreach_get("uv", uv_loops)
-    uv = uv_loops.reshape(-1, 2)[tri_loops]
-    du, dv = uv_tangents(positions, uv)
-    key = f"{s.relief_image.name}:{digest}"
-    return ReliefSurface(key, height, float(s.relief_depth), 0 if s.relief == "INTERVAL" else 1,
-                         bounded(s, "relief_linear_steps"), bounded(s, "relief_iterations"), bool(s.relief_shadows), uv,
-                         du, dv)
+    return uv_loops.reshape(-1, 2)[tri_loops]
 
 
-def caustic_settings(s) -> CausticSettings:
-    return CausticSettings(grid=bounded(s, "caustics_grid"), iterations=bounded(s, "caustics_iterations"),
-                           guard=bool(s.caustics_guard), secant=s.caustics_estimator == "SECANT",
-                           texels=bounded(s, "caustics_map"),
-                           splat_sigma=float(s.caustics_splat), adaptive=bool(s.caustics_adaptive))
+def object_extras(ob, drawn: DrawnMesh, mesh, frame_warnings, session: Session) -> dict:
+    """What each registered technique draws of the object whatever its method (``Technique.object_extras``)."""
+    reader = ObjectReader(ob, drawn, mesh, frame_warnings, session)
+    extras = {}
+    for technique in techniques.REGISTRY:
+        data = technique.object_extras(reader)
+        if data is not None:
+            extras[technique.id] = data
+    return extras
 
 
 def turn_outward(flip: np.ndarray, positions: np.ndarray, normals: np.ndarray, tri_loops: np.ndarray):
@@ -439,10 +424,11 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
     name = original.name
     cache_key = (mode, name)
     s = original.translucent
-    drawn = session.drawn.get(cache_key) if trusted and s.relief == "OFF" else None
-    relief = None
+    drawn = session.drawn.get(cache_key) if trusted else None
+    extras = None
     if drawn is not None:
         drawn = recoloured(ob, drawn, cache_key, session)
+        extras = object_extras(ob, drawn, None, frame_warnings, session)  # a technique that asks opens the mesh
     else:
         mesh = ob.to_mesh()
         try:
@@ -454,7 +440,7 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
                                            f"not drawn"))
                 return None
             drawn = drawn_mesh(ob, mesh, read, cache_key, session)
-            relief = relief_surface(original, mesh, drawn.tri_loops, drawn.positions, frame_warnings, session)
+            extras = object_extras(ob, drawn, mesh, frame_warnings, session)
         finally:
             ob.to_mesh_clear()
     session.turned[name] = drawn.read.orientation.turned  # for the object panel, which must not read meshes
@@ -468,8 +454,7 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
     method, medium = medium_of(original, method, frame_warnings, scene)
     return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
                 method=method, medium=medium, paint=drawn.paint, tint=drawn.tint,
-                bake=handle if method != "OFF" else None, caster=caster_settings(s),
-                grass=grass_layer(original, frame_warnings), relief=relief,
+                bake=handle if method != "OFF" else None, extras=extras,
                 auto_target=float(s.target_error) if s.quality == "AUTO" else None,
                 bound_points=drawn.read.bound_points())
 
@@ -545,7 +530,6 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
         environment=environment,
         film_transparent=scene.render.film_transparent,
         shadow_resolution=bounded(settings, "shadow_resolution"),
-        caustics=caustic_settings(settings),
         warnings=warnings,
     )
 

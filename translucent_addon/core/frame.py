@@ -36,59 +36,6 @@ class Medium:
     extras: Any = None
 
 
-@dataclasses.dataclass(frozen=True)
-class Caster:
-    """A caustics caster (Shah ch. 5): it refracts (through one or two surfaces) or mirrors the light of
-    every emitter with caustics on, onto every other mesh."""
-
-    mode: str = "REFRACTIVE"  # or "REFLECTIVE"
-    eta: float = 1.5
-    surfaces: int = 2  # refracting surfaces: 1 (a water surface), 2 (a solid, Wyman 2005)
-    sigma_a: tuple = (0.0, 0.0, 0.0)  # absorption K_a per scene unit (Shah Eq. 5.7)
-    dispersion: float = 0.0  # eta - s, eta, eta + s for red, green, blue; 0: one index
-    tint: tuple = (1.0, 1.0, 1.0)  # reflectance of a reflective caster
-
-
-@dataclasses.dataclass(frozen=True)
-class CausticSettings:
-    """Scene-wide caustics mapping settings (Shah 5.3.3-5.3.6)."""
-
-    grid: int = 128  # vertex grid per caster, texels per side
-    iterations: int = 4  # look-ups of the intersection estimate
-    guard: bool = True  # oscillation guard: bisection once the estimates bracket the root
-    secant: bool = True  # secant steps after the first (with the guard); False: Shah's iteration only
-    texels: int = 1024  # caustic and receiver-position map, texels per face
-    splat_sigma: float = 1.0  # Gaussian splat width, texels (the smallest with adaptive splats)
-    adaptive: bool = True  # widen each splat to the spacing of its neighbours' landing points
-    splat_sigma_max: float = 16.0
-
-
-@dataclasses.dataclass(frozen=True)
-class GrassLayer:
-    """A grass field on a ground mesh (Shah ch. 4): its BTF bake and how it is laid on the ground."""
-
-    bake: object  # BakeHandle of the GRASS bake; load() -> (arrays, meta)
-    tile: float  # side of one BTF tile, scene units
-    lod: float = 1.0  # texels per pixel above which fewer luminance eigen-textures are summed; 0: never
-    min_groups: int = 2  # the fewest luminance groups of four eigen-textures kept far away
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class ReliefSurface:
-    """A height field over a mesh's UVs (Shah ch. 3): interval or relief mapping."""
-
-    key: str  # names the height image (GPU cache)
-    height: np.ndarray  # (H, W) float32 in [0, 1], row 0 at v = 0; 1 is the surface
-    depth: float  # scene units from height 1 down to height 0
-    mode: int = 0  # 0 interval mapping, 1 relief mapping (gpu_shaders/relief/interval_search.glsl)
-    linear_steps: int = 8
-    iterations: int = 10
-    shadows: bool = True
-    uv: np.ndarray | None = None  # (3T, 2) per corner
-    tangent_u: np.ndarray | None = None  # (3T, 3) object-space dP/du per corner
-    tangent_v: np.ndarray | None = None  # (3T, 3) dP/dv
-
-
 # Painted heterogeneity per corner (Shah ch. 7): translucency mask m, distance multiplier M_d
 # (blur), glow factor; the RGB tint is a separate array. Neutral: (1, 1, 1, 0) and tint (1, 1, 1).
 NEUTRAL_PAINT = (1.0, 1.0, 1.0, 0.0)
@@ -123,9 +70,9 @@ class MeshInstance:
     paint: np.ndarray | None = None  # (3T, 4) float32: mask, M_d, glow, 0
     tint: np.ndarray | None = None  # (3T, 3) float32
     bake: object = None  # BakeHandle of an up-to-date bake (methods that bake), else None
-    caster: Caster | None = None  # a caustics caster, else a receiver
-    grass: GrassLayer | None = None  # a grass field grows on this mesh
-    relief: ReliefSurface | None = None  # a height field displaces this mesh per pixel (drawn by its pass)
+    # What techniques other than its method draw of it, by technique id (``Technique.object_extras``: a caustics
+    # caster, a grass field growing on it, a height field displacing it); a technique absent here does not.
+    extras: dict = dataclasses.field(default_factory=dict)
     auto_target: float | None = None  # AUTO quality's target error (IMAGE_SPACE chooses k per frame); None: manual
     bound_points: np.ndarray | None = None  # (V, 3) object-space points holding the mesh (its vertices); None: corners
     _box: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
@@ -235,7 +182,6 @@ class FrameInputs:
     film_transparent: bool = False
     environment: Environment | None = None  # None: the uniform world_color in every direction
     shadow_resolution: int = 1024  # texels per shadow-map face
-    caustics: CausticSettings = dataclasses.field(default_factory=CausticSettings)
     warnings: list[str] = dataclasses.field(default_factory=list)  # ``Lost`` ones name undrawable objects
     settings: DrawSettings = dataclasses.field(default_factory=DrawSettings)
     _bounds: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)

@@ -124,6 +124,13 @@ class Technique:
         resolutions, densities or overlaps; ``compare_defaults``); none: it is drawn as the objects are set."""
         return [Variant("as set")]
 
+    def object_extras(self, reader):
+        """What it draws of one object whatever the object's method (``MeshInstance.extras[id]``: a caustics
+        caster, a grass field, a height field), or None. ``reader`` (``blender.extract.ObjectReader``) gives the
+        object's ``name``, ``values(names)`` of Object.translucent, its drawn ``positions``, ``uv_corners()``,
+        ``image_data(image, derive)``, ``stored_bake(key, digest)`` and ``warn(text)`` for the frame."""
+        return None
+
     def frame_settings(self, frame, settings, results: dict, cache: dict):
         """Its settings for this frame (``FrameInputs``), from those of the scene; what the object panel should
         say of the frame goes into ``results``; ``cache`` is its own, kept across frames (both the session's)."""

@@ -21,6 +21,33 @@ from ...core.physics.fresnel import fresnel_dielectric
 from ...gpu import blocks
 
 
+@dataclasses.dataclass(frozen=True)
+class Caster:
+    """A caustics caster (Shah ch. 5): it refracts (through one or two surfaces) or mirrors the light of
+    every emitter with caustics on, onto every other mesh."""
+
+    mode: str = "REFRACTIVE"  # or "REFLECTIVE"
+    eta: float = 1.5
+    surfaces: int = 2  # refracting surfaces: 1 (a water surface), 2 (a solid, Wyman 2005)
+    sigma_a: tuple = (0.0, 0.0, 0.0)  # absorption K_a per scene unit (Shah Eq. 5.7)
+    dispersion: float = 0.0  # eta - s, eta, eta + s for red, green, blue; 0: one index
+    tint: tuple = (1.0, 1.0, 1.0)  # reflectance of a reflective caster
+
+
+@dataclasses.dataclass(frozen=True)
+class CausticSettings:
+    """Scene-wide caustics mapping settings (Shah 5.3.3-5.3.6)."""
+
+    grid: int = 128  # vertex grid per caster, texels per side
+    iterations: int = 4  # look-ups of the intersection estimate
+    guard: bool = True  # oscillation guard: bisection once the estimates bracket the root
+    secant: bool = True  # secant steps after the first (with the guard); False: Shah's iteration only
+    texels: int = 1024  # caustic and receiver-position map, texels per face
+    splat_sigma: float = 1.0  # Gaussian splat width, texels (the smallest with adaptive splats)
+    adaptive: bool = True  # widen each splat to the spacing of its neighbours' landing points
+    splat_sigma_max: float = 16.0
+
+
 def estimate_intersection(v: np.ndarray, r: np.ndarray, lookup, iterations: int, guard: bool = True,
                           secant: bool = False):
     """Where rays v + d r meet the receivers, by Shah's estimate (Eq. 5.1-5.3).

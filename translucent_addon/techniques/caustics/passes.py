@@ -23,7 +23,7 @@ import dataclasses
 
 import numpy as np
 
-from ...core.frame import CausticSettings, FrameInputs, MeshInstance
+from ...core.frame import FrameInputs, MeshInstance
 from ...core.geometry.mesh_checks import check_mesh
 from ...core.properties import Prop
 from ...gpu import blocks, resources, shaders
@@ -31,10 +31,12 @@ from ...gpu.draw_state import draw_pass
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, read_pixels, screen_quad
 from ..protocol import Technique
-from .model import CausticError, caster_grid
+from .model import Caster, CausticError, CausticSettings, caster_grid
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
+ID = "CAUSTICS"
+
 SHADER_SPECS = {
     "caustic_receiver": shaders.ShaderSpec(
         source="caustics/receiver.glsl",
@@ -113,21 +115,27 @@ def is_closed(mesh: MeshInstance) -> bool:
     return closed
 
 
+def caster_of(mesh: MeshInstance) -> Caster | None:
+    """The mesh's caustics caster (its ``extras``), or None: a receiver."""
+    return mesh.extras.get(ID)
+
+
 def prepare(frame: FrameInputs) -> Plan | None:
     casters = []
     for k, m in enumerate(frame.meshes):
-        if m.caster is None:
+        caster = caster_of(m)
+        if caster is None:
             continue
-        if m.caster.mode == "REFRACTIVE" and m.caster.surfaces == 2 and not is_closed(m):
+        if caster.mode == "REFRACTIVE" and caster.surfaces == 2 and not is_closed(m):
             frame.warnings.append(f"'{m.name}': an open mesh has no back faces to refract out of; its caustics "
                                   "use one surface (set Surfaces to One, or close the mesh)")
-            m = dataclasses.replace(m, caster=dataclasses.replace(m.caster, surfaces=1))
+            m = dataclasses.replace(m, extras={**m.extras, ID: dataclasses.replace(caster, surfaces=1)})
         casters.append((k, m, *bounding_sphere(m)))
     if not casters or not any(e.caustics for e in frame.emitters):
         return None
-    receivers = [k for k, m in enumerate(frame.meshes) if m.caster is None]
+    receivers = [k for k, m in enumerate(frame.meshes) if caster_of(m) is None]
     lit = [k for k in receivers if frame.meshes[k].method == "OFF"]
-    return Plan(frame.caustics, casters, receivers, lit)
+    return Plan(frame.settings.of(ID) or CausticSettings(), casters, receivers, lit)
 
 
 def _target(pipeline, name: str, size, depth: bool = False, attachments: int = 1):
@@ -210,7 +218,7 @@ def _draw_casters(plan: Plan, frame: FrameInputs, e, light_ubo, objects, pipelin
         except CausticError as exc:
             frame.warnings.append(f"'{mesh.name}': {exc}")
             continue
-        ubo = gpu.types.GPUUniformBuf(blocks.caustic_block(grid.view_proj, G, grid.half_extent, mesh.caster, s))
+        ubo = gpu.types.GPUUniformBuf(blocks.caustic_block(grid.view_proj, G, grid.half_extent, caster_of(mesh), s))
         keep_alive.append(ubo)
         maps = _draw_caster_maps(caster_shader, ubo, objects[k], mesh, G, pipeline)
         landing_tex, trace_flux_tex, trace_size = _draw_trace(trace_shader, light_ubo, ubo, maps, recv_tex,
@@ -246,7 +254,8 @@ def _draw_trace(trace_shader, light_ubo, ubo, maps, recv_tex, shadow_atlas, mesh
     import gpu
 
     # 3. Refract and estimate the landing points.
-    channels = 3 if (mesh.caster.dispersion > 0 and mesh.caster.mode != "REFLECTIVE") else 1
+    caster = caster_of(mesh)
+    channels = 3 if (caster.dispersion > 0 and caster.mode != "REFLECTIVE") else 1
     trace_size = (G * channels, G)
     trace_fb, (landing_tex, trace_flux_tex), _ = _target(pipeline, "caustic_trace", trace_size, attachments=2)
     with draw_pass(trace_fb):
@@ -423,7 +432,30 @@ class Caustics(Technique):
         }),
     )
     shader_specs = SHADER_SPECS
-    id, label = "CAUSTICS", "Caustics"
+    id, label = ID, "Caustics"
+    scene_properties = ("caustics_grid", "caustics_iterations", "caustics_guard", "caustics_estimator",
+                        "caustics_map", "caustics_splat", "caustics_adaptive")
+    caster_properties = ("caustics_caster", "caustics_ior", "caustics_surfaces", "caustics_color",
+                         "caustics_distance", "caustics_dispersion")
+
+    def settings(self, values: dict) -> CausticSettings:
+        return CausticSettings(grid=int(values["caustics_grid"]), iterations=int(values["caustics_iterations"]),
+                               guard=bool(values["caustics_guard"]), secant=values["caustics_estimator"] == "SECANT",
+                               texels=int(values["caustics_map"]), splat_sigma=float(values["caustics_splat"]),
+                               adaptive=bool(values["caustics_adaptive"]))
+
+    def object_extras(self, reader) -> Caster | None:
+        """The object as a caustics caster, from its settings (``Object.translucent``), or None."""
+        s = reader.values(self.caster_properties)
+        if s["caustics_caster"] == "NONE":
+            return None
+        color = np.clip(np.asarray(s["caustics_color"], np.float64), 1e-6, 1.0)
+        if s["caustics_caster"] == "REFLECTIVE":
+            return Caster("REFLECTIVE", float(s["caustics_ior"]), 0, (0.0, 0.0, 0.0), 0.0, tuple(color))
+        # Absorption K_a per scene unit from the colour reached after caustics_distance (scene units, Eq. 5.7).
+        sigma_a = -np.log(color) / float(s["caustics_distance"])
+        return Caster("REFRACTIVE", float(s["caustics_ior"]), 1 if s["caustics_surfaces"] == "ONE" else 2,
+                      tuple(float(x) for x in sigma_a), float(s["caustics_dispersion"]))
     description = "Refractive and reflective caustics by caustic mapping (Shah 2007, ch. 5)"
     emitter_timing = "caustics"
     scene_tiers = {"DRAFT": {"caustics_grid": 64, "caustics_map": 512},

@@ -49,6 +49,21 @@ def settings_hash(params: GrassParams, resolution: int, target_error: float) -> 
                                   "target_error": round(float(target_error), 6), "shading": SHADING_VERSION})
 
 
+# The Object.translucent settings a grass field is made of (``settings_digest``).
+SETTINGS = ("grass_tile", "grass_blade_height", "grass_blades", "grass_seed", "grass_resolution", "grass_target_error")
+
+
+def settings_digest(values: dict) -> tuple[str | None, str]:
+    """(the hash of its BTF's settings, "") of a grass field's ``SETTINGS`` values, or (None, why) when they
+    describe no grass a BTF can be baked of."""
+    try:
+        params = params_from_settings(values["grass_tile"], values["grass_blade_height"], values["grass_blades"],
+                                      values["grass_seed"])
+    except GrassSettingsError as err:
+        return None, str(err)
+    return settings_hash(params, int(values["grass_resolution"]), values["grass_target_error"]), ""
+
+
 def bake(params: GrassParams = GrassParams(), resolution: int = DEFAULT_RESOLUTION,
          target_error: float = DEFAULT_TARGET_ERROR):
     """Generator: yields (fraction, text); returns (arrays, meta) to store. Acquisition is about 90 %

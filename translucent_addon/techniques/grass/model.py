@@ -22,6 +22,17 @@ from ...core.geometry import hemisphere
 from .acquire import SENTINEL
 from .compress import CompressedBTF, to_rgb
 
+
+@dataclasses.dataclass(frozen=True)
+class GrassLayer:
+    """A grass field on a ground mesh (Shah ch. 4): its BTF bake and how it is laid on the ground."""
+
+    bake: object  # BakeHandle of the GRASS bake; load() -> (arrays, meta)
+    tile: float  # side of one BTF tile, scene units
+    lod: float = 1.0  # texels per pixel above which fewer luminance eigen-textures are summed; 0: never
+    min_groups: int = 2  # the fewest luminance groups of four eigen-textures kept far away
+
+
 TABLE_RES = 256
 DEPTH_TILES_PER_ROW = 9
 

@@ -75,7 +75,7 @@ def prepare(frame) -> list[Active]:
     """The frame's grass-covered meshes with the GPU data of their BTF."""
     active = []
     for k, mesh in enumerate(frame.meshes):
-        layer = getattr(mesh, "grass", None)
+        layer = mesh.extras.get(TECHNIQUE.id)
         if layer is None:
             continue
         res = bake_cache.checked(frame, mesh.name, "grass BTF", layer.bake, build)
@@ -117,7 +117,7 @@ def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_
     blocks = []
     for a in actives:
         r = a.resources
-        ubo = gpu.types.GPUUniformBuf(grass_block(a.mesh.grass, r))
+        ubo = gpu.types.GPUUniformBuf(grass_block(a.mesh.extras[TECHNIQUE.id], r))
         blocks.append(ubo)  # referenced until drawn
         shader.uniform_block("object", objects[a.index])
         shader.uniform_block("grass", ubo)
@@ -200,6 +200,21 @@ class Grass(Technique):
     shader_specs = SHADER_SPECS
     id, label = "GRASS", "Grass"
     description = "Grass fields from a compressed BTF with silhouettes (Shah 2007, ch. 4)"
+
+    def object_extras(self, reader) -> grass_data.GrassLayer | None:
+        """The grass field growing on the object, where it has one with a current BTF (else a line says why)."""
+        s = reader.values(("grass", "grass_lod", *grass_btf.SETTINGS))
+        if not s["grass"]:
+            return None
+        digest, why = grass_btf.settings_digest(s)
+        handle = None
+        if digest is not None:
+            status, handle = reader.stored_bake(grass_btf.BAKE_KEY, digest)
+            why = f"grass BTF is {status.lower()}"
+        if handle is None:
+            reader.warn(f"'{reader.name}': {why}; no grass drawn. Press Bake Grass BTF")
+            return None
+        return grass_data.GrassLayer(handle, float(s["grass_tile"]), float(s["grass_lod"]))
     object_tiers = {"DRAFT": {"grass_resolution": "64"}, "STANDARD": {"grass_resolution": "128"},
                     "HIGH": {"grass_resolution": "256"}}
 

@@ -23,9 +23,36 @@ Conventions (shared with the GLSL twin)
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 from typing import NamedTuple
 
 import numpy as np
+
+
+def heights_of(pixels: np.ndarray) -> tuple[np.ndarray, str]:
+    """(heights, digest): (H, W) float32 heights in [0, 1] from an image's brightness (mean of RGB; row 0 at
+    v = 0, Blender's pixel order), and a digest of them (the GPU texture's cache key)."""
+    rgb = pixels[..., :3] if pixels.shape[-1] >= 3 else pixels[..., :1]
+    height = np.clip(rgb.mean(axis=-1), 0.0, 1.0).astype(np.float32)
+    return height, hashlib.blake2b(height.tobytes(), digest_size=8).hexdigest()
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ReliefSurface:
+    """A height field over a mesh's UVs (Shah ch. 3): interval or relief mapping."""
+
+    key: str  # names the height image (GPU cache)
+    height: np.ndarray  # (H, W) float32 in [0, 1], row 0 at v = 0; 1 is the surface
+    depth: float  # scene units from height 1 down to height 0
+    mode: int = 0  # 0 interval mapping, 1 relief mapping (gpu_shaders/relief/interval_search.glsl)
+    linear_steps: int = 8
+    iterations: int = 10
+    shadows: bool = True
+    uv: np.ndarray | None = None  # (3T, 2) per corner
+    tangent_u: np.ndarray | None = None  # (3T, 3) object-space dP/du per corner
+    tangent_v: np.ndarray | None = None  # (3T, 3) dP/dv
+
 
 THRESHOLD = 1e-3  # |ray depth - surface depth| at the new point, in layer thicknesses
 MAX_ITER = 10  # the paper's maximum number of refinement iterations

@@ -11,11 +11,13 @@ import hashlib
 
 import numpy as np
 
+from ...core.geometry.mesh_measures import uv_tangents
 from ...core.properties import Prop
 from ...gpu import resources, shaders
 from ...gpu.frame_context import FrameContext
 from ...gpu.targets import texture_from_array
 from ..protocol import Technique
+from . import model as relief_data
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -57,7 +59,7 @@ def relief_block(surface, output: int) -> bytes:
 
 
 def _batch(pipeline, mesh):
-    s = mesh.relief
+    s = mesh.extras[TECHNIQUE.id]
     digest = hashlib.blake2b(s.uv.tobytes(), digest_size=8).hexdigest()
     key = ("relief", mesh.key, digest)
     batch = pipeline.targets.get(key)
@@ -77,7 +79,7 @@ def _batch(pipeline, mesh):
 
 def indices(frame) -> list[int]:
     """Meshes of the frame drawn by this pass instead of the base pass."""
-    return [k for k, m in enumerate(frame.meshes) if getattr(m, "relief", None) is not None]
+    return [k for k, m in enumerate(frame.meshes) if m.extras.get(TECHNIQUE.id) is not None]
 
 
 def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shadow_atlas, mode: int,
@@ -90,11 +92,12 @@ def draw(frame, which: list[int], pipeline, frame_ubo, objects, light_ubo, shado
     keep = []
     for k in which:
         mesh = frame.meshes[k]
-        ubo = gpu.types.GPUUniformBuf(relief_block(mesh.relief, output))
+        surface = mesh.extras[TECHNIQUE.id]
+        ubo = gpu.types.GPUUniformBuf(relief_block(surface, output))
         keep.append(ubo)  # referenced until drawn
         shader.uniform_block("object", objects[k])
         shader.uniform_block("relief", ubo)
-        shader.uniform_sampler("height_map", height_texture(mesh.relief))
+        shader.uniform_sampler("height_map", height_texture(surface))
         shader.draw(_batch(pipeline, mesh))
 
 
@@ -162,6 +165,30 @@ class Relief(Technique):
     id, label = "RELIEF", "Height field"
     description = "Per-pixel height fields by interval mapping (Shah 2007, ch. 3)"
     scene_properties = ("relief_output",)
+    surface_properties = ("relief", "relief_image", "relief_depth", "relief_linear_steps", "relief_iterations",
+                          "relief_shadows")
+
+    def object_extras(self, reader) -> relief_data.ReliefSurface | None:
+        """The height field displacing the object (Shah ch. 3), or None (with a line where it cannot be drawn)."""
+        s = reader.values(self.surface_properties)
+        if s["relief"] == "OFF":
+            return None
+        if s["relief_image"] is None:
+            reader.warn(f"'{reader.name}': height field has no height map; drawn flat")
+            return None
+        uv = reader.uv_corners()
+        if uv is None:
+            reader.warn(f"'{reader.name}': a height field needs a UV map; drawn flat")
+            return None
+        try:
+            (height, digest), image_name = reader.image_data(s["relief_image"], relief_data.heights_of)
+        except ValueError as err:
+            reader.warn(f"'{reader.name}': {err}; drawn flat")
+            return None
+        du, dv = uv_tangents(reader.positions, uv)
+        return relief_data.ReliefSurface(f"{image_name}:{digest}", height, float(s["relief_depth"]),
+                                         0 if s["relief"] == "INTERVAL" else 1, int(s["relief_linear_steps"]),
+                                         int(s["relief_iterations"]), bool(s["relief_shadows"]), uv, du, dv)
 
     def settings(self, values: dict) -> int:
         return int(values["relief_output"])
