@@ -370,149 +370,193 @@ def run_steps(scene, output_dir, settings: CompareSettings | None = None, object
     """The comparison as a generator of (fraction done, text), one step per render, so that an operator
     can show progress and cancel between renders (no scene setting is left changed between steps);
     returns (entries, meta)."""
-    settings = settings or CompareSettings()
-    out = Path(bpy.path.abspath(str(output_dir)))
-    out.mkdir(parents=True, exist_ok=True)
-    cache_dir = Path(settings.cache_dir) if settings.cache_dir else out / "cache"
-    if scene.camera is None:
-        raise CompareError("the scene has no active camera: the comparison renders the camera's view")
-    objects = list(objects) if objects is not None else translucent_objects(scene)
-    if not objects:
-        raise CompareError("no visible object has a translucency method (Object > Translucent > Method)")
-    width, height = extract.output_size(scene.render)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, width, height))
-    tris, _, _ = scene_triangles(frame)
-    tracer = BVHTracer(tris)
-    names = {ob.name for ob in objects}
-    mask = interior(_mask(frame, tracer, names))
-    if not mask.any():
-        raise CompareError("the translucent objects are not in the camera's view (or less than 3 pixels wide)")
-    description = scene_description(depsgraph, frame, objects)
-    images: dict[str, np.ndarray] = {}
-    entries: list[Entry] = []
-    total = settings.renders(object_methods(objects)) + bool(settings.model_reference_samples) + 1  # and the report
-    steps = [0]
+    c = _Comparison(scene, output_dir, settings or CompareSettings(), objects)
+    yield from c.reference()
+    yield from c.engines()
+    yield from c.ours()
+    yield from c.model()
+    c.measure()
+    meta = c.write()
+    yield 1.0, f"wrote {c.out / 'report.json'} and {c.out / 'chart.png'}"
+    return c.entries, meta
 
-    def step(text):
-        steps[0] += 1
-        return min(steps[0] / total, 0.99), text
 
-    def add(series, engine, label, seconds, image, cached=False, **extra):
+class _Comparison:
+    """One comparison as it runs (``run_steps``): the scene and what is measured on it, the renders so far
+    (``images``, ``entries``) and the reference they are measured against."""
+
+    def __init__(self, scene, output_dir, settings: CompareSettings, objects):
+        """What every render shares: the output folder, the objects, their interior pixels, the scene's
+        description (the cache key); CompareError where there is nothing to compare."""
+        self.scene, self.settings = scene, settings
+        self.out = Path(bpy.path.abspath(str(output_dir)))
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.cache_dir = Path(settings.cache_dir) if settings.cache_dir else self.out / "cache"
+        if scene.camera is None:
+            raise CompareError("the scene has no active camera: the comparison renders the camera's view")
+        self.objects = list(objects) if objects is not None else translucent_objects(scene)
+        if not self.objects:
+            raise CompareError("no visible object has a translucency method (Object > Translucent > Method)")
+        self.width, self.height = extract.output_size(scene.render)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        self.frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, self.width, self.height))
+        self.tracer = BVHTracer(scene_triangles(self.frame)[0])
+        self.names = {ob.name for ob in self.objects}
+        self.mask = interior(_mask(self.frame, self.tracer, self.names))
+        if not self.mask.any():
+            raise CompareError("the translucent objects are not in the camera's view (or less than 3 pixels wide)")
+        self.description = scene_description(depsgraph, self.frame, self.objects)
+        self.methods = object_methods(self.objects)
+        self.images: dict[str, np.ndarray] = {}
+        self.entries: list[Entry] = []
+        self.total = settings.renders(self.methods) + bool(settings.model_reference_samples) + 1  # and the report
+        self.steps = 0
+        self.model_image = None
+
+    def step(self, text):
+        self.steps += 1
+        return min(self.steps / self.total, 0.99), text
+
+    def add(self, series, engine, label, seconds, image, cached=False, **extra):
         key = f"{series} {label}".strip()
-        images[key] = image
-        entries.append(Entry(series=series, engine=engine, settings={"label": label, **extra}, seconds=seconds,
-                             reference="", cached=cached))
+        self.images[key] = image
+        self.entries.append(Entry(series=series, engine=engine, settings={"label": label, **extra}, seconds=seconds,
+                                  reference="", cached=cached))
 
-    def cached_cycles(kind, samples, seed=1):
-        desc = {**description, "engine": "CYCLES", "kind": kind, "samples": samples,
-                "bounces": settings.cycles_bounces, **({"seed": seed} if seed != 1 else {})}
-        hit = cache.load(cache_dir, desc)
+    def cached_cycles(self, kind, samples, seed=1):
+        """Generator: one Cycles render of the twin materials, from the cache when it holds it:
+        (image, seconds, from the cache)."""
+        desc = {**self.description, "engine": "CYCLES", "kind": kind, "samples": samples,
+                "bounces": self.settings.cycles_bounces, **({"seed": seed} if seed != 1 else {})}
+        hit = cache.load(self.cache_dir, desc)
         if hit is not None:
-            yield step(f"Cycles {kind} {samples} spp: from the cache")
+            yield self.step(f"Cycles {kind} {samples} spp: from the cache")
             return hit[0], hit[1], True
-        yield step(f"Cycles {kind} {samples} spp ...")
-        with twin_materials_applied(objects, kind), \
-                engine_setup(scene, "CYCLES", **cycles_options(samples, settings.cycles_bounces, seed)):
-            image, seconds = render_pixels(scene, width, height)
-        cache.store(cache_dir, desc, image, seconds)
+        yield self.step(f"Cycles {kind} {samples} spp ...")
+        with twin_materials_applied(self.objects, kind), \
+                engine_setup(self.scene, "CYCLES", **cycles_options(samples, self.settings.cycles_bounces, seed)):
+            image, seconds = render_pixels(self.scene, self.width, self.height)
+        cache.store(self.cache_dir, desc, image, seconds)
         return image, seconds, False
 
-    # The reference first, so that every other render is measured against it: exact transport (Cycles' brute
-    # force) where it converges, else the random walk, with the reason in the report.
-    exact, why = exact_reference_converges(scene, objects)
-    ref_kind, check_kind = ("brute_force", "random_walk") if exact else ("random_walk", "brute_force")
-    ref_title = ref_kind.replace("_", " ")
-    ref_name = f"Cycles {ref_title} {settings.reference_samples} spp"
-    # Two independent halves, averaged: the reference at its full samples, and from their difference its own
-    # noise, below which no error is resolved (report.reference_noise). Their seeds are none a series render
-    # uses (seed 1): a 16-sample render would otherwise be the first 16 samples of a half, and its error low.
-    half = max(1, settings.reference_samples // 2)
-    half_a, seconds_a, cached_a = yield from cached_cycles(ref_kind, half, seed=REFERENCE_SEEDS[0])
-    half_b, seconds_b, cached_b = yield from cached_cycles(ref_kind, half, seed=REFERENCE_SEEDS[1])
-    ref_image, ref_seconds, ref_cached = 0.5 * (half_a + half_b), seconds_a + seconds_b, cached_a and cached_b
-    noise = reference_noise(half_a, half_b, mask)
-    add(f"Cycles {ref_title} (reference)", "CYCLES", f"{settings.reference_samples} spp", ref_seconds, ref_image,
-        ref_cached, samples=settings.reference_samples)
-    check_image = None
-    if settings.brute_force_reference_samples:
-        check_image, sec, hit = yield from cached_cycles(check_kind, settings.brute_force_reference_samples)
-        add(f"Cycles {check_kind.replace('_', ' ')} (check)", "CYCLES", f"{settings.brute_force_reference_samples} spp",
-            sec, check_image, hit, samples=settings.brute_force_reference_samples)
-    brute_image = ref_image if exact else check_image
-    for spp in settings.cycles_random_walk_samples:
-        img, sec, hit = yield from cached_cycles("random_walk", spp)
-        add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
-    for spp in settings.cycles_brute_force_samples:
-        img, sec, hit = yield from cached_cycles("brute_force", spp)
-        add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
-    for i, spp in enumerate(settings.eevee_samples):
-        yield step(f"EEVEE {spp} samples ...")
-        with (twin_materials_applied(objects, "random_walk"),
-              engine_setup(scene, eevee_engine_id(), **eevee_options(spp))):
-            if i == 0:
-                warm_eevee(scene, width, height)
-            img, sec = render_pixels(scene, width, height)
-        add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
-    methods = object_methods(objects)
-    for technique, variant in settings.variants(methods):
-        yield step(f"Translucent ({technique.id}) {variant.label} ...")
-        bake_seconds, img, sec = draw_variant(scene, objects, technique, variant, width, height)
-        add(f"Translucent ({technique.id})", "TRANSLUCENT_RT", variant.label, sec, img, methods=[technique.id],
-            **variant.record, **({"bake_seconds": bake_seconds} if technique.bake_stages else {}))
-    for target in settings.auto_targets:
-        for technique in settings.auto_series(methods):
-            method = technique.id
-            yield step(f"Translucent Auto ({method}), target {target:g} ...")
-            with method_applied(objects, method, quality="AUTO", target_error=target), scene_kept(scene):
-                choices = [apply_auto(bpy.context, ob) for ob in objects]
-                bake_seconds = bake_objects(objects, method, lambda text: None)[0] if technique.bake_stages else 0.0
-                img, sec = warm_render(scene, width, height)
-            add(f"Translucent Auto ({method})", "TRANSLUCENT_RT", f"target {100 * target:g} %", sec, img,
-                methods=[method], target_error=target, bake_seconds=bake_seconds,
-                choice="; ".join(c.summary() for c in choices))
-    model_image = None
-    if settings.model_reference_samples:
-        yield step(f"dipole model reference (CPU, {settings.model_reference_samples} samples) ...")
-        model_image, sec, hit = model_reference(frame, objects, tracer, settings.model_reference_samples, description,
-                                                cache_dir, lambda text: None)
-        add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{settings.model_reference_samples // 1000}k samples", sec,
-            model_image, hit, samples=settings.model_reference_samples)
+    def reference(self):
+        """Generator: the reference first, so that every other render is measured against it: exact transport
+        (Cycles' brute force) where it converges, else the random walk, with the reason in the report; and the
+        other of the two as its check."""
+        settings = self.settings
+        self.exact, self.why = exact_reference_converges(self.scene, self.objects)
+        ref_kind, check_kind = ("brute_force", "random_walk") if self.exact else ("random_walk", "brute_force")
+        ref_title = ref_kind.replace("_", " ")
+        self.ref_name = f"Cycles {ref_title} {settings.reference_samples} spp"
+        # Two independent halves, averaged: the reference at its full samples, and from their difference its own
+        # noise, below which no error is resolved (report.reference_noise). Their seeds are none a series render
+        # uses (seed 1): a 16-sample render would otherwise be the first 16 samples of a half, and its error low.
+        half = max(1, settings.reference_samples // 2)
+        half_a, seconds_a, cached_a = yield from self.cached_cycles(ref_kind, half, seed=REFERENCE_SEEDS[0])
+        half_b, seconds_b, cached_b = yield from self.cached_cycles(ref_kind, half, seed=REFERENCE_SEEDS[1])
+        self.ref_image = 0.5 * (half_a + half_b)
+        self.noise = reference_noise(half_a, half_b, self.mask)
+        self.add(f"Cycles {ref_title} (reference)", "CYCLES", f"{settings.reference_samples} spp",
+                 seconds_a + seconds_b, self.ref_image, cached_a and cached_b, samples=settings.reference_samples)
+        check_image = None
+        if settings.brute_force_reference_samples:
+            spp = settings.brute_force_reference_samples
+            check_image, sec, hit = yield from self.cached_cycles(check_kind, spp)
+            self.add(f"Cycles {check_kind.replace('_', ' ')} (check)", "CYCLES", f"{spp} spp", sec, check_image, hit,
+                     samples=spp)
+        self.brute_image = self.ref_image if self.exact else check_image
 
-    for e in entries:
-        key = f"{e.series} {e.settings['label']}".strip()
-        img = images[key]
-        slug = "".join(c if c.isalnum() else "_" for c in key).strip("_").lower()
-        e.image = f"{slug}.png"
-        save_image_png(out / e.image, img)
-        if e.series.endswith("(reference)"):
-            e.reference = "itself"
-            continue
-        e.reference = ref_name
-        e.rel_rmse = relative_rmse(img, ref_image, mask)
-        e.ssim = ssim(img, ref_image, mask)
-        e.median_rel_error = median_relative_error(img, ref_image, mask)
-        e.below_reference_noise = bool(e.rel_rmse <= noise["rel_rmse"])
-        if model_image is not None and e.engine == "TRANSLUCENT_RT":
-            e.rel_rmse_model = relative_rmse(img, model_image, mask)
-        if brute_image is not None and not e.series.startswith("Cycles brute force"):
-            e.median_vs_brute_force = median_relative_error(img, brute_image, mask)
-        e.error_image = f"{slug}_error.png"
-        save_error_png(out / e.error_image, img, ref_image, mask)
-    meta = {
-        "scene": scene.name, "size": [width, height], "objects": sorted(names), "reference": ref_name,
-        "reference_exact": exact, "reference_why": why,
-        "reference_noise": {k: round(float(v), 6) for k, v in noise.items()},
-        "reference_noise_how": "each metric between the reference's two independent halves (seeds 1 and 2) over 2",
-        "mask_pixels": int(mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
-        "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels "
-                 "(their silhouette pixels excluded)",
-    }
-    write_report(out / "report.json", entries, meta)
-    speed_accuracy_chart(entries, out / "chart.png", f"{scene.name}: speed against accuracy ({width}x{height}); "
-                                                      f"reference {ref_name}", noise=noise)
-    yield 1.0, f"wrote {out / 'report.json'} and {out / 'chart.png'}"
-    return entries, meta
+    def engines(self):
+        """Generator: Cycles' random walk and brute force series, then EEVEE's (its first frame warmed)."""
+        for spp in self.settings.cycles_random_walk_samples:
+            img, sec, hit = yield from self.cached_cycles("random_walk", spp)
+            self.add("Cycles random walk", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
+        for spp in self.settings.cycles_brute_force_samples:
+            img, sec, hit = yield from self.cached_cycles("brute_force", spp)
+            self.add("Cycles brute force", "CYCLES", f"{spp} spp", sec, img, hit, samples=spp)
+        for i, spp in enumerate(self.settings.eevee_samples):
+            yield self.step(f"EEVEE {spp} samples ...")
+            with (twin_materials_applied(self.objects, "random_walk"),
+                  engine_setup(self.scene, eevee_engine_id(), **eevee_options(spp))):
+                if i == 0:
+                    warm_eevee(self.scene, self.width, self.height)
+                img, sec = render_pixels(self.scene, self.width, self.height)
+            self.add("EEVEE", "BLENDER_EEVEE", f"{spp} samples", sec, img, samples=spp)
+
+    def ours(self):
+        """Generator: each method's variants (``CompareSettings.variants``), then Quality = Auto at each target."""
+        scene, objects = self.scene, self.objects
+        for technique, variant in self.settings.variants(self.methods):
+            yield self.step(f"Translucent ({technique.id}) {variant.label} ...")
+            bake_seconds, img, sec = draw_variant(scene, objects, technique, variant, self.width, self.height)
+            self.add(f"Translucent ({technique.id})", "TRANSLUCENT_RT", variant.label, sec, img,
+                     methods=[technique.id], **variant.record,
+                     **({"bake_seconds": bake_seconds} if technique.bake_stages else {}))
+        for target in self.settings.auto_targets:
+            for technique in self.settings.auto_series(self.methods):
+                method = technique.id
+                yield self.step(f"Translucent Auto ({method}), target {target:g} ...")
+                with method_applied(objects, method, quality="AUTO", target_error=target), scene_kept(scene):
+                    choices = [apply_auto(bpy.context, ob) for ob in objects]
+                    bake_seconds = (bake_objects(objects, method, lambda text: None)[0] if technique.bake_stages
+                                    else 0.0)
+                    img, sec = warm_render(scene, self.width, self.height)
+                self.add(f"Translucent Auto ({method})", "TRANSLUCENT_RT", f"target {100 * target:g} %", sec, img,
+                         methods=[method], target_error=target, bake_seconds=bake_seconds,
+                         choice="; ".join(c.summary() for c in choices))
+
+    def model(self):
+        """Generator: the CPU dipole model of the objects (cached), when the settings ask for it."""
+        samples = self.settings.model_reference_samples
+        if not samples:
+            return
+        yield self.step(f"dipole model reference (CPU, {samples} samples) ...")
+        self.model_image, sec, hit = model_reference(self.frame, self.objects, self.tracer, samples, self.description,
+                                                     self.cache_dir, lambda text: None)
+        self.add("Dipole model (CPU)", "CPU_DIPOLE_MODEL", f"{samples // 1000}k samples", sec, self.model_image, hit,
+                 samples=samples)
+
+    def measure(self) -> None:
+        """Every render against the reference (and the model, the brute force), its image and error image."""
+        mask, ref_image = self.mask, self.ref_image
+        for e in self.entries:
+            key = f"{e.series} {e.settings['label']}".strip()
+            img = self.images[key]
+            slug = "".join(c if c.isalnum() else "_" for c in key).strip("_").lower()
+            e.image = f"{slug}.png"
+            save_image_png(self.out / e.image, img)
+            if e.series.endswith("(reference)"):
+                e.reference = "itself"
+                continue
+            e.reference = self.ref_name
+            e.rel_rmse = relative_rmse(img, ref_image, mask)
+            e.ssim = ssim(img, ref_image, mask)
+            e.median_rel_error = median_relative_error(img, ref_image, mask)
+            e.below_reference_noise = bool(e.rel_rmse <= self.noise["rel_rmse"])
+            if self.model_image is not None and e.engine == "TRANSLUCENT_RT":
+                e.rel_rmse_model = relative_rmse(img, self.model_image, mask)
+            if self.brute_image is not None and not e.series.startswith("Cycles brute force"):
+                e.median_vs_brute_force = median_relative_error(img, self.brute_image, mask)
+            e.error_image = f"{slug}_error.png"
+            save_error_png(self.out / e.error_image, img, ref_image, mask)
+
+    def write(self) -> dict:
+        """report.json and chart.png; returns the report's meta."""
+        meta = {
+            "scene": self.scene.name, "size": [self.width, self.height], "objects": sorted(self.names),
+            "reference": self.ref_name, "reference_exact": self.exact, "reference_why": self.why,
+            "reference_noise": {k: round(float(v), 6) for k, v in self.noise.items()},
+            "reference_noise_how": "each metric between the reference's two independent halves (seeds 1 and 2) "
+                                   "over 2",
+            "mask_pixels": int(self.mask.sum()), "machine": machine_description(), "blender": bpy.app.version_string,
+            "error": "relative RMSE and SSIM of linear radiance over the translucent objects' pixels "
+                     "(their silhouette pixels excluded)",
+        }
+        write_report(self.out / "report.json", self.entries, meta)
+        speed_accuracy_chart(self.entries, self.out / "chart.png",
+                             f"{self.scene.name}: speed against accuracy ({self.width}x{self.height}); "
+                             f"reference {self.ref_name}", noise=self.noise)
+        return meta
 
 
 def bake_objects(objects, method: str, progress=print) -> tuple[float, list[dict]]:
