@@ -146,7 +146,10 @@ def test_a_technique_the_backend_cannot_run_falls_back_with_one_line(tr, scene, 
         cube.translucent.method = "OFF"
     finally:
         techniques.unregister(technique)
-        engine.final_pipeline().unavailable.clear()
+    pipeline = engine.final_pipeline()
+    assert "CONSTANT_TEST" in pipeline.unavailable  # remembered while it was registered
+    np.testing.assert_allclose(render(scene, 48, 48), plain, atol=1e-6)
+    assert "CONSTANT_TEST" not in pipeline.unavailable, "forgotten once unregistered: registered again, tried anew"
 
 
 def test_gpu_state_a_technique_leaves_set_is_put_back_and_recorded(tr, scene):

@@ -7,7 +7,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_helpers import add_camera, add_cube  # noqa: E402
+from blender_helpers import add_camera, add_cube, render  # noqa: E402
 from conftest import ext_module  # noqa: E402
 
 ENGINE = "TRANSLUCENT_RT"
@@ -207,3 +207,22 @@ def test_a_job_in_progress_greys_out_the_bake_buttons(tr, scene):
     finally:
         bake.ModalJob.running.clear()
     assert _poll("bake")
+
+
+def test_the_last_frame_panel_says_the_frame_s_warnings(tr, scene):
+    """The viewport has no report line: what the last frame (F12 or viewport) said is listed in the Last Frame
+    panel, above its timings."""
+    ui = ext_module(tr, "translucent_addon.blender.ui")
+    add_cube(scene)
+    add_camera(scene, (3, -3, 3), (0, 0, 0))
+    render(scene, 16, 16)  # no lights in the scene: the frame says so
+    layout = _Layout()
+    ui._scene_last_frame(layout, bpy.context)
+    labels = layout.labels()
+    said = "the scene has no lights: objects are lit by the world only"
+    assert said in labels and labels.index(said) < next(i for i, t in enumerate(labels) if t.startswith("Translucent"))
+    ext_module(tr, "translucent_addon.blender.session").current().warnings[:] = [f"line {i}" for i in range(9)]
+    layout = _Layout()
+    ui._scene_last_frame(layout, bpy.context)
+    assert "line 5" in layout.labels() and "line 6" not in layout.labels()
+    assert "... and 3 more (F12 reports every one)" in layout.labels()

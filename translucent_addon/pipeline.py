@@ -117,6 +117,9 @@ class Pipeline:
         t0 = time.perf_counter()
         timings = {}
         self.capture = {} if frame.settings.capture else None
+        registered = {t.id for t in REGISTRY}
+        for gone in set(self.unavailable) - registered:  # unregistered since: registered again, it is tried anew
+            del self.unavailable[gone]
         fb = gpu.state.active_framebuffer_get()
         cam = frame.camera
         frame_ubo = gpu.types.GPUUniformBuf(blocks.frame_block(cam.view, cam.projection, frame.world_color,

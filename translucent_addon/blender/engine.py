@@ -18,8 +18,10 @@ from .session import Session
 from .session import current as current_session
 
 
-def _keep_timings(session: Session, pipeline, source: str, **outside: float) -> None:
-    """The passes' seconds, and the frame's wall time (``frame``) and reading the scene (``extract``)."""
+def _keep_timings(session: Session, pipeline, drawn, source: str, **outside: float) -> None:
+    """The passes' seconds, and the frame's wall time (``frame``) and reading the scene (``extract``); the warnings
+    of the frame ``drawn``, for the panel."""
+    session.warnings[:] = [str(w) for w in drawn.warnings]
     session.timings.clear()
     session.timings.update(pipeline.last_timings)
     session.timings.update(outside)
@@ -93,7 +95,8 @@ class Viewport:
         t1 = time.perf_counter()
         self.pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
         draw_to_region(self.pipeline, frame, size, bind_display, unbind_display)
-        _keep_timings(current_session(), self.pipeline, "viewport", extract=t1 - t0, frame=time.perf_counter() - t0)
+        _keep_timings(current_session(), self.pipeline, frame, "viewport", extract=t1 - t0,
+                      frame=time.perf_counter() - t0)
         return frame
 
 
@@ -155,7 +158,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         pipeline = final_pipeline(session)
         pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
         pixels = render_offscreen(pipeline, frame)
-        _keep_timings(session, pipeline, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
+        _keep_timings(session, pipeline, frame, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
         for message in frame.warnings:  # after drawing: the passes add their own
             self.report({"WARNING"}, f"Translucent: {message}")
         lost = frame.lost

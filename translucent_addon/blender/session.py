@@ -35,6 +35,7 @@ class Session:
         self.bake_hashes: dict = {}  # (mode, object, method) -> (geometry arrays, parameters JSON, inputs hash)
         self.final_pipeline = None  # the F12 / animation pipeline, kept across renders (engine.final_pipeline)
         self.timings: dict = {}  # seconds per pass of the last frame drawn (F12 or viewport)
+        self.warnings: list[str] = []  # the last frame's warnings (F12 or viewport; the Last Frame panel)
         self.capture: dict = {}  # read-backs of the last F12's passes (Scene.translucent.capture_passes)
         self.results: dict = {}  # technique id -> what its ``frame_settings`` left of the last frame
         self.technique_caches: dict = {}  # technique id -> its own cache across frames (``frame_settings``)
@@ -55,7 +56,8 @@ class Session:
         handlers stay."""
         self.reads.clear()
         for d in (self.drawn, self.turned, self.environment, self.images, self.bake_arrays, self.bake_hashes,
-                  self.timings, self.capture, self.results, self.technique_caches, self.cycles_rates):
+                  self.timings, self.warnings, self.capture, self.results, self.technique_caches,
+                  self.cycles_rates):
             d.clear()
         # Dropped, not freed: a load_post handler runs outside a GPU context, and the pipelines' GPU objects free
         # themselves when the last reference goes.

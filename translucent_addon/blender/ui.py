@@ -261,14 +261,25 @@ def _length(mm: float) -> str:
     return f"{mm:.3g} mm"
 
 
-def _last_frame(layout) -> None:
-    """The last frame's milliseconds per pass (F12 or viewport)."""
+LAST_FRAME_WARNINGS = 6  # the last frame's warnings the panel lists; more are counted
 
-    lines = timing_lines(session.current().timings)
+
+def _last_frame(layout) -> None:
+    """The last frame's warnings (the viewport has no other place to say them) and milliseconds per pass (F12 or
+    viewport)."""
+    held = session.current()
+    lines = timing_lines(held.timings)
     box = layout.box()
     if not lines:
         box.label(text="Last frame: none drawn yet", icon="TIME")
         return
+    col = box.column(align=True)
+    for warning in held.warnings[:LAST_FRAME_WARNINGS]:
+        for i, line in enumerate(_wrap(warning, 70)):
+            col.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+    if len(held.warnings) > LAST_FRAME_WARNINGS:
+        col.label(text=f"... and {len(held.warnings) - LAST_FRAME_WARNINGS} more (F12 reports every one)",
+                  icon="BLANK1")
     box.label(text=lines[0].strip(), icon="TIME")
     col = box.column(align=True)
     col.scale_y = 0.75
