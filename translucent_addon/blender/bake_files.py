@@ -110,6 +110,11 @@ def stored_hash(ob, method: str) -> str | None:
     return store.stored_hash(owner(ob, method), method)
 
 
+def status(ob, method: str, digest: str) -> str:
+    """``store.status`` of the object's bake of ``method`` (where it is held) for inputs ``digest``."""
+    return store.status(owner(ob, method), method, digest)
+
+
 def _methods(idblock) -> set:
     return set(idblock[store.BAKE_KEY].keys()) if store.BAKE_KEY in idblock else set()
 

@@ -97,8 +97,7 @@ class CompareSettings:
         if not self.auto_targets:
             return []
         named = self.auto_methods or tuple(methods)
-        return [t for t in techniques.REGISTRY if t.id in named
-                and type(t).auto_quality is not techniques.Technique.auto_quality]
+        return [t for t in techniques.REGISTRY if t.id in named and t.has_auto_quality]
 
     def cycles_pixel_samples(self) -> int:
         """Samples per pixel the comparison asks of Cycles, every render together (the reference's two halves,

@@ -12,7 +12,6 @@ from collections.abc import Callable
 import numpy as np
 
 from .. import techniques
-from ..core import bake_store
 from ..core.frame import (
     NEUTRAL_PAINT,
     BakeHandle,
@@ -189,7 +188,7 @@ def grass_status(ob) -> tuple[str, str | None]:
     digest, why = grass_btf.settings_digest(technique_values(ob.translucent, grass_btf.SETTINGS))
     if digest is None:
         return "INVALID", why
-    return bake_store.status(bake_files.owner(ob, grass_btf.BAKE_KEY), grass_btf.BAKE_KEY, digest), digest
+    return bake_files.status(ob, grass_btf.BAKE_KEY, digest), digest
 
 
 def image_data(image, derive, session: Session | None = None):
@@ -248,7 +247,7 @@ class ObjectReader:
         """(status, handle) of the object's stored bake under ``key`` for inputs ``digest``: a handle (loading
         (arrays, meta)) only when it is current ('OK')."""
         original = self._ob.original
-        status = bake_store.status(bake_files.owner(original, key), key, digest)
+        status = bake_files.status(original, key, digest)
         if status != "OK":
             return status, None
 

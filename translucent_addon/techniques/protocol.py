@@ -91,6 +91,11 @@ class Technique:
         (``registry.run``)."""
         raise NotImplementedError(f"{self.id} has no bake")
 
+    @property
+    def has_auto_quality(self) -> bool:
+        """Whether it answers ``auto_quality`` (it overrides the default, which has none)."""
+        return type(self).auto_quality is not Technique.auto_quality
+
     def bake_parameters(self, values: dict):
         """Its part of a bake's inputs (``BakeInputs.params``) from its ``bake_properties`` values (name -> value;
         a name left out takes its default)."""

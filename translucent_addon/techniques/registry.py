@@ -18,7 +18,6 @@ from ..core import native
 from ..core.geometry.mesh_checks import check_mesh, self_intersections
 from ..core.physics.presets import validate_coefficients
 from . import get
-from .protocol import Technique
 
 
 def method_stages(method: str) -> tuple[str, ...]:
@@ -110,7 +109,7 @@ def needs_bake(method: str) -> bool:
 def bakes_auto(method: str) -> bool:
     """Whether a bake of ``method`` uses the resolutions Auto quality chooses (it bakes and has an Auto)."""
     technique = get(method)
-    return needs_bake(method) and type(technique).auto_quality is not Technique.auto_quality
+    return needs_bake(method) and technique.has_auto_quality
 
 
 def refuse_size(name: str, triangles: int) -> None:

@@ -446,9 +446,9 @@ class Caustics(Technique):
 
     def object_extras(self, reader) -> Caster | None:
         """The object as a caustics caster, from its settings (``Object.translucent``), or None."""
-        s = reader.values(self.caster_properties)
-        if s["caustics_caster"] == "NONE":
+        if reader.values(self.caster_properties[:1])["caustics_caster"] == "NONE":  # most objects: one read
             return None
+        s = reader.values(self.caster_properties)
         color = np.clip(np.asarray(s["caustics_color"], np.float64), 1e-6, 1.0)
         if s["caustics_caster"] == "REFLECTIVE":
             return Caster("REFLECTIVE", float(s["caustics_ior"]), 0, (0.0, 0.0, 0.0), 0.0, tuple(color))

@@ -203,9 +203,9 @@ class Grass(Technique):
 
     def object_extras(self, reader) -> grass_data.GrassLayer | None:
         """The grass field growing on the object, where it has one with a current BTF (else a line says why)."""
-        s = reader.values(("grass", "grass_lod", *grass_btf.SETTINGS))
-        if not s["grass"]:
+        if not reader.values(("grass",))["grass"]:  # most objects: one read
             return None
+        s = reader.values(("grass_lod", *grass_btf.SETTINGS))
         digest, why = grass_btf.settings_digest(s)
         handle = None
         if digest is not None:

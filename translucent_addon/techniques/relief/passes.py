@@ -170,9 +170,9 @@ class Relief(Technique):
 
     def object_extras(self, reader) -> relief_data.ReliefSurface | None:
         """The height field displacing the object (Shah ch. 3), or None (with a line where it cannot be drawn)."""
-        s = reader.values(self.surface_properties)
-        if s["relief"] == "OFF":
+        if reader.values(self.surface_properties[:1])["relief"] == "OFF":  # most objects: one read
             return None
+        s = reader.values(self.surface_properties)
         if s["relief_image"] is None:
             reader.warn(f"'{reader.name}': height field has no height map; drawn flat")
             return None
