@@ -14,12 +14,15 @@ def set_world(scene, color) -> None:
     uniform_world(scene, tuple(color))
 
 
-def diffuse_material(name, color):
+def diffuse_material(name, color, gloss: bool = False):
+    """A Principled BSDF of this Base Color: Lambert (IOR Level 0: no specular layer) unless ``gloss``."""
     mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
     bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
     bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+    if not gloss:
+        bsdf.inputs["Specular IOR Level"].default_value = 0.0
     return mat
 
 

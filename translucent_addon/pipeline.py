@@ -26,6 +26,7 @@ from .core.physics import oblique_entry
 from .gpu import blocks, draw_state, shaders
 from .gpu.environment import environment
 from .gpu.frame_context import FrameContext
+from .gpu.surface_layer import SurfaceLayer
 from .gpu.targets import clear_target, read_pixels, screen_quad
 from .techniques import REGISTRY, get
 
@@ -43,12 +44,16 @@ class Pipeline:
         self.unavailable: dict[str, str] = {}  # technique id -> why this GPU backend cannot run it
         self._failed_now: set[str] = set()  # technique ids that failed in the frame being drawn
         self.state_leaks: list[str] = []  # GPU state a technique hook left changed (put back; ``_guarded``)
+        self.surface = SurfaceLayer()  # the materials' gloss and colour over what the methods draw
+        self.layer = None  # the last frame's surface layer (its targets: the Specular, Normal and Depth passes)
 
     def free(self) -> None:
         self._batches.clear()
         self._shapes.clear()
         self._atlas = None
         self.targets.clear()
+        self.surface.free()
+        self.layer = None
 
     def forget(self, keys_alive: set[str], names_alive: set[str] | None = None) -> None:
         """Drop batches of meshes that are no longer drawn (and the shape operators of names no longer drawn)."""
@@ -155,6 +160,14 @@ class Pipeline:
             for t, state in list(active):
                 self._guarded(t, ctx, t.world, ctx, state, placeholder, active=active)
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
+        # The surface layer over an image of its own: not over another engine's viewport (``clear`` False), whose
+        # depth it does not see.
+        layer = self.layer = self.surface.begin(frame, self, surface_drawn, frame.settings.passes) if clear else None
+        spent_layer = 0.0
+        if layer is not None:
+            t1 = time.perf_counter()
+            self.surface.world(layer, frame, ctx.objects, frame_ubo, placeholder, atlas[1])
+            spent_layer += time.perf_counter() - t1
 
         spent = {"shadow_maps": 0.0, "lights": 0.0}
         for e in frame.emitters:
@@ -172,6 +185,10 @@ class Pipeline:
                 for t, state in list(active):
                     self._guarded(t, ctx, t.emitter_surface, ctx, state, light_ubo, active=active)
             spent["lights"] += time.perf_counter() - t2
+            if layer is not None:
+                t4 = time.perf_counter()
+                self.surface.emitter(layer, frame, ctx.objects, frame_ubo, light_ubo, atlas[1])
+                spent_layer += time.perf_counter() - t4
             for t, state in list(active):
                 t3 = time.perf_counter()
                 self._guarded(t, ctx, t.emitter, ctx, state, e, light_ubo, active=active)
@@ -184,6 +201,10 @@ class Pipeline:
                 timings.update(steps)
                 if t.timing:
                     timings[t.timing] = time.perf_counter() - t1
+        if layer is not None:
+            t1 = time.perf_counter()
+            self.surface.composite(layer, fb, self)
+            timings["surface"] = spent_layer + time.perf_counter() - t1
         self._unavailable_warnings(frame)
         self._failed_now.clear()
         timings["total"] = time.perf_counter() - t0
@@ -274,6 +295,15 @@ class Pipeline:
                 for (_, shadow), obj in zip(batches, objects):
                     shader.uniform_block("object", obj)
                     shader.draw(shadow)
+
+
+def surface_drawn(mesh: MeshInstance) -> bool:
+    """Whether the surface layer covers a mesh: its method draws under it (``Technique.surface_layer``; OFF does)
+    and no technique drawing it as an extra draws its surface itself (``Technique.owns_surface``)."""
+    technique = get(mesh.method)
+    if technique is not None and not technique.surface_layer:
+        return False
+    return not any(getattr(get(k), "owns_surface", False) for k in mesh.extras)
 
 
 SHAPE_REUSE = 0.01  # a deforming mesh keeps its shape operators while its corners move less than this (mean)

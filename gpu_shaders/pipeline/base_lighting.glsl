@@ -1,5 +1,6 @@
 /* Base pass. Lambert objects: rho / pi * E_sh(n) of the world (mode 0; rho L_w for a uniform one), rho / pi * E * V per emitter (mode 1).
- * Subsurface objects (shading.x > 0): the world term F_r L_w + F_t(w_o) / pi E_sh(n) near_w(M_d) M_i,
+ * Subsurface objects (shading.x > 0): the world term F_t(w_o) / pi E_sh(n) near_w(M_d) M_i (its reflection
+ * F_r L_w is the surface layer's, pipeline/surface_layer.glsl),
  * E_sh the world's transmitted irradiance in spherical harmonics (Shah 6.4.2) and near_w the world
  * splats' near field (or the whole profile R_d when the world is not peeled: a locally flat
  * surface), and per emitter the near field of the
@@ -59,8 +60,8 @@ void main()
       float F_r = fresnel_dielectric(cos_o, eta);
       int slots = textureSize(near_lut, 0).y / 2;
       float M = clamp(v_paint.y, 0.25, 1.0);
-      sss = frame.world_color.rgb * F_r +
-            (1.0 - F_r) / PI * world_irradiance(n, materials.params[2 * slot + 1].xyz) * near_field(slots + slot, M) *
+      /* the world's reflection F_r L_w is the surface layer's (pipeline/surface_layer.glsl) */
+      sss = (1.0 - F_r) / PI * world_irradiance(n, materials.params[2 * slot + 1].xyz) * near_field(slots + slot, M) *
             angular_weight(slot, cos_o) * modulation;
     }
     out_color = vec4(mix(lambert, sss, m), 1.0);

@@ -1,7 +1,7 @@
 /* QUADGRAPH display (Wang Eq. 4, 7): each displayed vertex interpolates the exitance
  * B = (1 - F_dr) phi_s / (2 (1 + F_dr)) of its four surface nodes (Shepard weights from the
  * bake; physics/diffusion.py says why the (1 - F_dr)), and the fragment leaves
- * L = F_t(w_o) / pi B + F_r(w_o) L_world on the original mesh, blended over the
+ * L = F_t(w_o) / pi B on the original mesh (F_r(w_o) L_world: the surface layer), blended over the
  * base pass's Lambert by the painted translucency mask (alpha). q carries its painted factor. The
  * surface term of qg_single (single and local multiple scattering), summed over the emitters in a
  * screen target, is added to L, with the painted factor on the light entering (mask x glow x tint)
@@ -96,7 +96,7 @@ void main()
   vec3 L_diffusion = (1.0 - F_r) / PI * (B + table_lerp(world_law, mu_o) * v_world_local);
   /* display_output (tests): 0 all, 1 the diffusion alone, 2 or 3 the surface term alone (qg_single
    * drew single scattering alone, or the local multiple scattering alone) */
-  vec3 L = L_diffusion + L_single + F_r * frame.world_color.rgb;
+  vec3 L = L_diffusion + L_single; /* the world's reflection F_r L_world: the surface layer's */
   if (display_output == 1) {
     L = L_diffusion;
   }

@@ -1,6 +1,6 @@
 /* TEXTURE_SPACE display (Lensch Eq. 1, 14): the displayed mesh with its atlas coordinates reads
  * the local and the global radiosity (bilinear, weighted by texel coverage) and leaves
- * L = F_t(w_o) / pi (a(cos_o) (B^l + T_p (B^g - B^t)) + M(cos_o) T_p B^t) + F_r(w_o) L_world, a the angular law of
+ * L = F_t(w_o) / pi (a(cos_o) (B^l + T_p (B^g - B^t)) + M(cos_o) T_p B^t) (F_r(w_o) L_world: the surface layer), a the angular law of
  * the light leaving (physics/angular_law.py; its emitters' light entered weighed by a(cos_i) in ts_illumination),
  * M the diffusion mode's law of the share B^t that crossed a thin part (angular_law.through_exit). */
 #ifdef GPU_VERTEX_SHADER
@@ -52,6 +52,6 @@ void main()
   /* What crossed a thin part leaves by the diffusion mode's law M (exit_table), the rest by the angular law. */
   vec3 B_t = clamp(v_color * (t.a > 0.0 ? t.rgb / t.a : vec3(0.0)), vec3(0.0), B);
   vec3 L = cosine_lerp(angular_table, cos_o) * (B - B_t) + cosine_lerp(exit_table, cos_o) * B_t;
-  out_color = vec4((1.0 - F_r) / PI * L + F_r * frame.world_color.rgb, 1.0);
+  out_color = vec4((1.0 - F_r) / PI * L, 1.0); /* the world's reflection: the surface layer's */
 }
 #endif

@@ -26,10 +26,12 @@ from ..core.geometry.orientation import outward_normals, turned
 from ..core.lights import emitters_from_light, unnormalized_power
 from ..core.physics.lut import BLUR_MIN, layer_problem
 from ..core.physics.presets import CoefficientError, validate_coefficients
+from ..core.surface import Surface, surface_of
 from ..techniques import registry as bake_registry
 from ..techniques.grass import bake as grass_btf
-from . import bake_files, medium_source, mesh_read
+from . import bake_files, material_surface, medium_source, mesh_read
 from .bake_inputs import bake_status, homogeneous_profile, technique_values
+from .images import image_data, image_stamp
 from .props import bounded
 from .session import Session
 from .session import current as current_session
@@ -48,7 +50,7 @@ def material_base_color(mat) -> tuple[float, float, float]:
     """Linear base colour: the Principled/Diffuse node feeding the output, else the viewport colour."""
     if mat is None:
         return DEFAULT_COLOR
-    node = medium_source.surface_node(mat)
+    node = material_surface.surface_node(mat)
     if node is not None:
         for name in ("Base Color", "Color"):
             sock = node.inputs.get(name)
@@ -93,7 +95,7 @@ def world_environment(scene, session: Session | None = None) -> Environment | No
     if w == 0 or h == 0:
         return None
     strength = float(bg.inputs["Strength"].default_value)
-    key = (_image_stamp(img), strength, img.colorspace_settings.name)
+    key = (image_stamp(img), strength, img.colorspace_settings.name)
     env = session.environment.get(key)
     if env is None or img.is_dirty:  # an image painted or set from a script is read again every frame
         px = np.empty(w * h * img.channels, np.float32)
@@ -109,17 +111,6 @@ def world_environment(scene, session: Session | None = None) -> Environment | No
         session.environment.clear()
         session.environment[key] = env
     return env
-
-
-def _image_stamp(image) -> tuple:
-    """What names an image's pixels while it is not dirty: the datablock, its size and its file's time.
-    The datablock by its session uid, never reused in a session: a freed image's address is soon given to a
-    new one (a world made again after a file is reset read the old sky in 4 of 20 tries)."""
-    import os
-
-    path = image.filepath_from_user() if image.source == "FILE" else ""
-    stamp = os.path.getmtime(path) if path and os.path.isfile(path) else 0.0  # a file changed on disk
-    return image.name, image.session_uid, tuple(image.size), path, stamp
 
 
 def equirect_mean(image: np.ndarray) -> np.ndarray:
@@ -191,27 +182,6 @@ def grass_status(ob) -> tuple[str, str | None]:
     return bake_files.status(ob, grass_btf.BAKE_KEY, digest), digest
 
 
-def image_data(image, derive, session: Session | None = None):
-    """(``derive(pixels)``, the image's name): ``derive`` of an image's pixels ((H, W, C) float32, row 0 at the
-    bottom, Blender's pixel order), kept on ``session`` while the image is unchanged (not dirty: a painted image
-    is read again every frame, so what is made of it follows the brush). ValueError for an image with no pixels."""
-    session = session or current_session()
-    key = (_image_stamp(image), derive.__module__, derive.__qualname__)
-    cached = session.images.get(key)
-    if cached is not None and not image.is_dirty:
-        return cached, image.name
-    w, h = image.size
-    if w == 0 or h == 0:
-        raise ValueError(f"image '{image.name}' has no pixels (is the file missing?)")
-    px = np.empty(w * h * image.channels, np.float32)
-    image.pixels.foreach_get(px)
-    derived = derive(px.reshape(h, w, image.channels))
-    if len(session.images) > 16:
-        session.images.clear()
-    session.images[key] = derived
-    return derived, image.name
-
-
 class ObjectReader:
     """What a technique's ``object_extras`` may read of one drawn object (``Technique.object_extras``): its
     settings, its drawn corners, its UVs (its mesh opened only when asked), images and stored bakes; the lines
@@ -256,6 +226,54 @@ class ObjectReader:
             return record.arrays, record.meta
 
         return status, BakeHandle(f"{self.name}/{key.lower()}#{digest}", load)
+
+
+def _uv_maps(mesh, tri_loops: np.ndarray, names) -> dict:
+    """name -> (3T, 2) the UV map at each drawn corner, for the names asked ("": the active render map); a name
+    the mesh lacks is absent."""
+    out = {}
+    for name in names:
+        layer = (next((u for u in mesh.uv_layers if u.active_render), mesh.uv_layers.active) if name == ""
+                 else mesh.uv_layers.get(name))
+        if layer is None:
+            continue
+        uv = np.empty(len(mesh.loops) * 2, np.float32)
+        layer.data.foreach_get("uv", uv)
+        out[name] = uv.reshape(-1, 2)[tri_loops]
+    return out
+
+
+def surface_for(ob, drawn: DrawnMesh, mesh, medium: Medium | None, frame_warnings, session: Session) -> Surface:
+    """The object's ``Surface`` (colour textures, gloss, normal maps of its slots), made again only when its
+    mesh, its materials' values or images or its medium's reference colour changed."""
+    original = ob.original
+    slots = material_surface.slot_surfaces(ob, lambda image: material_surface.read_image(image, session))
+    medium_slot = next((k for k, s in enumerate(ob.material_slots) if s.material is not None), 0)
+    reference = tuple(map(float, drawn.palette[min(medium_slot, len(drawn.palette) - 1)]))
+    eta = None if medium is None else float(medium.eta)
+    made_of = (drawn.key, tuple(slots), eta, reference if eta is not None else None)
+    cache_key = (drawn.key.split("#")[0], original.name)
+    known = session.surfaces.get(cache_key)
+    if known is not None and known[0] == made_of:
+        surface = known[1]
+    else:
+        names = {ref.uv_map for s in slots for ref in (s.color_map, s.normal_map) if ref is not None}
+        opened = mesh is None and bool(names)
+        if opened:
+            mesh = ob.to_mesh()
+        try:
+            uv_maps = _uv_maps(mesh, drawn.tri_loops, names) if names else {}
+        finally:
+            if opened:
+                ob.to_mesh_clear()
+        read = drawn.read
+        surface = surface_of(slots, drawn.palette, read.material_index, uv_maps, drawn.positions, drawn.normals,
+                             read.corner_vert[drawn.tri_loops], eta=eta, reference=reference,
+                             key=f"{drawn.key}/{hash(made_of) & 0xFFFFFFFF:08x}")
+        session.surfaces[cache_key] = (made_of, surface)
+    for note in surface.notes:
+        frame_warnings.append(f"'{original.name}': {note}")
+    return surface
 
 
 def _uv_corners(mesh, tri_loops: np.ndarray) -> np.ndarray | None:
@@ -315,9 +333,13 @@ class DrawnMesh:
 
 
 def _palette(ob) -> np.ndarray:
-    """(slots, 3) float32 base colours of the object's material slots."""
-    return np.array([material_base_color(slot.material) for slot in ob.material_slots] or [DEFAULT_COLOR],
-                    dtype=np.float32)
+    """(slots, 3) float32 base colours of the object's material slots (an Image Texture's mean over the surface
+    where one is on Base Color: the surface layer draws the texture over it)."""
+    colours = []
+    for slot in ob.material_slots:
+        mean = material_surface.texture_base_color(ob.original, slot.material) if slot.material else None
+        colours.append(mean if mean is not None else material_base_color(slot.material))
+    return np.array(colours or [DEFAULT_COLOR], dtype=np.float32)
 
 
 def _corner_colors(palette: np.ndarray, read: mesh_read.MeshRead) -> np.ndarray:
@@ -451,8 +473,9 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
     # The bake's status from the mesh as read here.
     handle = bake_handle(ob, method, mode, frame_warnings, session, drawn.read) if baked else None
     method, medium = medium_of(original, method, frame_warnings, scene)
+    surface = surface_for(ob, drawn, None, medium, frame_warnings, session)  # opens the mesh when it must
     return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
-                method=method, medium=medium, paint=drawn.paint, tint=drawn.tint,
+                method=method, medium=medium, paint=drawn.paint, tint=drawn.tint, surface=surface,
                 bake=handle if method != "OFF" else None, extras=extras,
                 auto_target=float(s.target_error) if s.quality == "AUTO" else None,
                 bound_points=drawn.read.bound_points())

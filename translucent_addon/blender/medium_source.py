@@ -19,6 +19,7 @@ import functools
 import numpy as np
 
 from ..core.physics.cycles_conversion import medium_from_random_walk
+from .material_surface import principled_bsdf, texture_base_color
 
 ETA_RANGE = (1.0, 3.0)  # the medium settings' IOR range (``props`` takes it from here)
 G_RANGE = (-0.99, 0.99)  # and their anisotropy's
@@ -65,27 +66,6 @@ def medium_material(ob):
         if slot.material is not None:
             return slot.material
     return None
-
-
-def surface_node(mat):
-    """The node feeding the material's active output's Surface (None: no node tree, or nothing linked)."""
-    tree = getattr(mat, "node_tree", None)
-    if tree is None:
-        return None
-    out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
-    if out is None or not out.inputs["Surface"].is_linked:
-        return None
-    return out.inputs["Surface"].links[0].from_node
-
-
-def principled_bsdf(mat):
-    """The material's Principled BSDF: the one feeding the active output's Surface, else the first in its
-    tree (None: no node tree or no Principled BSDF)."""
-    node = surface_node(mat)
-    if node is not None and node.type == "BSDF_PRINCIPLED":
-        return node
-    tree = getattr(mat, "node_tree", None)
-    return None if tree is None else next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
 
 
 def _value(node, name: str, notes: list):
@@ -169,6 +149,9 @@ def resolve(ob, scene=None) -> ObjectMedium:
     p, why = principled_of(mat)
     if p is None:
         return _own(ob, ob.translucent, mm, f"The object's own: material '{mat.name}' has {why}", material=mat.name)
+    base = texture_base_color(ob, mat)  # a texture on Base Color: its mean over the surface
+    notes = p.notes if base is None else tuple(n for n in p.notes if not n.startswith("Base Color "))
+    p = p if base is None else dataclasses.replace(p, base_color=base, notes=notes)
     sigma_a, sigma_s_prime = _converted(p.base_color, p.radius, p.ior, p.anisotropy, mm)
     return ObjectMedium(sigma_a, sigma_s_prime, p.ior, p.anisotropy, "EXACT", 0.001, sigma_a, sigma_s_prime, mm,
                         "PRINCIPLED", mat.name, f"Material '{mat.name}': from its Principled BSDF", p.notes)

@@ -31,6 +31,7 @@ class Session:
         self.turned: dict[str, int] = {}  # object -> closed parts its last frame drew turned outward
         self.environment: dict = {}  # the world's image as last read (extract.world_environment)
         self.images: dict = {}  # what techniques made of images' pixels, as last read (extract.image_data)
+        self.surfaces: dict = {}  # (mode, object) -> (what it was made of, core.surface.Surface) (extract)
         self.bake_arrays: dict = {}  # (read key, corner normals?) -> (MeshRead, a bake's geometry arrays)
         self.bake_hashes: dict = {}  # (mode, object, method) -> (geometry arrays, parameters JSON, inputs hash)
         self.final_pipeline = None  # the F12 / animation pipeline, kept across renders (engine.final_pipeline)
@@ -55,8 +56,8 @@ class Session:
         """Drop every cache (the pipelines with them) and what the last frame said (a file was loaded); the draw
         handlers stay."""
         self.reads.clear()
-        for d in (self.drawn, self.turned, self.environment, self.images, self.bake_arrays, self.bake_hashes,
-                  self.timings, self.warnings, self.capture, self.results, self.technique_caches,
+        for d in (self.drawn, self.turned, self.environment, self.images, self.surfaces, self.bake_arrays,
+                  self.bake_hashes, self.timings, self.warnings, self.capture, self.results, self.technique_caches,
                   self.cycles_rates):
             d.clear()
         # Dropped, not freed: a load_post handler runs outside a GPU context, and the pipelines' GPU objects free

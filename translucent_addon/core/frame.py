@@ -14,7 +14,9 @@ from typing import Any
 import numpy as np
 
 from .lights import Emitter
+from .physics.microfacet import f0_of
 from .physics.sh_irradiance import project_equirect, uniform_coefficients
+from .surface import Surface, plain
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,6 +77,9 @@ class MeshInstance:
     extras: dict = dataclasses.field(default_factory=dict)
     auto_target: float | None = None  # AUTO quality's target error (IMAGE_SPACE chooses k per frame); None: manual
     bound_points: np.ndarray | None = None  # (V, 3) object-space points holding the mesh (its vertices); None: corners
+    # The materials' surface per corner: colour textures, gloss, normal maps (core/surface.py). None: a plain one,
+    # the methods' colour and a smooth boundary's gloss for a medium (``surface_or_plain``).
+    surface: Surface | None = None
     _box: tuple | None = dataclasses.field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -111,6 +116,15 @@ class MeshInstance:
             w = np.asarray(p, np.float64) @ self.model[:3, :3].T + self.model[:3, 3]
             self._box = (w.min(axis=0), w.max(axis=0))
         return self._box
+
+    def surface_or_plain(self) -> Surface:
+        """The mesh's surface, or the one it has without materials: a medium's smooth boundary (roughness 0, F_0
+        of its eta), no gloss on a Lambert object."""
+        if self.surface is not None:
+            return self.surface
+        if self.medium is None:
+            return plain(len(self.positions))
+        return plain(len(self.positions), 0.0, f0_of(self.medium.eta), True)
 
     def world_normals(self) -> np.ndarray:
         n = self.normals.astype(np.float64) @ self.normal_matrix[:3, :3].T
@@ -165,6 +179,7 @@ class DrawSettings:
     coherence_key: str | None = None  # the name of a sequence of frames whose samples are reused; None: off
     coherence_frame: int = 0  # this frame's number in that sequence
     capture: bool = False
+    passes: bool = False  # keep the surface layer's Specular, Normal and Depth for the render passes (F12)
 
     def of(self, technique_id: str, default: Any = None) -> Any:
         """One technique's settings (``default`` where the frame has none for it)."""

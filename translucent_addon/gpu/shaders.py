@@ -31,6 +31,7 @@ class ShaderSpec:
     push_constants: tuple = ()  # (type, name)
     fragment_out: tuple = ()  # (slot, type, name)
     depth_write: str = "UNCHANGED"  # "ANY": the fragment stage writes gl_FragDepth
+    defines: tuple = ()  # names #defined before the source (one file, several passes)
 
 
 LIGHT_LIBS = ("common/common.glsl", "common/light.glsl")
@@ -39,7 +40,38 @@ SURFACE_IN = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "col"), ("VEC4", "paint
               ("VEC3", "curv_d"), ("VEC3", "curv_o"))  # curv: the shape operator (pipeline.shape_attributes)
 CURVATURE_OUT = (("smooth", "VEC3", "v_curv_d"), ("smooth", "VEC3", "v_curv_o"))
 
+
+def _surface_spec(world: bool) -> ShaderSpec:
+    """The surface layer (pipeline/surface_layer.glsl): mode 0 (``world``) the world's gloss, the factor on the
+    light below and the Normal and Depth passes; else one emitter's gloss."""
+    outputs = ((0, "VEC4", "out_specular"),)
+    if world:
+        outputs += ((1, "VEC4", "out_factor"), (2, "VEC4", "out_gbuffer"))
+    return ShaderSpec(
+        source="pipeline/surface_layer.glsl",
+        libraries=SHADOW_LIBS + ("common/world_spherical_harmonics.glsl",),
+        vertex_in=(("VEC3", "pos"), ("VEC3", "nor"), ("VEC2", "uv"), ("VEC4", "tangent"), ("VEC4", "albedo"),
+                   ("VEC4", "gloss")),
+        varyings=(("smooth", "VEC3", "v_world"), ("smooth", "VEC3", "v_normal"), ("smooth", "VEC4", "v_tangent"),
+                  ("smooth", "VEC2", "v_uv"), ("smooth", "VEC4", "v_albedo"), ("smooth", "VEC4", "v_gloss")),
+        uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
+        samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "specular_table"), (2, "FLOAT_2D", "energy_table"),
+                  (3, "FLOAT_2D", "albedo_map"), (4, "FLOAT_2D", "normal_map")),
+        push_constants=(("INT", "has_normal_map"), ("FLOAT", "base_eta")),
+        fragment_out=outputs,
+        defines=("SURFACE_WORLD",) if world else (),
+    )
+
 PIPELINE_SPECS = {  # the pipeline's own passes; each technique joins its own (techniques.register)
+    "surface_world": _surface_spec(world=True),
+    "surface_light": _surface_spec(world=False),
+    "surface_composite": ShaderSpec(
+        source="pipeline/surface_composite.glsl",
+        vertex_in=(("VEC2", "corner"),),
+        samplers=((0, "FLOAT_2D", "layer"),),
+        push_constants=(("FLOAT", "offset"),),
+        fragment_out=((0, "VEC4", "out_color"),),
+    ),
     "shadow_distance": ShaderSpec(
         source="pipeline/shadow_distance.glsl",
         vertex_in=(("VEC3", "pos"),),
@@ -124,6 +156,8 @@ def create_info(name: str, spec: ShaderSpec):
         info.fragment_out(slot, kind, out)
     if spec.depth_write != "UNCHANGED":
         info.depth_write(spec.depth_write)
+    for define in spec.defines:
+        info.define(define)
     source = "\n".join(read_source(lib) for lib in spec.libraries) + "\n" + read_source(spec.source)
     info.vertex_source(source)
     info.fragment_source(source)

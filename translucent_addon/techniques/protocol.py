@@ -68,6 +68,8 @@ class Technique:
     draws_layers: bool = False  # draws a medium that is a layer over a base (multipole); others draw the top alone
     draws_paint: bool = False  # draws the painted layers (blur, glow, mask, tint: Shah ch. 7)
     base_entry_shift: bool = False  # the base pass shifts light entering at an angle (``physics.oblique_entry``)
+    surface_layer: bool = True  # the materials' surface layer (gloss, colour textures) goes over what it draws
+    owns_surface: bool = False  # as an extra on an object (grass, a height field) it draws that surface itself
     panel: tuple[tuple[str, ...], ...] = ()  # its Object.translucent properties in the object panel, by column
     auto_note: str = ""  # what the Auto summary adds for it
     scene_panel: tuple[tuple[str, ...], ...] = ()  # its Scene.translucent properties in its scene section, by column

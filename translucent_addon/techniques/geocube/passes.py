@@ -141,6 +141,8 @@ def clear_caches() -> None:
 class Geocube(Technique):
     """Chan & Wang 2005: each glass mesh's refraction of the world drawn over the base."""
 
+    surface_layer = False  # glass: its refraction draws its own reflection
+
     object_props = (
         Prop("geocube_resolution", "IntProperty", {
             "name": "Cube texels",

@@ -131,6 +131,8 @@ def draw(actives: list[Active], pipeline, frame_ubo, objects, light_ubo, shadow_
 class Grass(Technique):
     """Shah ch. 4: grass fields drawn right after the base in the world pass and each emitter's."""
 
+    owns_surface = True  # the field is the ground's surface
+
     object_props = (
         Prop("grass", "BoolProperty", {
             "name": "Grass field",

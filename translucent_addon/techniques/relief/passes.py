@@ -105,6 +105,8 @@ class Relief(Technique):
     """Shah ch. 3: meshes with a height field drawn by their own pass instead of the base, in the world pass
     and each emitter's, writing the displaced depth."""
 
+    owns_surface = True  # the displaced surface is drawn by its own pass
+
     object_props = (
         Prop("relief", "EnumProperty", {
             "name": "Height field",

@@ -1,0 +1,16 @@
+/* One of the surface layer's full-screen images onto the frame, pixel for pixel: its factor (blended MULTIPLY:
+ * the light below the specular layer times the colour texture and the layering weight), then its gloss
+ * (blended ADDITIVE). */
+#ifdef GPU_VERTEX_SHADER
+void main()
+{
+  gl_Position = vec4(corner, 0.0, 1.0);
+}
+#endif
+
+#ifdef GPU_FRAGMENT_SHADER
+void main()
+{
+  out_color = texelFetch(layer, ivec2(gl_FragCoord.xy), 0) + vec4(offset); /* the factor is stored less 1 */
+}
+#endif
