@@ -26,7 +26,7 @@ from .core.physics import oblique_entry
 from .gpu import blocks, draw_state, shaders
 from .gpu.environment import environment
 from .gpu.frame_context import FrameContext
-from .gpu.surface_layer import SurfaceLayer
+from .gpu.surface_layer import FAR_DEPTH, SurfaceLayer
 from .gpu.targets import clear_target, read_pixels, screen_quad
 from .techniques import REGISTRY, get
 
@@ -341,6 +341,22 @@ def render_offscreen(pipeline: Pipeline, frame: FrameInputs) -> np.ndarray:
             return read_pixels(fb, cam.width, cam.height)
     finally:
         offscreen.free()
+
+
+def read_layer(pipeline: Pipeline, width: int, height: int) -> dict | None:
+    """The last frame's surface layer as render passes: ``specular`` (H, W, 3), ``subsurface_mask`` (H, W: 1 on
+    subsurface objects), ``normal`` (H, W, 3, world space, 0 where nothing is) and ``depth`` (H, W: distance along
+    the camera's axis, ``FAR_DEPTH`` where nothing is); None when no layer was drawn. Inside the GPU context."""
+    layer = pipeline.layer
+    if layer is None:
+        return None
+    with draw_state.draw_pass(layer.fb_world):
+        specular = read_pixels(layer.fb_world, width, height, slot=0)
+        factor = read_pixels(layer.fb_world, width, height, slot=1)
+        gbuffer = read_pixels(layer.fb_world, width, height, slot=2)
+    depth = np.where(gbuffer[..., 3] > 0.0, gbuffer[..., 3], FAR_DEPTH).astype(np.float32)
+    return {"specular": specular[..., :3], "subsurface_mask": factor[..., 3], "normal": gbuffer[..., :3],
+            "depth": depth}
 
 
 def draw_to_region(pipeline: Pipeline, frame: FrameInputs, size, bind_display, unbind_display) -> None:

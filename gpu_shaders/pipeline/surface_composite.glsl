@@ -11,6 +11,8 @@ void main()
 #ifdef GPU_FRAGMENT_SHADER
 void main()
 {
-  out_color = texelFetch(layer, ivec2(gl_FragCoord.xy), 0) + vec4(offset); /* the factor is stored less 1 */
+  vec4 value = texelFetch(layer, ivec2(gl_FragCoord.xy), 0);
+  /* the factor is stored less 1 (offset 1), its alpha is a mask: the frame's alpha is kept (times 1) */
+  out_color = offset > 0.0 ? vec4(value.rgb + offset, 1.0) : vec4(value.rgb, 0.0);
 }
 #endif

@@ -23,15 +23,23 @@ void main()
 #endif
 
 #ifdef GPU_FRAGMENT_SHADER
-/* A repeating image read bilinearly at uv (texel centres at (i + 0.5) / size): core/surface.sample_bilinear. */
-vec4 repeat_bilinear(sampler2D map, vec2 uv)
+/* An image read at uv (texel centres at (i + 0.5) / size): bilinear or the closest texel (mode & 1), repeating or
+ * continuing its border (mode & 2); core/surface.sample_bilinear. */
+vec4 read_image(sampler2D map, vec2 uv, int mode)
 {
   ivec2 size = textureSize(map, 0);
   vec2 q = uv * vec2(size) - 0.5;
+  if ((mode & 1) != 0) {
+    q = floor(q + 0.5);
+  }
   vec2 f = q - floor(q);
   ivec2 i0 = ivec2(floor(q));
   ivec2 a = ivec2(mod(vec2(i0), vec2(size)));
   ivec2 b = ivec2(mod(vec2(i0 + 1), vec2(size)));
+  if ((mode & 2) != 0) {
+    a = clamp(i0, ivec2(0), size - 1);
+    b = clamp(i0 + 1, ivec2(0), size - 1);
+  }
   vec4 top = mix(texelFetch(map, a, 0), texelFetch(map, ivec2(b.x, a.y), 0), f.x);
   vec4 bottom = mix(texelFetch(map, ivec2(a.x, b.y), 0), texelFetch(map, b, 0), f.x);
   return mix(top, bottom, f.y);
@@ -95,12 +103,12 @@ void main()
     n = -n;
   }
   float strength = v_gloss.z;
-  if (has_normal_map != 0 && strength > 0.0) {
+  if (normal_mode >= 0 && strength > 0.0) {
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     if (dot(t, t) > 1e-20) {
       t = normalize(t);
       vec3 b = v_tangent.w * cross(n, t);
-      vec3 ts = repeat_bilinear(normal_map, v_uv).rgb * 2.0 - 1.0;
+      vec3 ts = read_image(normal_map, v_uv, normal_mode).rgb * 2.0 - 1.0;
       vec3 mapped = normalize(ts.x * t + ts.y * b + ts.z * n);
       n = normalize(n + strength * (mapped - n));
     }
@@ -120,12 +128,13 @@ void main()
     vec3 kernel = vec3(1.0, exp(-s2), exp(-3.0 * s2));
     specular = E_s * world_irradiance(reflect(-to_eye, n), kernel);
   }
-  vec3 colour = v_albedo.a > 0.0 ? repeat_bilinear(albedo_map, v_uv).rgb : v_albedo.rgb;
+  vec3 colour = v_albedo.a > 0.0 ? read_image(albedo_map, v_uv, albedo_mode).rgb : v_albedo.rgb;
   /* the layer's weight over what the methods left through: (1 - E_s) / (1 - F(mu_o, eta)), eta = 0: Lambert */
   float left = base_eta > 0.0 ? 1.0 - fresnel_dielectric(mu, base_eta) : 1.0;
   float split = (glossy && roughness > 0.0) ? (1.0 - E_s) / max(left, 1e-4) : 1.0;
   out_specular = vec4(specular, 0.0);
-  out_factor = vec4(colour * split - 1.0, 0.0); /* less 1: a cleared target holds factor 1 */
+  /* less 1: a cleared target holds factor 1; alpha 1 on a subsurface object (the Subsurface pass's mask) */
+  out_factor = vec4(colour * split - 1.0, base_eta > 0.0 ? 1.0 : 0.0);
   float depth = frame.camera_position.w > 0.5 ? dot(v_world - frame.camera_position.xyz, frame.camera_forward.xyz) :
                                                  -(frame.view * vec4(v_world, 1.0)).z;
   out_gbuffer = vec4(n, depth);

@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 
 from ..core.frame import DrawSettings
-from ..pipeline import Pipeline, draw_to_region, render_offscreen
+from ..pipeline import Pipeline, draw_to_region, read_layer, render_offscreen
 from ..techniques import REGISTRY
 from . import extract
 from .props import bounded
@@ -47,6 +47,36 @@ def draw_settings(scene, frame, coherence_key: str, coherence_frame: int, captur
                                           session.technique_caches.setdefault(t.id, {}))
     return DrawSettings({k: v for k, v in settings.items() if v is not None},
                         coherence_key if scene.translucent.temporal_coherence else None, coherence_frame, capture)
+
+
+LIGHT_PASSES = ("Subsurface", "Specular", "Diffuse")  # Scene.translucent.light_passes: they sum to Combined
+
+
+def wanted_passes(scene, view_layer) -> list[tuple[str, int, str]]:
+    """(name, channels, channel ids) of the passes the frame writes besides Combined: Depth and Normal when the
+    view layer asks for them (its Data passes), the light passes when the scene does."""
+    passes = []
+    if view_layer.use_pass_z:
+        passes.append(("Depth", 1, "Z"))
+    if view_layer.use_pass_normal:
+        passes.append(("Normal", 3, "XYZ"))
+    if scene.translucent.light_passes:
+        passes += [(name, 3, "RGB") for name in LIGHT_PASSES]
+    return passes
+
+
+def pass_images(combined: np.ndarray, layer: dict | None) -> dict[str, np.ndarray]:
+    """Every pass the engine can write, from the frame and its surface layer (``pipeline.read_layer``): the light
+    passes split Combined without remainder, Combined = Subsurface + Specular + Diffuse."""
+    h, w = combined.shape[:2]
+    if layer is None:  # nothing drawn over the world
+        zero = np.zeros((h, w, 3), np.float32)
+        layer = {"specular": zero, "subsurface_mask": np.zeros((h, w), np.float32), "normal": zero,
+                 "depth": np.full((h, w), 1.0e10, np.float32)}
+    below = combined[..., :3] - layer["specular"]
+    mask = (layer["subsurface_mask"] > 0.5)[..., None]
+    return {"Depth": layer["depth"][..., None], "Normal": layer["normal"], "Specular": layer["specular"],
+            "Subsurface": np.where(mask, below, 0.0), "Diffuse": np.where(mask, 0.0, below)}
 
 
 def final_pipeline(session: Session | None = None) -> Pipeline:
@@ -137,6 +167,15 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             self._empty_frame(width, height)
             raise
 
+    def update_render_passes(self, scene=None, renderlayer=None):
+        """Declare the passes the frame writes (Blender's compositor and the view layer's pass list read these)."""
+        if scene is None or renderlayer is None:
+            return
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        for name, channels, ids in wanted_passes(scene, renderlayer):
+            self.register_pass(scene, renderlayer, name, channels, ids, "VALUE" if channels == 1 else
+                               ("VECTOR" if name == "Normal" else "COLOR"))
+
     def _empty_frame(self, width: int, height: int) -> None:
         self.end_result(self.begin_result(0, 0, width, height))
 
@@ -157,7 +196,12 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes, session))
         pipeline = final_pipeline(session)
         pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
+        wanted = wanted_passes(scene, depsgraph.view_layer)
+        if wanted:
+            frame = dataclasses.replace(frame, settings=dataclasses.replace(frame.settings, passes=True))
         pixels = render_offscreen(pipeline, frame)
+        extra = pass_images(pixels, read_layer(pipeline, width, height)) if wanted else {}
+        session.passes = extra  # what the render passes hold (the tests read them here too)
         _keep_timings(session, pipeline, frame, "F12", extract=t1 - t0, frame=time.perf_counter() - t0)
         for message in frame.warnings:  # after drawing: the passes add their own
             self.report({"WARNING"}, f"Translucent: {message}")
@@ -172,9 +216,13 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
             session.capture.update(pipeline.capture, frame=frame, timings=dict(pipeline.last_timings))
         if not np.isfinite(pixels).all():
             self.report({"ERROR"}, "Translucent: the frame has non-finite pixels (NaN or inf)")
-        result = self.begin_result(0, 0, width, height)
+        result = self.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         try:
-            result.layers[0].passes["Combined"].rect.foreach_set(pixels.reshape(-1))
+            passes = result.layers[0].passes
+            passes["Combined"].rect.foreach_set(pixels.reshape(-1))
+            for name, _, _ in wanted:
+                if passes.find(name) != -1:  # declared by update_render_passes
+                    passes[name].rect.foreach_set(np.ascontiguousarray(extra[name], np.float32).reshape(-1))
         finally:
             self.end_result(result)
         self.last_frame = frame

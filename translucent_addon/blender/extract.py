@@ -233,8 +233,7 @@ def _uv_maps(mesh, tri_loops: np.ndarray, names) -> dict:
     the mesh lacks is absent."""
     out = {}
     for name in names:
-        layer = (next((u for u in mesh.uv_layers if u.active_render), mesh.uv_layers.active) if name == ""
-                 else mesh.uv_layers.get(name))
+        layer = material_surface.render_uv_layer(mesh) if name == "" else mesh.uv_layers.get(name)
         if layer is None:
             continue
         uv = np.empty(len(mesh.loops) * 2, np.float32)

@@ -8,6 +8,8 @@ warnings (``SlotSurface.notes``).
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..core.surface import ImageRef, SlotSurface, apply_mapping, mapping_affine, srgb_to_linear, surface_mean
@@ -44,6 +46,11 @@ def read_image(image, session=None) -> tuple:
     return pixels, "|".join(map(str, image_stamp(image)))
 
 
+def render_uv_layer(mesh):
+    """The UV map an Image Texture without a vector reads: the one active for rendering (None: no UV map)."""
+    return next((u for u in mesh.uv_layers if u.active_render), mesh.uv_layers.active)
+
+
 def texture_base_color(ob, mat, session=None) -> tuple | None:
     """The mean of the Image Texture on a material's Principled Base Color over the object's own mesh (the
     original's faces through the texture's UV map), or None: no texture there, no mesh or no such UV map."""
@@ -54,7 +61,7 @@ def texture_base_color(ob, mat, session=None) -> tuple | None:
     mesh = ob.data
     if ref is None or len(mesh.polygons) == 0:
         return None
-    layer = mesh.uv_layers.get(ref.uv_map) if ref.uv_map else mesh.uv_layers.active
+    layer = mesh.uv_layers.get(ref.uv_map) if ref.uv_map else render_uv_layer(mesh)
     if layer is None:
         return None
     cache = (session or current()).images
@@ -71,7 +78,8 @@ def texture_base_color(ob, mat, session=None) -> tuple | None:
     uv = np.empty(len(mesh.loops) * 2, np.float32)
     layer.data.foreach_get("uv", uv)
     corners = apply_mapping(uv.reshape(-1, 2)[tris], ref.mapping)
-    mean = tuple(float(x) for x in np.clip(surface_mean(ref.pixels, corners, co.reshape(-1, 3)[verts[tris]]), 0, 1))
+    mean = surface_mean(ref.pixels, corners, co.reshape(-1, 3)[verts[tris]], ref.mode)
+    mean = tuple(float(x) for x in np.clip(mean, 0.0, 1.0))
     cache[key] = mean
     return mean
 
@@ -149,7 +157,13 @@ def _image_input(socket, notes: list, what: str, read) -> ImageRef | None:
     uv = _uv_source(node.inputs["Vector"], notes, what)
     if uv is None:
         return None
-    return ImageRef(key, pixels, uv[0], uv[1])
+    if node.interpolation not in ("Linear", "Closest"):
+        notes.append(f"{what}: {node.interpolation} interpolation is drawn as Linear")
+    if node.extension not in ("REPEAT", "EXTEND"):
+        notes.append(f"{what}: {node.extension.title()} extension is drawn as Repeat")
+    if node.projection != "FLAT":
+        notes.append(f"{what}: {node.projection.title()} projection is drawn as Flat")
+    return ImageRef(key, pixels, uv[0], uv[1], node.interpolation == "Closest", node.extension == "EXTEND")
 
 
 def _constant(node, name: str, default: float, notes: list) -> float:
@@ -190,7 +204,7 @@ def slot_surface(mat, read) -> SlotSurface:
             strength = _constant(source, "Strength", 1.0, notes)
             normal_map = _image_input(source.inputs["Color"], notes, "the Normal Map's Color", read)
             if normal_map is not None and source.uv_map and normal_map.uv_map in ("", source.uv_map):
-                normal_map = ImageRef(normal_map.key, normal_map.pixels, source.uv_map, normal_map.mapping)
+                normal_map = dataclasses.replace(normal_map, uv_map=source.uv_map)
         else:
             what = (f"a {source.bl_label} node" if source.type != "NORMAL_MAP"
                     else f"a {source.space.lower()} Normal Map")
@@ -223,7 +237,7 @@ def with_means(slots: list[SlotSurface], uv_maps: dict, positions, material_inde
             continue
         mine = index == k if (index == k).any() else np.ones(len(p), bool)
         mapped = apply_mapping(uv, ref.mapping).reshape(-1, 3, 2)[mine].reshape(-1, 2)
-        mean = surface_mean(ref.pixels, mapped, p[mine].reshape(-1, 3))
+        mean = surface_mean(ref.pixels, mapped, p[mine].reshape(-1, 3), ref.mode)
         out.append(SlotSurface(tuple(float(x) for x in mean), *_rest(s)))
     return out
 

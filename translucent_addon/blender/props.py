@@ -266,6 +266,13 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
                     "(a damaged bake, vertices that are not numbers) is an error and is not written",
         default=True,
     )
+    light_passes: bpy.props.BoolProperty(
+        name="Light passes",
+        description="Also write Subsurface (the light leaving translucent objects below their gloss), Specular (the "
+                    "gloss of every material) and Diffuse (everything else): they add up to Combined. Depth and "
+                    "Normal follow the view layer's Data passes",
+        default=False,
+    )
     overlay_other_engines: bpy.props.BoolProperty(
         name="Draw in other engines",
         description="Draw objects with a translucency method over the viewport of other render engines",

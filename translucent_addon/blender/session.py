@@ -31,6 +31,7 @@ class Session:
         self.turned: dict[str, int] = {}  # object -> closed parts its last frame drew turned outward
         self.environment: dict = {}  # the world's image as last read (extract.world_environment)
         self.images: dict = {}  # what techniques made of images' pixels, as last read (extract.image_data)
+        self.passes: dict = {}  # the last F12's render passes besides Combined (engine.pass_images)
         self.surfaces: dict = {}  # (mode, object) -> (what it was made of, core.surface.Surface) (extract)
         self.bake_arrays: dict = {}  # (read key, corner normals?) -> (MeshRead, a bake's geometry arrays)
         self.bake_hashes: dict = {}  # (mode, object, method) -> (geometry arrays, parameters JSON, inputs hash)

@@ -295,6 +295,7 @@ def _scene_general(layout, context) -> None:
     layout.prop(context.scene.render, "film_transparent")
     layout.prop(s, "bake_storage")
     layout.prop(s, "fail_on_lost_objects")
+    layout.prop(s, "light_passes")
     layout.prop(s, "overlay_other_engines")
     layout.operator_menu_enum("translucent.apply_quality", "tier", icon="PREFERENCES")
 

@@ -36,6 +36,13 @@ class ImageRef:
     pixels: np.ndarray = dataclasses.field(compare=False, repr=False)
     uv_map: str = ""
     mapping: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    closest: bool = False  # the Image Texture's Closest interpolation (else Linear)
+    extend: bool = False  # its EXTEND extension: the border texels continue (else REPEAT)
+
+    @property
+    def mode(self) -> int:
+        """The surface layer's read mode: 1 closest, 2 extend (``sample_bilinear``'s)."""
+        return int(self.closest) | 2 * int(self.extend)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -128,25 +135,31 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
-def sample_bilinear(pixels: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """(N, C) a repeating image read at uv (texel centres at (i + 0.5) / W), as the surface layer reads it."""
+def sample_bilinear(pixels: np.ndarray, uv: np.ndarray, mode: int = 0) -> np.ndarray:
+    """(N, C) an image read at uv (texel centres at (i + 0.5) / W) as the surface layer reads it: bilinear or the
+    closest texel (mode & 1), repeating or continuing the border texels (mode & 2)."""
     h, w = pixels.shape[:2]
     x = np.asarray(uv[:, 0], np.float64) * w - 0.5
     y = np.asarray(uv[:, 1], np.float64) * h - 0.5
+    if mode & 1:
+        x, y = np.floor(x + 0.5), np.floor(y + 0.5)
     x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    xa, xb, ya, yb = x0 % w, (x0 + 1) % w, y0 % h, (y0 + 1) % h
+    if mode & 2:
+        xa, xb, ya, yb = (np.clip(a, 0, n - 1) for a, n in ((x0, w), (x0 + 1, w), (y0, h), (y0 + 1, h)))
+    else:
+        xa, xb, ya, yb = x0 % w, (x0 + 1) % w, y0 % h, (y0 + 1) % h
     top = pixels[ya, xa] * (1 - fx) + pixels[ya, xb] * fx
     bottom = pixels[yb, xa] * (1 - fx) + pixels[yb, xb] * fx
     return top * (1 - fy) + bottom * fy
 
 
-def surface_mean(pixels: np.ndarray, uv: np.ndarray, positions: np.ndarray) -> np.ndarray:
+def surface_mean(pixels: np.ndarray, uv: np.ndarray, positions: np.ndarray, mode: int = 0) -> np.ndarray:
     """(3,) an image's mean colour over a surface: read at each triangle's centroid in UV, weighed by its area."""
     p = np.asarray(positions, np.float64).reshape(-1, 3, 3)
     area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     centre = np.asarray(uv, np.float64).reshape(-1, 3, 2).mean(axis=1)
-    colour = sample_bilinear(pixels[..., :3], centre)
+    colour = sample_bilinear(pixels[..., :3], centre, mode)
     total = float(area.sum())
     return colour.mean(axis=0) if total <= 0.0 else (colour * area[:, None]).sum(axis=0) / total
 

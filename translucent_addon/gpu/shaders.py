@@ -57,7 +57,7 @@ def _surface_spec(world: bool) -> ShaderSpec:
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "specular_table"), (2, "FLOAT_2D", "energy_table"),
                   (3, "FLOAT_2D", "albedo_map"), (4, "FLOAT_2D", "normal_map")),
-        push_constants=(("INT", "has_normal_map"), ("FLOAT", "base_eta")),
+        push_constants=(("INT", "normal_mode"), ("INT", "albedo_mode"), ("FLOAT", "base_eta")),
         fragment_out=outputs,
         defines=("SURFACE_WORLD",) if world else (),
     )

@@ -131,9 +131,10 @@ class SurfaceLayer:
             surface = _neutral_surface(mesh)
         shader.uniform_block("object", obj)
         shader.uniform_sampler("normal_map", self._image(surface.normal_map))
-        shader.uniform_int("has_normal_map", int(surface.normal_map is not None))
+        shader.uniform_int("normal_mode", -1 if surface.normal_map is None else surface.normal_map.mode)
         if world:  # what only the world pass reads
             shader.uniform_sampler("albedo_map", self._image(surface.albedo_map))
+            shader.uniform_int("albedo_mode", 0 if surface.albedo_map is None else surface.albedo_map.mode)
             shader.uniform_float("base_eta", 0.0 if neutral or mesh.medium is None else float(mesh.medium.eta))
         shader.draw(self._batch(mesh, surface))
 
