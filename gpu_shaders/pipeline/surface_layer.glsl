@@ -102,6 +102,7 @@ void main()
   if (!facing_out(object.shading)) {
     n = -n;
   }
+  vec3 n_s = n; /* the interpolated normal, as the methods drew with it */
   float strength = v_gloss.z;
   if (normal_mode >= 0 && strength > 0.0) {
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
@@ -117,11 +118,12 @@ void main()
   float mu_o = dot(n, to_eye);
   float roughness = v_gloss.x;
   float f0 = v_gloss.y;
-  bool glossy = v_gloss.w > 0.5 && f0 > 0.0;
+  float weight = v_gloss.w; /* 1, or a medium's own boundary weighed by the painted translucency mask */
+  bool glossy = weight > 0.0 && f0 > 0.0;
   float alpha = max(roughness * roughness, 1e-3);
 #ifdef SURFACE_WORLD
   float mu = clamp(mu_o, 1e-4, 1.0);
-  float E_s = glossy ? specular_albedo(mu, roughness, f0) : 0.0;
+  float E_s = glossy ? weight * specular_albedo(mu, roughness, f0) : 0.0;
   vec3 specular = vec3(0.0);
   if (glossy) {
     float s2 = 2.0 * alpha * alpha; /* microfacet.sh_lobe_kernel */
@@ -129,9 +131,12 @@ void main()
     specular = E_s * world_irradiance(reflect(-to_eye, n), kernel);
   }
   vec3 colour = v_albedo.a > 0.0 ? read_image(albedo_map, v_uv, albedo_mode).rgb : v_albedo.rgb;
-  /* the layer's weight over what the methods left through: (1 - E_s) / (1 - F(mu_o, eta)), eta = 0: Lambert */
-  float left = base_eta > 0.0 ? 1.0 - fresnel_dielectric(mu, base_eta) : 1.0;
-  float split = (glossy && roughness > 0.0) ? (1.0 - E_s) / max(left, 1e-4) : 1.0;
+  /* the layer's weight over what the methods left through: (1 - E_s) / (1 - F(mu_o, eta)), the methods' F with
+   * their own normal (eta = 0: Lambert, none); at most MAX_SPLIT where both tend to 0 at grazing angles */
+  const float MAX_SPLIT = 4.0;
+  float mu_s = clamp(dot(n_s, to_eye), 1e-4, 1.0);
+  float left = base_eta > 0.0 ? 1.0 - fresnel_dielectric(mu_s, base_eta) : 1.0;
+  float split = (glossy && roughness > 0.0) ? min((1.0 - E_s) / max(left, 1e-4), MAX_SPLIT) : 1.0;
   out_specular = vec4(specular, 0.0);
   /* less 1: a cleared target holds factor 1; alpha 1 on a subsurface object (the Subsurface pass's mask) */
   out_factor = vec4(colour * split - 1.0, base_eta > 0.0 ? 1.0 : 0.0);
@@ -142,7 +147,6 @@ void main()
   vec3 to_light;
   vec3 radiance = emitter_irradiance(v_world, to_light);
   float mu_i = dot(n, to_light);
-  vec3 n_s = normalize(v_normal) * (facing_out(object.shading) ? 1.0 : -1.0); /* before the normal map */
   /* a facet facing away from the light is in its own shadow (base_lighting.glsl says why) */
   if (!glossy || roughness * roughness < 1e-3 || mu_i <= 0.0 || mu_o <= 0.0 ||
       dot(n_g, to_light) * dot(n_g, n_s) <= 0.0) {
@@ -157,7 +161,7 @@ void main()
   float G2 = 1.0 / (1.0 + smith_lambda(mu_o, alpha) + smith_lambda(mu_i, alpha));
   float F = fresnel_dielectric(max(dot(to_eye, h), 0.0), layer_eta(f0));
   float f_mu_i = D * G2 * F / (4.0 * mu_o) * (1.0 + f0 * energy_term(mu_o, roughness));
-  out_specular = vec4(f_mu_i * V, 0.0);
+  out_specular = vec4(weight * f_mu_i * V, 0.0);
 #endif
 }
 #endif

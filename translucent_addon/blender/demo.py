@@ -9,14 +9,15 @@ from mathutils import Vector
 
 from .. import techniques
 from ..core.data import DATA
-from ..core.geometry.mesh_io import load_npz
+from ..core.geometry.mesh_io import load_npz, load_npz_uv
 from .props import apply_preset
 
 MESH_DIR = DATA / "meshes"
 
 
-def mesh_from_arrays(name: str, vertices: np.ndarray, triangles: np.ndarray) -> bpy.types.Mesh:
-    """A Blender mesh from vertex and triangle arrays, by bulk foreach_set."""
+def mesh_from_arrays(name: str, vertices: np.ndarray, triangles: np.ndarray,
+                     uv: np.ndarray | None = None) -> bpy.types.Mesh:
+    """A Blender mesh from vertex and triangle arrays (and (T, 3, 2) corner UVs), by bulk foreach_set."""
     me = bpy.data.meshes.new(name)
     me.vertices.add(len(vertices))
     me.vertices.foreach_set("co", np.ascontiguousarray(vertices, np.float32).reshape(-1))
@@ -24,15 +25,17 @@ def mesh_from_arrays(name: str, vertices: np.ndarray, triangles: np.ndarray) -> 
     me.loops.foreach_set("vertex_index", np.ascontiguousarray(triangles, np.int32).reshape(-1))
     me.polygons.add(len(triangles))
     me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
+    if uv is not None:  # before validate: the loops are the triangles' corners in order
+        me.uv_layers.new(name="UVMap").data.foreach_set("uv", np.ascontiguousarray(uv, np.float32).reshape(-1))
     me.update(calc_edges=True)
     me.validate(clean_customdata=False)
     return me
 
 
 def bundled_mesh(name: str) -> bpy.types.Mesh:
-    """One of the meshes shipped in data/meshes (bunny, spot, cow, teapot)."""
+    """One of the meshes shipped in data/meshes (bunny, spot, cow, teapot), with its UV map where it has one."""
     vertices, triangles = load_npz(MESH_DIR / f"{name}.npz")
-    return mesh_from_arrays(name, vertices, triangles)
+    return mesh_from_arrays(name, vertices, triangles, load_npz_uv(MESH_DIR / f"{name}.npz"))
 
 
 def _material(name: str, color) -> bpy.types.Material:

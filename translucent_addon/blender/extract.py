@@ -247,6 +247,13 @@ def surface_for(ob, drawn: DrawnMesh, mesh, medium: Medium | None, frame_warning
     mesh, its materials' values or images or its medium's reference colour changed."""
     original = ob.original
     slots = material_surface.slot_surfaces(ob, lambda image: material_surface.read_image(image, session))
+    own_boundary = medium is not None and medium_source.resolve(original).source != "PRINCIPLED"
+    if own_boundary:
+        # Coefficients set on the object or the material, not a Principled BSDF's: the medium's own smooth boundary
+        # (as Compare's Cycles twin draws it), whatever gloss the material's nodes ask.
+        f0 = float(((medium.eta - 1.0) / (medium.eta + 1.0)) ** 2)
+        slots = [dataclasses.replace(s, roughness=0.0, ior=float(medium.eta), ior_level=0.5, specular=f0 > 0.0)
+                 for s in slots]
     medium_slot = next((k for k, s in enumerate(ob.material_slots) if s.material is not None), 0)
     reference = tuple(map(float, drawn.palette[min(medium_slot, len(drawn.palette) - 1)]))
     eta = None if medium is None else float(medium.eta)
@@ -269,6 +276,8 @@ def surface_for(ob, drawn: DrawnMesh, mesh, medium: Medium | None, frame_warning
         surface = surface_of(slots, drawn.palette, read.material_index, uv_maps, drawn.positions, drawn.normals,
                              read.corner_vert[drawn.tri_loops], eta=eta, reference=reference,
                              key=f"{drawn.key}/{hash(made_of) & 0xFFFFFFFF:08x}")
+        if own_boundary:  # the medium's reflection belongs to its subsurface look: where painted opaque, none
+            surface.gloss[:, 3] *= drawn.paint[:, 0]
         session.surfaces[cache_key] = (made_of, surface)
     for note in surface.notes:
         frame_warnings.append(f"'{original.name}': {note}")

@@ -154,7 +154,27 @@ def resolve(ob, scene=None) -> ObjectMedium:
     p = p if base is None else dataclasses.replace(p, base_color=base, notes=notes)
     sigma_a, sigma_s_prime = _converted(p.base_color, p.radius, p.ior, p.anisotropy, mm)
     return ObjectMedium(sigma_a, sigma_s_prime, p.ior, p.anisotropy, "EXACT", 0.001, sigma_a, sigma_s_prime, mm,
-                        "PRINCIPLED", mat.name, f"Material '{mat.name}': from its Principled BSDF", p.notes)
+                        "PRINCIPLED", mat.name, f"Material '{mat.name}': from its Principled BSDF",
+                        p.notes + other_slots_notes(ob, mat, p))
+
+
+def other_slots_notes(ob, mat, p: PrincipledInputs) -> tuple:
+    """What the object's other material slots ask that one medium per object cannot draw: a subsurface radius,
+    IOR or anisotropy of their own (their colour is drawn: ``core/surface.py``), or no subsurface at all."""
+    notes = []
+    for slot in ob.material_slots:
+        other = slot.material
+        if other is None or other == mat:
+            continue
+        q, why = principled_of(other)
+        if q is None:
+            notes.append(f"material '{other.name}' has {why}: its faces are drawn with the subsurface of "
+                         f"'{mat.name}' in its colour")
+        elif not (np.allclose(q.radius, p.radius, rtol=1e-4) and abs(q.ior - p.ior) < 1e-4
+                  and abs(q.anisotropy - p.anisotropy) < 1e-4):
+            notes.append(f"material '{other.name}': one medium per object: its radius, IOR and anisotropy are "
+                         f"drawn as '{mat.name}''s, its colour as its own")
+    return tuple(notes)
 
 
 def editable(ob):

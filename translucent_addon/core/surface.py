@@ -67,7 +67,8 @@ class Surface:
     """A mesh's surface per corner (3T corners, the MeshInstance's order) and the images the GPU reads.
 
     albedo (3T, 4): rgb the colour factor where the corner's slot has no texture, a: 1 where ``albedo_map`` gives
-    it instead; gloss (3T, 4): roughness, F_0, normal-map strength (0: none), 1 when the specular layer is drawn;
+    it instead; gloss (3T, 4): roughness, F_0, normal-map strength (0: none), the specular layer's weight (1 drawn,
+    0 not; a medium's own boundary takes the painted translucency mask);
     uv (3T, 2) and tangent (3T, 4: xyz, handedness) in object space; the images hold factors ready to multiply
     (``albedo_map``: rho_eff ratios or Lambert colours) and unit tangent-space normals."""
 
@@ -105,13 +106,13 @@ def plain(n: int, roughness: float = 0.0, f0: float = 0.0, specular: bool = Fals
                    np.tile(np.array([1, 0, 0, 1], np.float32), (n, 1)), key=f"plain:{n}:{roughness}:{f0}:{specular}")
 
 
-def apply_mapping(uv: np.ndarray, mapping) -> np.ndarray:
+def apply_mapping(uv: np.ndarray, mapping: tuple) -> np.ndarray:
     """uv' = M [u, v, 1] for a Mapping node's 2D affine (``ImageRef.mapping``)."""
     M = np.asarray(mapping, np.float64)
     return (np.asarray(uv, np.float64) @ M[:, :2].T + M[:, 2]).astype(np.float32)
 
 
-def mapping_affine(location, rotation_z: float, scale, kind: str = "POINT") -> tuple:
+def mapping_affine(location: tuple, rotation_z: float, scale: tuple, kind: str = "POINT") -> tuple:
     """The 2D affine of a Mapping node on UVs (z rotation only): POINT uv' = R (S uv) + T; TEXTURE is its inverse
     (the texture moves, not the point); VECTOR drops T; NORMAL is not a UV transform (identity)."""
     c, s = np.cos(rotation_z), np.sin(rotation_z)
@@ -249,7 +250,7 @@ def surface_of(slots: list[SlotSurface], palette: np.ndarray, material_index: np
     palette = np.asarray(palette, np.float64).reshape(-1, 3)
     palette = np.vstack([palette, np.tile(palette[-1:], (max(len(slots) - len(palette), 0), 1))])
 
-    def factor(colour, k: int) -> np.ndarray:
+    def factor(colour: np.ndarray, k: int) -> np.ndarray:
         c = np.asarray(colour, np.float64)
         if eta is None:  # Lambert: over the colour the base pass drew
             return c / np.maximum(palette[k], 1e-4)

@@ -2,10 +2,11 @@
 
 For each camera pixel that sees a translucent mesh at x_o (Shah Eq. 6.13-6.15, Jensen 2001):
 
-    L_o(x_o) = F_t(eta, w_o) / pi * a(n . w_o) * int_A R_d(|x_i - x_o|) C(h) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world
+    L_o(x_o) = F_t(eta, w_o) / pi * a(n . w_o) * int_A R_d(|x_i - x_o|) C(h) E(x_i) dA(x_i)  +  F_r(eta, w_o) L_world(r)
 
-with C(h) the thin-part factor of x_i lying h below x_o's tangent plane (``physics.slab_through``) and a the
-profile's angular law (``physics.angular_law``; 1 for the papers' dipole); the light of pairs across a thin
+with C(h) the thin-part factor of x_i lying h below x_o's tangent plane (``physics.slab_through``), a the
+profile's angular law (``physics.angular_law``; 1 for the papers' dipole) and L_world(r) the world's radiance in
+the mirror direction (SH order 2, as the surface layer draws a smooth boundary); the light of pairs across a thin
 part leaves by the diffusion mode's law M(mu_o) in place of a(mu_o), over the factor's ramp.
     E(x_i)   = sum_lights I / d^2 F_t(eta, w_i) a(n . w_i) (n . w_i) V(x_i)  +  pi L_world (1 - F_dr_in)
                (an environment image: its irradiance E_sh(n) in spherical harmonics, Shah Eq. 6.19)
@@ -36,7 +37,7 @@ from ..geometry.raycast import BruteForceTracer
 from ..physics import angular_law, exit_lean, oblique_entry, slab_through
 from ..physics.fresnel import fresnel_dielectric
 from ..physics.lut import near_integral, partition_off_plane, profile_model
-from ..physics.sh_irradiance import irradiance, transmittance_kernel
+from ..physics.sh_irradiance import irradiance, sh_basis, transmittance_kernel
 from .lambert import render_lambert, scene_triangles, shadowed_irradiance
 
 
@@ -205,7 +206,11 @@ def render_dipole(frame: FrameInputs, media: dict[str, Medium], samples: int = 2
             for c in range(3):
                 total[start:stop, c] += np.bincount(rows, weights=contrib[:, c], minlength=stop - start)
         F_r = fresnel_dielectric(cos_o, medium.eta)[:, None]
-        # Subsurface light, plus the smooth boundary's reflection of the uniform world (unoccluded).
-        L = (1.0 - F_r) / math.pi * angular_law.lookup(angular, cos_o) * total + F_r * np.asarray(frame.world_color)
+        # Subsurface light, plus the smooth boundary's reflection of the world (unoccluded), its radiance in the
+        # mirror direction to SH order 2, as the surface layer draws a smooth medium's (roughness 0).
+        n_f = n_o * np.sign(np.einsum("ij,ij->i", n_o, to_eye))[:, None]
+        mirror = 2.0 * np.einsum("ij,ij->i", n_f, to_eye)[:, None] * n_f - to_eye
+        L_world = np.maximum(sh_basis(mirror) @ np.asarray(frame.world_sh(), np.float64)[:, :3], 0.0)
+        L = (1.0 - F_r) / math.pi * angular_law.lookup(angular, cos_o) * total + F_r * L_world
         flat[np.flatnonzero(mine), :3] = L
     return image
