@@ -352,8 +352,8 @@ def read_layer(pipeline: Pipeline, width: int, height: int) -> dict | None:
         return None
     with draw_state.draw_pass(layer.fb_world):
         specular = read_pixels(layer.fb_world, width, height, slot=0)
-        factor = read_pixels(layer.fb_world, width, height, slot=1)
-        gbuffer = read_pixels(layer.fb_world, width, height, slot=2)
+        factor = read_pixels(layer.fb_world, width, height, slot=2)
+        gbuffer = read_pixels(layer.fb_world, width, height, slot=3)
     depth = np.where(gbuffer[..., 3] > 0.0, gbuffer[..., 3], FAR_DEPTH).astype(np.float32)
     return {"specular": specular[..., :3], "subsurface_mask": factor[..., 3], "normal": gbuffer[..., :3],
             "depth": depth}

@@ -6,7 +6,9 @@
  * light below the layer is multiplied by: the colour texture's rho_eff ratio (Cycles colours the subsurface light
  * where it leaves towards the eye, core/surface.py) times the layering weight 1 - E_s(mu_o) (Cycles
  * closure_layering_weight) over the 1 - F(mu_o) the subsurface methods already left through; and the Normal and
- * Depth passes. The shading normal follows a tangent-space normal map (Blender's Normal Map node:
+ * Depth passes; and the light entering through the normal map against the light entering through the methods'
+ * normal, summed over the world and the emitters (``entry``), whose ratio scales what lies below the layer. The
+ * shading normal follows a tangent-space normal map (Blender's Normal Map node:
  * N' = normalize(N + strength (N_map - N)), N_map = x T + y B + z N, B = sign N x T). */
 #ifdef GPU_VERTEX_SHADER
 void main()
@@ -95,6 +97,11 @@ float layer_eta(float f0)
   return (1.0 + s) / (1.0 - s);
 }
 
+float luminance(vec3 c)
+{
+  return dot(c, vec3(0.2126, 0.7152, 0.0722));
+}
+
 void main()
 {
   vec3 n = normalize(v_normal);
@@ -104,7 +111,8 @@ void main()
   }
   vec3 n_s = n; /* the interpolated normal, as the methods drew with it */
   float strength = v_gloss.z;
-  if (normal_mode >= 0 && strength > 0.0) {
+  bool mapped_normal = normal_mode >= 0 && strength > 0.0;
+  if (mapped_normal) {
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     if (dot(t, t) > 1e-20) {
       t = normalize(t);
@@ -143,16 +151,28 @@ void main()
   float depth = frame.camera_position.w > 0.5 ? dot(v_world - frame.camera_position.xyz, frame.camera_forward.xyz) :
                                                  -(frame.view * vec4(v_world, 1.0)).z;
   out_gbuffer = vec4(n, depth);
+  /* the world's light entering through the mapped normal and through the methods' (entry: the factor's x / y) */
+  out_entry = mapped_normal ? vec4(luminance(world_irradiance(n, LAMBERT_KERNEL)),
+                                   luminance(world_irradiance(n_s, LAMBERT_KERNEL)), 0.0, 0.0) :
+                              vec4(0.0);
 #else
   vec3 to_light;
   vec3 radiance = emitter_irradiance(v_world, to_light);
   float mu_i = dot(n, to_light);
   /* a facet facing away from the light is in its own shadow (base_lighting.glsl says why) */
-  if (!glossy || roughness * roughness < 1e-3 || mu_i <= 0.0 || mu_o <= 0.0 ||
-      dot(n_g, to_light) * dot(n_g, n_s) <= 0.0) {
+  if (dot(n_g, to_light) * dot(n_g, n_s) <= 0.0 || max(radiance.r, max(radiance.g, radiance.b)) <= 0.0) {
     discard;
   }
   vec3 V = radiance * visibility(v_world, n_s);
+  /* this light entering through the mapped normal and through the methods' (Cycles' subsurface exit BSDF takes
+   * the mapped normal, kernel/integrator/subsurface.h): their ratio scales what lies below the layer */
+  out_entry = mapped_normal ? vec4(luminance(V) * max(mu_i, 0.0), luminance(V) * max(dot(n_s, to_light), 0.0),
+                                   0.0, 0.0) :
+                              vec4(0.0);
+  if (!glossy || roughness * roughness < 1e-3 || mu_i <= 0.0 || mu_o <= 0.0) {
+    out_specular = vec4(0.0);
+    return;
+  }
   vec3 h = normalize(to_light + to_eye);
   float mu_h = max(dot(n, h), 0.0);
   float a2 = alpha * alpha;

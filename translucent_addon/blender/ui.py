@@ -189,6 +189,24 @@ def _medium(layout, ob) -> None:
         _coefficients(box, medium_source.medium_material(ob).translucent)
     else:
         _coefficients(box, ob.translucent)
+    _surface(box, ob)
+
+
+def _surface(layout, ob) -> None:
+    """What the last frame drew of the object's materials' surface (colour textures, gloss, normal maps) and what
+    of them it could not draw (read from the session: the panel does not read meshes or images)."""
+    known = [entry for key, entry in session.current().surfaces.items() if key[1] == ob.name]
+    if not known:
+        return
+    surface = known[-1][1]
+    parts = ["colour texture" if surface.albedo_map is not None else "",
+             "normal map" if surface.normal_map is not None else "",
+             "gloss" if surface.glossy else ""]
+    drawn = ", ".join(p for p in parts if p)
+    layout.label(text=f"Surface: {drawn or 'plain colour, no gloss'}", icon="SHADING_TEXTURE")
+    for note in surface.notes:
+        for line in _wrap(note, 60):
+            layout.label(text=line, icon="ERROR")
 
 
 def draw_material(layout, context, mat) -> None:

@@ -42,11 +42,11 @@ CURVATURE_OUT = (("smooth", "VEC3", "v_curv_d"), ("smooth", "VEC3", "v_curv_o"))
 
 
 def _surface_spec(world: bool) -> ShaderSpec:
-    """The surface layer (pipeline/surface_layer.glsl): mode 0 (``world``) the world's gloss, the factor on the
-    light below and the Normal and Depth passes; else one emitter's gloss."""
-    outputs = ((0, "VEC4", "out_specular"),)
+    """The surface layer (pipeline/surface_layer.glsl): the gloss and the light entering through a normal map, of
+    the world and the factor on the light below and the Normal and Depth passes (``world``), or of one emitter."""
+    outputs = ((0, "VEC4", "out_specular"), (1, "VEC4", "out_entry"))
     if world:
-        outputs += ((1, "VEC4", "out_factor"), (2, "VEC4", "out_gbuffer"))
+        outputs += ((2, "VEC4", "out_factor"), (3, "VEC4", "out_gbuffer"))
     return ShaderSpec(
         source="pipeline/surface_layer.glsl",
         libraries=SHADOW_LIBS + ("common/world_spherical_harmonics.glsl",),
@@ -68,7 +68,7 @@ PIPELINE_SPECS = {  # the pipeline's own passes; each technique joins its own (t
     "surface_composite": ShaderSpec(
         source="pipeline/surface_composite.glsl",
         vertex_in=(("VEC2", "corner"),),
-        samplers=((0, "FLOAT_2D", "layer"),),
+        samplers=((0, "FLOAT_2D", "layer"), (1, "FLOAT_2D", "entry_map")),
         push_constants=(("FLOAT", "offset"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),

@@ -29,7 +29,7 @@ class LayerFrame:
     surfaces: list
     fb_world: object
     fb_light: object
-    textures: list  # specular, factor, gbuffer
+    textures: list  # specular, entry, factor, gbuffer
     lit: list  # mesh indices with a rough gloss (drawn per emitter)
     factor_on: bool
     gloss_on: bool
@@ -97,22 +97,25 @@ class SurfaceLayer:
         """The frame's layer, or None when it draws nothing (no gloss, no texture, no passes asked).
         ``drawn_over(mesh)``: whether the layer covers that mesh (its method and extras allow it)."""
         surfaces = [m.surface_or_plain() if drawn_over(m) else None for m in frame.meshes]
-        factor_on = any(s is not None and (s.textured or (s.glossy and (s.gloss[:, 0] > 0).any())) for s in surfaces)
+        factor_on = any(s is not None and (s.textured or s.normal_map is not None
+                                           or (s.glossy and (s.gloss[:, 0] > 0).any())) for s in surfaces)
         gloss_on = any(s is not None and s.glossy for s in surfaces)
         if not (factor_on or gloss_on or passes):
             return None
         size = (frame.camera.width, frame.camera.height)
-        fb, textures, depth = cached_target(pipeline, "surface_layer", size, depth=True, attachments=3)
+        fb, textures, depth = cached_target(pipeline, "surface_layer", size, depth=True, attachments=4)
         key = ("surface_layer_light", size)
         light = pipeline.targets.get(key)
         if light is None or light[1] is not textures[0]:
             import gpu
 
-            light = pipeline.targets[key] = (gpu.types.GPUFrameBuffer(depth_slot=depth, color_slots=textures[0]),
+            light = pipeline.targets[key] = (gpu.types.GPUFrameBuffer(depth_slot=depth, color_slots=textures[:2]),
                                              textures[0], depth)
+        # per emitter: the meshes with a rough gloss, and those with a normal map (the light it lets in)
         lit = [k for k, s in enumerate(surfaces)
-               if s is not None and s.glossy and bool(((s.gloss[:, 0] ** 2 >= microfacet.MIN_ALPHA)
-                                                       & (s.gloss[:, 3] > 0) & (s.gloss[:, 1] > 0)).any())]
+               if s is not None and ((s.glossy and bool(((s.gloss[:, 0] ** 2 >= microfacet.MIN_ALPHA)
+                                                         & (s.gloss[:, 3] > 0) & (s.gloss[:, 1] > 0)).any()))
+                                     or s.normal_map is not None)]
         return LayerFrame(surfaces, fb, light[0], textures, lit, factor_on, gloss_on)
 
     def _bind(self, name: str, frame_ubo, light_ubo, shadow_atlas):
@@ -163,13 +166,15 @@ class SurfaceLayer:
         if layer.factor_on:
             with draw_state.draw_pass(target, blend="MULTIPLY"):
                 shader.bind()
-                shader.uniform_sampler("layer", layer.textures[1])
+                shader.uniform_sampler("layer", layer.textures[2])
+                shader.uniform_sampler("entry_map", layer.textures[1])
                 shader.uniform_float("offset", 1.0)
                 shader.draw(quad)
         if layer.gloss_on:
             with draw_state.draw_pass(target, blend="ADDITIVE_PREMULT"):
                 shader.bind()
                 shader.uniform_sampler("layer", layer.textures[0])
+                shader.uniform_sampler("entry_map", layer.textures[1])
                 shader.uniform_float("offset", 0.0)
                 shader.draw(quad)
 
