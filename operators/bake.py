@@ -11,7 +11,7 @@ import time
 
 import bpy
 
-from ..translucent_addon.blender import bake_files
+from ..translucent_addon.blender import bake_files, material_surface
 from ..translucent_addon.blender.bake_inputs import gather, make_proxies, serves_others
 from ..translucent_addon.blender.quality_apply import apply_auto, restore
 from ..translucent_addon.gpu import bake_cache
@@ -225,4 +225,41 @@ class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (TRANSLUCENT_OT_bake, TRANSLUCENT_OT_clear_bake)
+class TRANSLUCENT_OT_bake_textures(bpy.types.Operator):
+    """Bake the node graphs on the active object's Base Colors (procedural textures, mixes, ramps) into UV images
+    through Cycles, so that the real-time methods draw them; kept packed in the .blend"""
+
+    bl_idname = "translucent.bake_textures"
+    bl_label = "Bake Textures"
+    bl_options = {"REGISTER", "UNDO"}
+
+    size: bpy.props.IntProperty(name="Size", description="Texels per side of each baked image", default=1024,
+                                min=64, max=8192)
+
+    @classmethod
+    def poll(cls, context):
+        def why_not(ob):
+            if not material_surface.graphs_to_bake(ob):
+                return f"'{ob.name}': no Base Color of its materials is a node graph to bake"
+            if not ob.data.uv_layers:
+                return f"'{ob.name}' has no UV map to bake through (add one: UV > Unwrap)"
+            return None
+
+        return polls._mesh_that(cls, context, "bake its textures", why_not)
+
+    def execute(self, context):
+        ob = context.active_object
+        t0 = time.perf_counter()
+        try:
+            done = material_surface.bake_textures(ob, self.size, progress=lambda text: print(text, flush=True))
+        except RuntimeError as err:  # Cycles' own refusal (no UV map, an image it cannot write)
+            self.report({"ERROR"}, f"'{ob.name}': Cycles could not bake its textures: {err}")
+            return {"CANCELLED"}
+        if done:
+            self.report({"INFO"}, f"'{ob.name}': {len(done)} texture(s) baked in {time.perf_counter() - t0:.1f} s")
+        else:
+            self.report({"INFO"}, f"'{ob.name}': its baked textures are current")
+        return {"FINISHED"}
+
+
+classes = (TRANSLUCENT_OT_bake, TRANSLUCENT_OT_clear_bake, TRANSLUCENT_OT_bake_textures)

@@ -320,3 +320,41 @@ def test_a_normal_map_turns_the_shading_normal(tr, scene):
     half = n_ts * 0.5 + np.array([0, 0, 1.0]) * 0.5
     normal = render_passes(scene, 24, 24)["Normal"][2:-2, 2:-2].reshape(-1, 3)
     assert np.abs(normal - half / np.linalg.norm(half)).max() < 3e-3
+
+
+def test_a_procedural_base_color_is_baked_through_cycles_and_drawn(tr, scene):
+    """A Noise Texture through a Color Ramp on Base Color: drawn by its own value with a note until Bake Textures,
+    then like Cycles' own render of the material (a Lambert plane under a sun from above, within 3 % of its
+    brightest pixel: the bake's texels against Cycles' per-pixel evaluation); an edit to the graph makes the bake
+    stale, said again."""
+    lambert_lit_from_above(scene)
+    mat = diffuse_material("Marbled", (0.5, 0.5, 0.5))
+    tree = mat.node_tree
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 3.0
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.1, 0.2, 0.6, 1.0)
+    ramp.color_ramp.elements[1].color = (0.9, 0.7, 0.2, 1.0)
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(coords.outputs["UV"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    tree.links.new(ramp.outputs["Color"], _principled(mat).inputs["Base Color"])
+    ob = uv_plane(scene, "Plane", material=mat)
+    w = h = 48
+    extract = ext_module(tr, "translucent_addon.blender.extract")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
+    assert any("bake is missing: press Bake Textures" in x for x in frame.warnings), frame.warnings
+    bpy.context.view_layer.objects.active = ob
+    assert bpy.ops.translucent.bake_textures(size=256) == {"FINISHED"}
+    ours = render(scene, w, h)[..., :3]
+    cycles = render_passes(scene, w, h, engine="CYCLES", samples=16, use_denoising=False,
+                           filter_width=0.01)["Combined"][..., :3]
+    err = np.abs(ours - cycles).max(-1) / cycles.max()
+    print(f"baked noise: worst {err.max():.4f}, 99th percentile {np.percentile(err, 99):.4f}")
+    assert np.percentile(err, 99) < 0.03
+    assert ours.std() > 0.05  # the pattern is there
+    noise.inputs["Scale"].default_value = 5.0
+    depsgraph = bpy.context.evaluated_depsgraph_get()  # the edit evaluated
+    frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, w, h))
+    assert any("bake is stale" in x for x in frame.warnings), frame.warnings

@@ -151,9 +151,13 @@ void main()
   float depth = frame.camera_position.w > 0.5 ? dot(v_world - frame.camera_position.xyz, frame.camera_forward.xyz) :
                                                  -(frame.view * vec4(v_world, 1.0)).z;
   out_gbuffer = vec4(n, depth);
-  /* the world's light entering through the mapped normal and through the methods' (entry: the factor's x / y) */
+  /* the world's light entering through the mapped normal and through the methods' (entry: the factor's x / y);
+   * z: over how many pixels light entering a medium spreads before it leaves (its diffusion length, at this
+   * depth), over which the composite averages the two */
+  float footprint = frame.camera_position.w > 0.5 ? 2.0 / (frame.proj[1][1] * pixels_y) :
+                                                    2.0 * depth / (frame.proj[1][1] * pixels_y);
   out_entry = mapped_normal ? vec4(luminance(world_irradiance(n, LAMBERT_KERNEL)),
-                                   luminance(world_irradiance(n_s, LAMBERT_KERNEL)), 0.0, 0.0) :
+                                   luminance(world_irradiance(n_s, LAMBERT_KERNEL)), spread / footprint, 0.0) :
                               vec4(0.0);
 #else
   vec3 to_light;

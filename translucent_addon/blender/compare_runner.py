@@ -233,6 +233,9 @@ def twin_materials_applied(objects, kind: str, **options):
 
 @contextlib.contextmanager
 def _materials_swapped(objects, kind: str, options: dict):
+    """Each object's slots given the twin of its medium for the duration; for the random walk, an object whose
+    medium is its Principled BSDF's keeps its own material (textures, gloss, normal maps, several slots: what the
+    artist renders), the brute force has no surface shader to keep."""
     saved = []
     made = []
     try:
@@ -240,6 +243,8 @@ def _materials_swapped(objects, kind: str, options: dict):
         media = [medium_source.resolve(ob) for ob in objects]
         saved = [(ob, [slot.material for slot in ob.material_slots]) for ob in objects]
         for ob, m in zip(objects, media):
+            if kind == "random_walk" and m.source == "PRINCIPLED":
+                continue  # the artist's own material is what the random walk renders: its textures, gloss, slots
             mat = getattr(twin_materials, kind)(f"{ob.name} ({kind})", m.sigma_a, m.sigma_s_prime, m.eta, m.g,
                                                 m.mm_per_unit, **options)
             made.append(mat)

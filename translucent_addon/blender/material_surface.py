@@ -13,6 +13,7 @@ import dataclasses
 import numpy as np
 
 from ..core.surface import ImageRef, SlotSurface, apply_mapping, mapping_affine, srgb_to_linear, surface_mean
+from . import texture_bake
 from .images import image_data, image_stamp
 from .session import current
 
@@ -57,7 +58,7 @@ def texture_base_color(ob, mat, session=None) -> tuple | None:
     node = principled_bsdf(mat)
     if node is None or not node.inputs["Base Color"].is_linked or ob.type != "MESH":
         return None
-    ref = _image_input(node.inputs["Base Color"], [], "Base Color", lambda image: read_image(image, session))
+    ref = _image_input(node.inputs["Base Color"], [], "Base Color", lambda image: read_image(image, session), mat)
     mesh = ob.data
     if ref is None or len(mesh.polygons) == 0:
         return None
@@ -139,12 +140,25 @@ def _uv_source(socket, notes: list, what: str) -> tuple[str, tuple] | None:
     return "", mapping
 
 
-def _image_input(socket, notes: list, what: str, read) -> ImageRef | None:
-    """The ImageRef of an Image Texture linked to ``socket`` (directly), or None (a note when something else is
-    linked). ``read(image)``: ((H, W, 4) linear pixels, a key naming them)."""
+def _image_input(socket, notes: list, what: str, read, mat=None) -> ImageRef | None:
+    """The ImageRef of an Image Texture linked to ``socket`` (directly), of the bake of another node graph there
+    (``mat`` given: ``texture_bake``), or None (a note when something else is linked). ``read(image)``: ((H, W, 4)
+    linear pixels, a key naming them)."""
     if not socket.is_linked:
         return None
     node = socket.links[0].from_node
+    if node.type != "TEX_IMAGE" and mat is not None:  # a node graph: its bake through Cycles, when current
+        image, why = texture_bake.baked_image(mat, socket)
+        if image is None:
+            notes.append(f"{what} is a node graph, its bake is {why}: press Bake Textures (its own value is drawn "
+                         f"until then)")
+            return None
+        try:
+            pixels, key = read(image)
+        except ValueError as err:
+            notes.append(f"{what}: {err}; drawn by its own value")
+            return None
+        return ImageRef(key, pixels)
     if node.type != "TEX_IMAGE" or node.image is None:
         notes.append(f"{what} is linked to a {node.bl_label} node: drawn by its own value (only Image Textures "
                      f"are read)")
@@ -192,7 +206,7 @@ def slot_surface(mat, read) -> SlotSurface:
         return SlotSurface(colour, color_map, specular=False, notes=tuple(notes))
     base = node.inputs["Base Color"]
     colour = tuple(float(c) for c in base.default_value[:3])
-    color_map = _image_input(base, notes, "Base Color", read)
+    color_map = _image_input(base, notes, "Base Color", read, mat)
     roughness = float(np.clip(_constant(node, "Roughness", 0.5, notes), 0.0, 1.0))
     ior = max(_constant(node, "IOR", 1.5, notes), 1.0)
     level = max(_constant(node, "Specular IOR Level", 0.5, notes), 0.0)
@@ -216,6 +230,28 @@ def slot_surface(mat, read) -> SlotSurface:
         if sock is not None and (sock.is_linked or float(sock.default_value) > 0.0):
             notes.append(f"{name} is not drawn")
     return SlotSurface(colour, color_map, roughness, ior, level, normal_map, strength, True, tuple(notes))
+
+
+def graphs_to_bake(ob) -> list:
+    """(material, Base Color socket) of the object's slots whose Base Color is a node graph other than an Image
+    Texture (``texture_bake`` bakes them)."""
+    out = []
+    for slot in ob.material_slots:
+        node = principled_bsdf(slot.material) if slot.material is not None else None
+        if node is not None and node.inputs["Base Color"].is_linked \
+                and node.inputs["Base Color"].links[0].from_node.type != "TEX_IMAGE":
+            out.append((slot.material, node.inputs["Base Color"]))
+    return out
+
+
+def bake_textures(ob, size: int = texture_bake.DEFAULT_SIZE, progress=print) -> list[str]:
+    """Bake every node graph on the object's Base Colors whose bake is missing or stale; the images' names."""
+    done = []
+    for mat, sock in graphs_to_bake(ob):
+        if texture_bake.baked_image(mat, sock)[0] is None:
+            progress(f"'{ob.name}': baking '{mat.name}' {sock.name} through Cycles ({size} x {size})")
+            done.append(texture_bake.bake_graph(ob, mat, sock, size).name)
+    return done
 
 
 def slot_surfaces(ob, read) -> list[SlotSurface]:

@@ -207,6 +207,8 @@ def _surface(layout, ob) -> None:
     for note in surface.notes:
         for line in _wrap(note, 60):
             layout.label(text=line, icon="ERROR")
+    if any("Bake Textures" in note for note in surface.notes):
+        layout.operator("translucent.bake_textures", icon="TEXTURE")
 
 
 def draw_material(layout, context, mat) -> None:

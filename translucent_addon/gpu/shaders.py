@@ -57,7 +57,8 @@ def _surface_spec(world: bool) -> ShaderSpec:
         uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object"), (2, "LightData", "light")),
         samplers=((0, "FLOAT_2D", "shadow_atlas"), (1, "FLOAT_2D", "specular_table"), (2, "FLOAT_2D", "energy_table"),
                   (3, "FLOAT_2D", "albedo_map"), (4, "FLOAT_2D", "normal_map")),
-        push_constants=(("INT", "normal_mode"), ("INT", "albedo_mode"), ("FLOAT", "base_eta")),
+        push_constants=(("INT", "normal_mode"), ("INT", "albedo_mode"), ("FLOAT", "base_eta"), ("FLOAT", "spread"),
+                        ("FLOAT", "pixels_y")),
         fragment_out=outputs,
         defines=("SURFACE_WORLD",) if world else (),
     )
@@ -68,7 +69,7 @@ PIPELINE_SPECS = {  # the pipeline's own passes; each technique joins its own (t
     "surface_composite": ShaderSpec(
         source="pipeline/surface_composite.glsl",
         vertex_in=(("VEC2", "corner"),),
-        samplers=((0, "FLOAT_2D", "layer"), (1, "FLOAT_2D", "entry_map")),
+        samplers=((0, "FLOAT_2D", "layer"), (1, "FLOAT_2D", "entry_map"), (2, "FLOAT_2D", "gbuffer_map")),
         push_constants=(("FLOAT", "offset"),),
         fragment_out=((0, "VEC4", "out_color"),),
     ),

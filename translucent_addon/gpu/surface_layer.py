@@ -136,6 +136,7 @@ class SurfaceLayer:
         shader.uniform_sampler("normal_map", self._image(surface.normal_map))
         shader.uniform_int("normal_mode", -1 if surface.normal_map is None else surface.normal_map.mode)
         if world:  # what only the world pass reads
+            shader.uniform_float("spread", 0.0 if neutral else diffusion_length(mesh))
             shader.uniform_sampler("albedo_map", self._image(surface.albedo_map))
             shader.uniform_int("albedo_mode", 0 if surface.albedo_map is None else surface.albedo_map.mode)
             shader.uniform_float("base_eta", 0.0 if neutral or mesh.medium is None else float(mesh.medium.eta))
@@ -147,6 +148,7 @@ class SurfaceLayer:
             # one colour clears every attachment: the factor is stored less 1 and the depth 0 where nothing is
             clear_target(layer.fb_world, (0.0, 0.0, 0.0, 0.0))
             shader = self._bind("surface_world", frame_ubo, placeholder_light, shadow_atlas)
+            shader.uniform_float("pixels_y", float(frame.camera.height))
             for mesh, surface, obj in zip(frame.meshes, layer.surfaces, objects):
                 self._draw_mesh(shader, mesh, surface, obj, True)
 
@@ -168,6 +170,7 @@ class SurfaceLayer:
                 shader.bind()
                 shader.uniform_sampler("layer", layer.textures[2])
                 shader.uniform_sampler("entry_map", layer.textures[1])
+                shader.uniform_sampler("gbuffer_map", layer.textures[3])
                 shader.uniform_float("offset", 1.0)
                 shader.draw(quad)
         if layer.gloss_on:
@@ -175,8 +178,20 @@ class SurfaceLayer:
                 shader.bind()
                 shader.uniform_sampler("layer", layer.textures[0])
                 shader.uniform_sampler("entry_map", layer.textures[1])
+                shader.uniform_sampler("gbuffer_map", layer.textures[3])
                 shader.uniform_float("offset", 0.0)
                 shader.draw(quad)
+
+
+def diffusion_length(mesh: MeshInstance) -> float:
+    """The medium's diffusion length 1 / sigma_tr (Jensen 2001: sigma_tr = sqrt(3 sigma_a sigma_t')), the mean over
+    its channels, in scene units; 0 for a Lambert object: how far the light a bump lets in spreads."""
+    m = mesh.medium
+    if m is None:
+        return 0.0
+    sa, ss = np.asarray(m.sigma_a, np.float64), np.asarray(m.sigma_s_prime, np.float64)
+    sigma_tr = np.sqrt(3.0 * sa * (sa + ss))
+    return float(np.mean(1.0 / np.maximum(sigma_tr, 1e-9))) / float(m.mm_per_unit)
 
 
 def _neutral_surface(mesh: MeshInstance) -> Surface:
