@@ -19,7 +19,8 @@ ZIP_CASES := 5.2.4:OPENGL 5.3.0:VULKAN 5.3.0:OPENGL 4.5.15:OPENGL
 GPU53_CASES := 5.3.0:VULKAN 5.3.0:OPENGL
 VENV53 := .venv-5.3
 
-.PHONY: demo test test-dev test-gpu53 test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu clean
+.PHONY: demo test test-dev test-gpu53 test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu \
+	bench-material clean
 
 $(STAMP): requirements.txt
 	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
@@ -92,6 +93,11 @@ bench: $(STAMP)
 # The subsurface methods against exact transport (Cycles brute force, index-matched): about 40 minutes here.
 bench-exact: $(STAMP)
 	$(PY) scripts/bench_exact.py
+
+# The artist's material (textured, glossy, normal-mapped spot) against Cycles' random walk, and the surface layer's
+# cost on the demo frame: about 8 minutes here.
+bench-material: $(STAMP)
+	$(PY) scripts/bench_material.py
 
 # Where a frame's time goes (CPU work outside GPU calls, GPU calls), demo bunny at 64x64: about 3 minutes here.
 bench-frame: $(STAMP)
