@@ -117,6 +117,72 @@ def build(bpy, demo, size: float):
     return scene, ob
 
 
+def two_slots(bpy, runner, size: int) -> list[dict]:
+    """A sphere of two Principled materials (left and right halves) against the sphere with each alone, per method:
+    each half's mean over the other's, away from the seam."""
+    import bmesh
+    from mathutils import Vector
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "TRANSLUCENT_RT"
+    world = bpy.data.worlds.new("World")
+    world.color = (0.1, 0.1, 0.1)
+    scene.world = world
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 2.0
+    sun.location = (0.5, -3.0, 2.0)
+    sun.rotation_euler = (Vector((0, 0, 0)) - sun.location).to_track_quat("-Z", "Y").to_euler()
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location = (0.0, -4.0, 0.0)
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    mats = []
+    for name, colour in (("A", (0.85, 0.45, 0.3)), ("B", (0.3, 0.6, 0.85))):
+        mat = bpy.data.materials.new(name)
+        if bpy.app.version < (5, 0, 0):
+            mat.use_nodes = True
+        bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+        bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
+        bsdf.inputs["Subsurface Weight"].default_value = 1.0
+        bsdf.inputs["Subsurface Radius"].default_value = (0.1, 0.05, 0.03)
+        mats.append(mat)
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, radius=1.0)
+    for f in bm.faces:
+        f.smooth = True
+    me = bpy.data.meshes.new("Ball")
+    bm.to_mesh(me)
+    bm.free()
+    ob = bpy.data.objects.new("Ball", me)
+    scene.collection.objects.link(ob)
+    rows = []
+    cols = np.arange(size)
+    for method in METHODS:
+        ob.translucent.method = method
+        images = {}
+        for label, slots in (("both", mats), ("A", mats[:1]), ("B", mats[1:])):
+            me.materials.clear()
+            for mat in slots:
+                me.materials.append(mat)
+            for poly in me.polygons:
+                poly.material_index = int(poly.center.x > 0.0) if len(slots) == 2 else 0
+            me.update()
+            if method != "IMAGE_SPACE":
+                runner.bake_objects([ob], method, progress=lambda *_: None)
+            images[label] = runner.render_pixels(scene, size, size)[0][..., :3]
+        inside = images["both"].sum(-1) > 0.05 * images["both"].sum(-1).max()
+        row = {"method": method}
+        for label, side in (("A", cols < size // 2 - size // 10), ("B", cols > size // 2 + size // 10)):
+            keep = inside & side[None, :]
+            row[label] = [round(float(x), 4) for x in images["both"][keep].mean(0) / images[label][keep].mean(0)]
+        rows.append(row)
+        print(row, flush=True)
+    return rows
+
+
 def high_pass(lum: np.ndarray, sigma: float = 2.0) -> np.ndarray:
     """lum less its Gaussian blur (separable, reflect padding)."""
     r = int(3 * sigma)
@@ -201,6 +267,8 @@ def main() -> int:
     strip = np.concatenate([metrics.display(images[k][..., :3]) for k in ("Cycles", *METHODS)], axis=1)
     png.write_png(out / "spot_textured.png", strip)
 
+    slot_rows = two_slots(bpy, runner, 128)
+
     # The surface layer's cost on the demo scene: the same frames with the layer and with it skipped.
     layer_mod = mod("gpu.surface_layer")
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -226,7 +294,7 @@ def main() -> int:
             "cycles_seconds": None if math.isnan(cycles_seconds) else round(cycles_seconds, 1),
             "demo_frame_seconds": {f"{m} {k}": round(v, 3) for (m, k), v in cost.items()},
             "demo_frame_ratio": {m: round(r, 3) for m, r in ratios.items()}}
-    (out / "results.json").write_text(json.dumps({"info": info, "rows": rows}, indent=1))
+    (out / "results.json").write_text(json.dumps({"info": info, "rows": rows, "two_slots": slot_rows}, indent=1))
     lines = ["# The artist's material against Cycles (`scripts/bench_material.py`)", "",
              f"Textured, glossy, normal-mapped spot, {w} x {h}, front-lit by an area light; reference Cycles random "
              f"walk, {args.samples} samples ({info['cycles_seconds'] or 'cached'} s). Blender {info['blender']}.", "",
@@ -235,6 +303,12 @@ def main() -> int:
     for r in rows:
         lines.append(f"| {r['method']} | {r['block_rel_rmse']:.3f} | {r['high_pass_correlation']:.3f} | "
                      f"{', '.join(f'{x:.3f}' for x in r['mean_rgb'])} | {r['seconds']:.2f} | {r['bake_seconds']:.1f} |")
+    lines += ["", "Two material slots on one sphere (left half A = (0.85, 0.45, 0.3), right half B = (0.3, 0.6, "
+              "0.85), the same radius), each half away from the seam over the sphere with that material alone, R, G, "
+              "B:", "",
+              "| method | half A | half B |", "|---|---|---|"]
+    lines += [f"| {r['method']} | {', '.join(f'{x:.3f}' for x in r['A'])} | {', '.join(f'{x:.3f}' for x in r['B'])} |"
+              for r in slot_rows]
     lines += ["", "Demo scene (the back-lit bunny, 480 x 270, F12, median of 5), with the surface layer and with it "
               "skipped (the frame before it existed):", ""]
     lines += [f"- {m}: {cost[(m, 'with the surface layer')]:.3f} s with, {cost[(m, 'without it')]:.3f} s without: "

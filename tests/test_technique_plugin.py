@@ -26,6 +26,7 @@ def constant_colour_technique(tr):
     class ConstantColour(protocol.Technique):
         id, label, method_number = "CONSTANT_TEST", "Constant (test)", 100
         description = "Its meshes in one colour"
+        surface_layer = False  # unlit: no material's gloss or colour over it
         shader_specs = {"constant_test": shaders.ShaderSpec(
             source=str(GLSL), libraries=(), vertex_in=(("VEC3", "pos"),),
             uniform_blocks=((0, "FrameData", "frame"), (1, "ObjectData", "object")),

@@ -162,7 +162,9 @@ class Pipeline:
         timings["world"] = time.perf_counter() - t0 - sum(timings.values())
         # The surface layer over an image of its own: not over another engine's viewport (``clear`` False), whose
         # depth it does not see.
-        layer = self.layer = self.surface.begin(frame, self, surface_drawn, frame.settings.passes) if clear else None
+        layer = self.layer = self.surface.begin(
+            frame, self, lambda m: surface_drawn(m) and m.method not in self.unavailable,
+            frame.settings.passes) if clear else None
         spent_layer = 0.0
         if layer is not None:
             t1 = time.perf_counter()
@@ -203,6 +205,11 @@ class Pipeline:
                     timings[t.timing] = time.perf_counter() - t1
         if layer is not None:
             t1 = time.perf_counter()
+            # A method that failed in this frame fell back to the base colour: its objects lose the layer too.
+            fallen = [k for k, m in enumerate(frame.meshes) if m.method in self.unavailable
+                      and layer.surfaces[k] is not None]
+            if fallen:
+                self.surface.neutralise(layer, frame, ctx.objects, frame_ubo, placeholder, atlas[1], fallen)
             self.surface.composite(layer, fb, self)
             timings["surface"] = spent_layer + time.perf_counter() - t1
         self._unavailable_warnings(frame)

@@ -268,9 +268,8 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     )
     light_passes: bpy.props.BoolProperty(
         name="Light passes",
-        description="Also write Subsurface (the light leaving translucent objects below their gloss), Specular (the "
-                    "gloss of every material) and Diffuse (everything else): they add up to Combined. Depth and "
-                    "Normal follow the view layer's Data passes",
+        description="Also write Subsurface (translucent objects' light below their gloss), Specular (every "
+                    "material's gloss) and Diffuse (the rest) passes, which add up to Combined",
         default=False,
     )
     overlay_other_engines: bpy.props.BoolProperty(

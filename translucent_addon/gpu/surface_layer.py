@@ -43,12 +43,14 @@ class SurfaceLayer:
         self._images: dict = {}
         self._tables = None
         self._neutral = None
+        self._plain: dict[int, Surface] = {}  # a neutral surface per corner count, made once
 
     def free(self) -> None:
         self._batches.clear()
         self._images.clear()
         self._tables = None
         self._neutral = None
+        self._plain.clear()
 
     def _batch(self, mesh: MeshInstance, surface: Surface):
         key = (mesh.key, surface.key)
@@ -130,8 +132,11 @@ class SurfaceLayer:
 
     def _draw_mesh(self, shader, mesh: MeshInstance, surface: Surface | None, obj, world: bool) -> None:
         neutral = surface is None
-        if neutral:
-            surface = _neutral_surface(mesh)
+        if neutral:  # factor 1, no gloss: the layer leaves it as its method drew it (its depth and normal count)
+            n = len(mesh.positions)
+            surface = self._plain.get(n)
+            if surface is None:
+                surface = self._plain[n] = plain(n)
         shader.uniform_block("object", obj)
         shader.uniform_sampler("normal_map", self._image(surface.normal_map))
         shader.uniform_int("normal_mode", -1 if surface.normal_map is None else surface.normal_map.mode)
@@ -151,6 +156,17 @@ class SurfaceLayer:
             shader.uniform_float("pixels_y", float(frame.camera.height))
             for mesh, surface, obj in zip(frame.meshes, layer.surfaces, objects):
                 self._draw_mesh(shader, mesh, surface, obj, True)
+
+    def neutralise(self, layer: LayerFrame, frame: FrameInputs, objects, frame_ubo, placeholder_light, shadow_atlas,
+                   meshes: list[int]) -> None:
+        """Draw these meshes again as the layer leaves a mesh alone (factor 1, no gloss, no entering light): their
+        method fell back to the base colour after the world pass."""
+        with draw_state.draw_pass(layer.fb_world, depth_test="LESS_EQUAL", depth_write=True):
+            shader = self._bind("surface_world", frame_ubo, placeholder_light, shadow_atlas)
+            shader.uniform_float("pixels_y", float(frame.camera.height))
+            for k in meshes:
+                layer.surfaces[k] = None
+                self._draw_mesh(shader, frame.meshes[k], None, objects[k], True)
 
     def emitter(self, layer: LayerFrame, frame: FrameInputs, objects, frame_ubo, light_ubo, shadow_atlas) -> None:
         """Mode 1: one emitter's gloss, added where the world pass left the nearest surface."""
@@ -192,8 +208,3 @@ def diffusion_length(mesh: MeshInstance) -> float:
     sa, ss = np.asarray(m.sigma_a, np.float64), np.asarray(m.sigma_s_prime, np.float64)
     sigma_tr = np.sqrt(3.0 * sa * (sa + ss))
     return float(np.mean(1.0 / np.maximum(sigma_tr, 1e-9))) / float(m.mm_per_unit)
-
-
-def _neutral_surface(mesh: MeshInstance) -> Surface:
-    """Factor 1, no gloss: a mesh the layer leaves as its method drew it (its depth and normal still count)."""
-    return plain(len(mesh.positions))
