@@ -257,26 +257,3 @@ def bake_textures(ob, size: int = texture_bake.DEFAULT_SIZE, progress=print) -> 
 def slot_surfaces(ob, read) -> list[SlotSurface]:
     """The SlotSurface of each of the object's material slots (one plain slot when it has none)."""
     return [slot_surface(slot.material, read) for slot in ob.material_slots] or [SlotSurface(specular=False)]
-
-
-def with_means(slots: list[SlotSurface], uv_maps: dict, positions, material_index) -> list[SlotSurface]:
-    """Each textured slot's Base Color replaced by its texture's mean over the faces that use the slot (over all
-    faces when none does): what its medium is converted from and what Lambert draws under the texture."""
-    index = np.asarray(material_index, np.int64)
-    out = []
-    p = np.asarray(positions).reshape(-1, 3, 3)
-    for k, s in enumerate(slots):
-        ref = s.color_map
-        uv = None if ref is None else uv_maps.get(ref.uv_map or "")
-        if uv is None:
-            out.append(s)
-            continue
-        mine = index == k if (index == k).any() else np.ones(len(p), bool)
-        mapped = apply_mapping(uv, ref.mapping).reshape(-1, 3, 2)[mine].reshape(-1, 2)
-        mean = surface_mean(ref.pixels, mapped, p[mine].reshape(-1, 3), ref.mode)
-        out.append(SlotSurface(tuple(float(x) for x in mean), *_rest(s)))
-    return out
-
-
-def _rest(s: SlotSurface) -> tuple:
-    return (s.color_map, s.roughness, s.ior, s.ior_level, s.normal_map, s.normal_strength, s.specular, s.notes)

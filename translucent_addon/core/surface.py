@@ -47,7 +47,7 @@ class ImageRef:
 
 @dataclasses.dataclass(frozen=True)
 class SlotSurface:
-    """One material slot's surface: its constant Base Color (a texture's mean when ``color_map``), its texture,
+    """One material slot's surface: its Base Color's own value (drawn where no texture is read), its texture,
     roughness, IOR, IOR Level, normal map and strength, whether it has a specular layer at all, and what of it is
     not drawn as Cycles draws it (one line each)."""
 
