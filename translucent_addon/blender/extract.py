@@ -25,6 +25,7 @@ from ..core.frame import (
 from ..core.geometry.orientation import outward_normals, turned
 from ..core.lights import emitters_from_light, unnormalized_power
 from ..core.physics.lut import BLUR_MIN, layer_problem
+from ..core.physics.microfacet import f0_of
 from ..core.physics.presets import CoefficientError, validate_coefficients
 from ..core.surface import Surface, surface_of
 from ..techniques import registry as bake_registry
@@ -242,17 +243,19 @@ def _uv_maps(mesh, tri_loops: np.ndarray, names) -> dict:
     return out
 
 
-def surface_for(ob, drawn: DrawnMesh, mesh, medium: Medium | None, frame_warnings, session: Session) -> Surface:
+def surface_for(ob, drawn: DrawnMesh, mesh, medium: Medium | None, frame_warnings, session: Session,
+                source: str = "PRINCIPLED") -> Surface:
     """The object's ``Surface`` (colour textures, gloss, normal maps of its slots), made again only when its
-    mesh, its materials' values or images or its medium's reference colour changed."""
+    mesh, its materials' values or images or its medium's reference colour changed. ``source``: where the medium
+    comes from (``medium_source.ObjectMedium.source``)."""
     original = ob.original
     slots = material_surface.slot_surfaces(ob, lambda image: material_surface.read_image(image, session))
-    own_boundary = medium is not None and medium_source.resolve(original).source != "PRINCIPLED"
+    own_boundary = medium is not None and source != "PRINCIPLED"
     if own_boundary:
         # Coefficients set on the object or the material, not a Principled BSDF's: the medium's own smooth boundary
         # (as Compare's Cycles twin draws it), whatever gloss the material's nodes ask.
-        f0 = float(((medium.eta - 1.0) / (medium.eta + 1.0)) ** 2)
-        slots = [dataclasses.replace(s, roughness=0.0, ior=float(medium.eta), ior_level=0.5, specular=f0 > 0.0)
+        specular = f0_of(float(medium.eta)) > 0.0
+        slots = [dataclasses.replace(s, roughness=0.0, ior=float(medium.eta), ior_level=0.5, specular=specular)
                  for s in slots]
     medium_slot = next((k for k, s in enumerate(ob.material_slots) if s.material is not None), 0)
     reference = tuple(map(float, drawn.palette[min(medium_slot, len(drawn.palette) - 1)]))
@@ -398,15 +401,15 @@ def recoloured(ob, drawn: DrawnMesh, cache_key, session: Session) -> DrawnMesh:
     return new
 
 
-def medium_of(original, method: str, frame_warnings, scene=None) -> tuple[str, Medium | None]:
+def medium_of(original, method: str, frame_warnings, scene=None, resolved=None) -> tuple[str, Medium | None]:
     """(method, Medium) of an object: its medium as ``medium_source.resolve`` finds it (its material's or its
-    own, measured in ``scene``'s units); a medium its file holds out of range (eta 0.5, NaN) is never drawn:
-    ('OFF', None) and the frame says why."""
+    own, measured in ``scene``'s units; ``resolved``: what the caller has resolved already); a medium its file
+    holds out of range (eta 0.5, NaN) is never drawn: ('OFF', None) and the frame says why."""
     if method == "OFF":
         return method, None
     s = original.translucent
     name = original.name
-    m = medium_source.resolve(original, scene)
+    m = resolved if resolved is not None else medium_source.resolve(original, scene)
     for note in m.notes:
         frame_warnings.append(f"'{name}': material '{m.material}': {note}")
     try:
@@ -480,8 +483,10 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
     baked = method != "OFF" and bake_registry.needs_bake(method)
     # The bake's status from the mesh as read here.
     handle = bake_handle(ob, method, mode, frame_warnings, session, drawn.read) if baked else None
-    method, medium = medium_of(original, method, frame_warnings, scene)
-    surface = surface_for(ob, drawn, None, medium, frame_warnings, session)  # opens the mesh when it must
+    resolved = medium_source.resolve(original, scene) if method != "OFF" else None  # read once per frame
+    method, medium = medium_of(original, method, frame_warnings, scene, resolved)
+    surface = surface_for(ob, drawn, None, medium, frame_warnings, session,  # opens the mesh when it must
+                          resolved.source if resolved is not None else "PRINCIPLED")
     return dict(key=drawn.key, name=name, positions=drawn.positions, normals=drawn.normals, colors=drawn.colors,
                 method=method, medium=medium, paint=drawn.paint, tint=drawn.tint, surface=surface,
                 bake=handle if method != "OFF" else None, extras=extras,

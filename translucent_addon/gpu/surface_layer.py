@@ -179,24 +179,22 @@ class SurfaceLayer:
 
     def composite(self, layer: LayerFrame, target, pipeline) -> None:
         """The frame below the layer times its factor, then plus its gloss."""
-        shader = shaders.pass_shader("surface_composite")
-        quad = screen_quad(pipeline, "surface_composite")
-        if layer.factor_on:
-            with draw_state.draw_pass(target, blend="MULTIPLY"):
-                shader.bind()
-                shader.uniform_sampler("layer", layer.textures[2])
-                shader.uniform_sampler("entry_map", layer.textures[1])
-                shader.uniform_sampler("gbuffer_map", layer.textures[3])
-                shader.uniform_float("offset", 1.0)
-                shader.draw(quad)
+        if layer.factor_on:  # the factor is stored less 1 (``offset``)
+            self._composite_pass(layer, target, pipeline, "MULTIPLY", layer.textures[2], 1.0)
         if layer.gloss_on:
-            with draw_state.draw_pass(target, blend="ADDITIVE_PREMULT"):
-                shader.bind()
-                shader.uniform_sampler("layer", layer.textures[0])
-                shader.uniform_sampler("entry_map", layer.textures[1])
-                shader.uniform_sampler("gbuffer_map", layer.textures[3])
-                shader.uniform_float("offset", 0.0)
-                shader.draw(quad)
+            self._composite_pass(layer, target, pipeline, "ADDITIVE_PREMULT", layer.textures[0], 0.0)
+
+    @staticmethod
+    def _composite_pass(layer: LayerFrame, target, pipeline, blend: str, image, offset: float) -> None:
+        """One of the layer's images onto the frame, full screen, blended as ``blend``."""
+        shader = shaders.pass_shader("surface_composite")
+        with draw_state.draw_pass(target, blend=blend):
+            shader.bind()
+            shader.uniform_sampler("layer", image)
+            shader.uniform_sampler("entry_map", layer.textures[1])
+            shader.uniform_sampler("gbuffer_map", layer.textures[3])
+            shader.uniform_float("offset", offset)
+            shader.draw(screen_quad(pipeline, "surface_composite"))
 
 
 def diffusion_length(mesh: MeshInstance) -> float:
