@@ -125,17 +125,22 @@ def test_height_field_without_uvs_or_image_says_so(tr, scene):
     assert "'NoUV': a height field needs a UV map; drawn flat" in frame.warnings
 
 
-def test_height_map_is_read_once_until_it_changes(tr, scene):
-    """The viewport does not re-read a large height map every frame; a changed (dirty) image is read again."""
+def test_height_map_is_read_once_until_it_changes(tr, scene, tmp_path):
+    """The viewport does not re-read a large height map every frame; a changed (dirty) image is read again.
+    The map is saved first, as an artist's is: an image made and filled in this session stays dirty."""
     extract = ext_module(tr, "translucent_addon.blender.extract")
     heights_of = ext_module(tr, "translucent_addon.techniques.relief.model").heights_of
     img = _height_image(np.full((8, 8), 0.25, np.float32))
+    img.filepath_raw = str(tmp_path / "height.exr")
+    img.file_format = "OPEN_EXR"
+    img.save()
+    assert not img.is_dirty
     (a, digest_a), name = extract.image_data(img, heights_of)
     assert name == img.name
-    if not img.is_dirty:
-        assert extract.image_data(img, heights_of)[0][0] is a  # cached
+    assert extract.image_data(img, heights_of)[0][0] is a  # cached: the same array, not read again
     rgba = np.ones(8 * 8 * 4, np.float32)
     img.pixels.foreach_set(rgba)
     img.update()
+    assert img.is_dirty
     (b, digest_b), _ = extract.image_data(img, heights_of)
     assert np.allclose(a, 0.25) and np.allclose(b, 1.0) and digest_a != digest_b
