@@ -4,7 +4,9 @@
  * transfer fit for the scattering depth tau = sigma_s L (f_t G_theta_bar + c_t, Sec. 3.3, plus the
  * unscattered e^-tau) and dimmed by coloured Beer absorption e^(-sigma_a L).
  * Output modes (gc.table.z), for tests: 0 colour; 1 entry point (bake frame) and steps of the first
- * leg; 2 first exit point and premature flag; 3 refracted direction (bake frame) and starting cube. */
+ * leg; 2 first exit point and premature flag; 3 refracted direction (bake frame) and starting cube; in world
+ * space: 4 entry point, 5 refracted direction, 6 last exit point and the legs inside (1, or 2 after a total
+ * internal reflection), 7 leaving direction and T_2. */
 
 /* The key filtered environment at blur width theta (radians): fractional level by piecewise-linear
  * interpolation in the levels' sigma, bilinear in each level (bake/environment.sample twin). */
@@ -66,8 +68,17 @@ void main()
   mat3 to_bake = mat3(gc.bake_from_world);
   vec3 p1 = (gc.bake_from_world * vec4(v_world, 1.0)).xyz;
   vec3 r1 = normalize(to_bake * refract(-to_eye, n, 1.0 / eta));
-  if (int(gc.table.z + 0.5) == 3) {
+  int mode = int(gc.table.z + 0.5);
+  if (mode == 3) {
     out_color = vec4(r1, float(v_cube));
+    return;
+  }
+  if (mode == 4) {
+    out_color = vec4(v_world, 0.0);
+    return;
+  }
+  if (mode == 5) {
+    out_color = vec4(normalize(mat3(gc.world_from_bake) * r1), 0.0);
     return;
   }
   int cube = v_cube;
@@ -75,15 +86,17 @@ void main()
   int steps;
   bool premature;
   vec3 p2 = gc_exit(p1, r1, cube, true, N2, steps, premature);
-  if (int(gc.table.z + 0.5) == 1) {
+  if (mode == 1) {
     out_color = vec4(p1, float(steps));
     return;
   }
-  if (int(gc.table.z + 0.5) == 2) {
+  if (mode == 2) {
     out_color = vec4(p2, premature ? 1.0 : 0.0);
     return;
   }
   float L = length(p2 - p1);
+  vec3 p_last = p2;
+  float legs = 1.0;
   /* Out through the back (Snell, relative index 1 / eta seen from inside), or one total internal
    * reflection and a second search (Sec. 2). */
   vec3 r_out = refract(r1, -N2, eta);
@@ -95,6 +108,8 @@ void main()
     bool premature2;
     vec3 p3 = gc_exit(p2, r2, cube, false, N3, steps2, premature2);
     L += length(p3 - p2);
+    p_last = p3;
+    legs = 2.0;
     r_out = refract(r2, -N3, eta);
     T_2 = 1.0 - fresnel_dielectric(dot(r2, N3), 1.0 / eta);
     if (dot(r_out, r_out) < 1e-12) {
@@ -103,6 +118,15 @@ void main()
     }
   }
   vec3 d_out = normalize(mat3(gc.world_from_bake) * r_out);
+  if (mode == 6) {
+    vec3 p_world = (gc.world_from_bake * vec4(p_last, 1.0)).xyz;
+    out_color = vec4(p_world, legs);
+    return;
+  }
+  if (mode == 7) {
+    out_color = vec4(d_out, T_2);
+    return;
+  }
   vec3 beer = exp(-gc.sigma_a.rgb * L);
   vec3 tau = gc.sigma_s.rgb * L;
   vec3 sharp = env_sample(d_out, 0.0);

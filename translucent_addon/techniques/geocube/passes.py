@@ -166,9 +166,10 @@ class Geocube(Technique):
         Prop("geocube_output", "IntProperty", {
             "name": "GEOCUBE output",
             "description": ("GEOCUBE pass output (tests, debugging): 0 colour, 1 entry point, 2 exit point, 3 "
-                            "refracted direction (bake frame)"),
+                            "refracted direction (bake frame); 4 entry point, 5 refracted direction, 6 last exit "
+                            "point and legs inside, 7 leaving direction and exit transmittance (world)"),
             "min": 0,
-            "max": 3,
+            "max": 7,
             "default": 0,
             "options": {"HIDDEN"},
         }),
