@@ -14,6 +14,7 @@ curvature, albedo; medians per light direction), and a chart. Writes bench/resul
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 import time
@@ -31,6 +32,7 @@ BLOCK = 4
 SUPERSAMPLE = 2
 GLASS_SAMPLES = 4  # behind Glass, paths find the light only by leaving towards it: four times the samples
 REFERENCES = ROOT / "bench" / "suite_references"
+TEST_REFERENCES = ROOT / "tests" / "data" / "exact"
 
 
 def reference(name, scene, subject, runner, n, samples, seeds, directory: Path):
@@ -39,9 +41,7 @@ def reference(name, scene, subject, runner, n, samples, seeds, directory: Path):
 
     from_cache = directory / f"{name}.npz"
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    from blender_env import PACKAGE
-    import importlib
-    extract = importlib.import_module(f"{PACKAGE}.translucent_addon.blender.extract")
+    extract = importlib.import_module(f"{blender_env.PACKAGE}.translucent_addon.blender.extract")
     frame = extract.frame_inputs(depsgraph, extract.render_camera(depsgraph, n, n))
     description = runner.scene_description(depsgraph, frame, [subject])
     description.pop("blender")  # a reference stays valid across Blender versions of the same Cycles
@@ -224,7 +224,8 @@ def markdown(rows, summary) -> str:
     for method, s in summary.items():
         cells = [f"{s['spearman_block'][f]:+.2f} ({s['spearman_mean_bias'][f]:+.2f})"
                  for f in ("thickness", "curvature", "albedo")]
-        dirs = [f"{s['block_by_direction'].get(d, float('nan')):.3f} / {s['mean_by_direction'].get(d, float('nan')):.2f}"
+        nan = float("nan")
+        dirs = [f"{s['block_by_direction'].get(d, nan):.3f} / {s['mean_by_direction'].get(d, nan):.2f}"
                 for d in suite_scenes.DIRECTIONS]
         lines.append(f"| {method} | " + " | ".join(cells + dirs) + " |")
     lines += ["", "| scene | shape | size m | medium | light | eta | thickness / curvature / albedo | reference noise "
@@ -235,7 +236,8 @@ def markdown(rows, summary) -> str:
         cells = []
         for method in METHODS:
             r = rs.get(method)
-            cells.append("-" if r is None else f"{', '.join(f'{v:.2f}' for v in r['mean_ratio'])}; {r['block_rmse']:.3f}")
+            cells.append("-" if r is None else
+                         f"{', '.join(f'{v:.2f}' for v in r['mean_ratio'])}; {r['block_rmse']:.3f}")
         lines.append(f"| {name} | {r0['shape']} | {r0['size']:g} | {r0['medium']} | {r0['light'].lower()} "
                      f"{r0['direction'].lower()} | {r0['eta']:g} | {r0['thickness']:.3g} / {r0['curvature']:.3g} / "
                      f"{r0['albedo']:.3f} | {r0['block_rmse_floor']:.3f} | " + " | ".join(cells) + " |")
@@ -254,11 +256,15 @@ def main() -> int:
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--references-only", action="store_true", help="render the references, draw no method")
     parser.add_argument("--raw", default="", help="also write float images here (npz per scene)")
+    parser.add_argument("--test-references", action="store_true",
+                        help="render the exact references of the tests' scenes (suite_scenes.TEST_SCENES) at 64x64, "
+                             "4 seeds, into tests/data/exact/, and draw each method on them")
     args = parser.parse_args()
+    if args.test_references:
+        args.size, args.seeds, args.samples = 64, 4, 1024
+        args.references, args.output = str(TEST_REFERENCES), str(ROOT / "bench" / "results" / "suite_tests")
 
     package = blender_env.start()
-    import importlib
-
     import bpy
 
     def mod(name):
@@ -269,7 +275,7 @@ def main() -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     n = args.size
-    specs = suite_scenes.draw(count=args.count)
+    specs = list(suite_scenes.TEST_SCENES) if args.test_references else suite_scenes.draw(count=args.count)
     if args.scenes:
         specs = [s for i, s in enumerate(specs) if s.name in args.scenes or str(i) in args.scenes]
     results = out / "results.json"
@@ -277,13 +283,14 @@ def main() -> int:
     for spec in specs:
         rows = [r for r in rows if r["scene"] != spec.name]
         bpy.ops.wm.read_homefile(use_empty=True)
-        scene, subject = suite_scenes.build(spec)
+        scene, subject = suite_scenes.build(spec, package)
         seeds, frame = reference(spec.name, scene, subject, runner, n, args.samples, args.seeds,
                                  Path(args.references))
         ref = seeds.mean(axis=0)
         tracer = bvh.BVHTracer(runner.scene_triangles(frame)[0])
         mask = runner.interior(runner._mask(frame, tracer, {subject.name}))
-        floor = metrics.block_relative_rmse(seeds[0], seeds[1], mask, BLOCK) / 2.0  # the mean of two: / sqrt(2)^2
+        # Two seeds differ by sqrt(2) of one's noise; the mean of k keeps 1 / sqrt(k) of it.
+        floor = metrics.block_relative_rmse(seeds[0], seeds[1], mask, BLOCK) / np.sqrt(2.0 * len(seeds))
         medium = medium_source.resolve(subject)
         info = {**factors(spec, subject, medium), "scene": spec.name, "shape": spec.shape, "size": spec.size,
                 "medium": spec.medium, "light": spec.light, "eta": spec.eta, "half": spec.half,
@@ -326,7 +333,7 @@ def main() -> int:
         results.write_text(json.dumps(rows, indent=1))
     if args.references_only:
         return 0
-    order = {s.name: i for i, s in enumerate(suite_scenes.draw(count=args.count))}
+    order = {s.name: i for i, s in enumerate(specs)}
     rows.sort(key=lambda r: (order.get(r["scene"], 99), METHODS.index(r["method"])))
     results.write_text(json.dumps(rows, indent=1))
     summary = summarise(rows)

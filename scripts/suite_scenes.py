@@ -49,6 +49,7 @@ class Spec:
     subsurface_scale: float = 0.0  # Principled conversions: Subsurface Scale in metres (0 for presets)
     yaw: float = 0.0  # the object's turn about the vertical, degrees
     half: str = "A"  # A: the half a fitted term may be fitted on; B: held out
+    detail: float = 1.0  # generated shapes' polygon size multiplier (the tests' scenes: 2, for quick bakes)
 
     @property
     def principled(self) -> bool:
@@ -123,19 +124,28 @@ METABALLS = {
 METABALL_RESOLUTION = {"leaf": 0.012, "ear": 0.01, "quadruped": 0.02}
 
 
-def build(spec: Spec, scene=None):
-    """The scene of ``spec`` in the current file: (scene, object). Blender-facing."""
+# The exact-transport tests' scenes (tests/test_exact_transport.py, 64x64, references in tests/data/exact/):
+# a back-lit figure on thin legs, front-lit skin, and a body behind a refracting boundary.
+TEST_SCENES = (
+    Spec("backlit_figure", "quadruped", 0.1, "marble", "SPOT", "BACK", 1.0, yaw=20.0, detail=2.0),
+    Spec("frontlit_skin", "spot", 0.2, "skin1", "POINT", "FRONT", 1.0, yaw=200.0),
+    Spec("refracting_torus", "torus", 0.05, "potato", "AREA", "SIDE", 1.3, yaw=30.0, detail=2.0),
+)
+
+
+def build(spec: Spec, package: str, scene=None):
+    """The scene of ``spec`` in the current file, with the extension ``package`` enabled: (scene, object).
+    Blender-facing."""
+    import importlib
+
     import bpy
     from mathutils import Euler, Vector
 
-    from blender_env import PACKAGE
-
-    import importlib
-    demo = importlib.import_module(f"{PACKAGE}.translucent_addon.blender.demo")
-    props = importlib.import_module(f"{PACKAGE}.translucent_addon.blender.props")
+    demo = importlib.import_module(f"{package}.translucent_addon.blender.demo")
+    props = importlib.import_module(f"{package}.translucent_addon.blender.props")
     scene = scene or bpy.context.scene
     coll = scene.collection
-    ob = bpy.data.objects.new(spec.shape.capitalize(), _mesh(spec.shape, demo))
+    ob = bpy.data.objects.new(spec.shape.capitalize(), _mesh(spec.shape, demo, spec.detail))
     coll.objects.link(ob)
     # Y-up meshes stand up; flat shapes stand on edge, their face half-turned to the camera; then the drawn turn.
     tilt = math.pi / 2 if spec.shape in BUNDLED else math.radians(70.0) if spec.shape in FLAT else 0.0
@@ -215,16 +225,16 @@ def build(spec: Spec, scene=None):
     return scene, ob
 
 
-def _mesh(shape: str, demo):
+def _mesh(shape: str, demo, detail: float = 1.0):
     """The Blender mesh of a shape: bundled, parametric, or a metaball figure's surface."""
     import bpy
 
     if shape in BUNDLED:
         return demo.bundled_mesh(shape)
     if shape == "torus":
-        return demo.mesh_from_arrays("torus", *torus())
+        return demo.mesh_from_arrays("torus", *torus(u=int(96 / detail), v=int(48 / detail)))
     mb = bpy.data.metaballs.new(shape)
-    mb.resolution = mb.render_resolution = METABALL_RESOLUTION.get(shape, 0.03)
+    mb.resolution = mb.render_resolution = METABALL_RESOLUTION.get(shape, 0.03) * detail
     mb.threshold = 0.6
     for kind, centre, radius, (sx, sy, sz), rot in METABALLS[shape]:
         e = mb.elements.new(type=kind)
