@@ -667,3 +667,19 @@ def test_on_a_small_balls_lit_side_the_diffusion_gives_up_what_its_held_source_r
     assert lit.sum() > 100 and (whole[lit] > 0).all()
     share = kept[lit].sum(axis=0) / whole[lit].sum(axis=0)
     assert (share < 0.1).all(), share
+
+
+def test_a_medium_that_absorbs_nothing_draws_white_under_a_white_world(tr, scene):
+    """Spectralon (sigma_a = 0) under a uniform world of 0.5, index-matched: the light all comes back (total
+    reflectance 1), so the ball draws 0.5 as a medium absorbing 1e-7 / mm does. The source's shares on a
+    surface link were 0 / 0 at sigma_tr = 0, and the ball drew black."""
+    ob = _baked_ball(scene, preset="spectralon")
+    bpy.data.objects.remove(bpy.data.objects["POINT light"])
+    set_world(scene, (0.5, 0.5, 0.5))
+    ob.translucent.eta = 1.0
+    centre = (slice(18, 30), slice(26, 38))
+    none = render(scene, 64, 48)[centre][..., :3]
+    ob.translucent.sigma_a = (1e-7,) * 3
+    little = render(scene, 64, 48)[centre][..., :3]
+    assert np.abs(none - little).max() < 1e-3
+    assert np.abs(none - 0.5).max() < 0.02

@@ -65,6 +65,12 @@ def test_quadgraph_kernels_stay_finite_and_bounded(sigma_a, sigma_s_prime, eta):
     mu = np.full((3, 1), sigma_a)
     w_s, w_k = df.source_split(kappa, mu, d)
     assert _finite(w_s, w_k) and (w_s >= 0).all() and (w_k >= 0).all() and (w_s + w_k <= 1.0 + 1e-9).all()
+    # Continuous in sigma_a down to 0, where the shares are (d - z_0) / d and z_0 / d, summing to 1 (both were
+    # 0 / 0 = 0 there once: QUADGRAPH drew spectralon black).
+    w_s_near, w_k_near = df.source_split(kappa, mu + 1e-12, d)
+    assert np.allclose(w_s, w_s_near, atol=1e-6) and np.allclose(w_k, w_k_near, atol=1e-6)
+    if sigma_a == 0.0:
+        assert np.allclose(w_s + w_k, 1.0, atol=1e-12)
     e1, e2 = df.surface_link(kappa, mu, d)
     assert _finite(e1, e2) and ((e1 > 0) & (e1 <= 1.0)).all() and (e2 >= 1.0).all()
     gain = df.held_source_gain(kappa, mu, d)

@@ -33,14 +33,17 @@ void link_factors(vec3 x, out vec3 e1, out vec3 e2)
   }
 }
 
-/* sinh(a) / sinh(b), 0 <= a <= b (diffusion._sinh_ratio); below b = 1e-2 its series
- * (a / b)(1 + (a^2 - b^2) / 6), where 1 - exp(-2b) cancels in float32. */
-float sinh_ratio(float a, float b)
+/* sinh(sigma a) / sinh(sigma b) for lengths 0 <= a <= b (diffusion._sinh_ratio); where sigma b < 1e-2 its
+ * series (a / b)(1 + sigma^2 (a^2 - b^2) / 6), where 1 - exp(-2 sigma b) cancels in float32, and which keeps
+ * a / b for a medium that absorbs nothing (sigma = 0). */
+float sinh_ratio(float sigma, float a, float b)
 {
-  if (b < 1e-2) {
-    return a / max(b, 1e-30) * (1.0 + (a * a - b * b) / 6.0);
+  float x = sigma * a;
+  float y = sigma * b;
+  if (y < 1e-2) {
+    return a / max(b, 1e-30) * (1.0 + (x * x - y * y) / 6.0);
   }
-  return exp(a - b) * (1.0 - exp(-2.0 * a)) / (1.0 - exp(-2.0 * b));
+  return exp(x - y) * (1.0 - exp(-2.0 * x)) / (1.0 - exp(-2.0 * y));
 }
 
 /* The fitted link factors of a surface node's link and the shares (w_s, w_k) of its source. */
@@ -53,8 +56,8 @@ void surface_factors(int slot, float d, out vec3 e1, out vec3 e2, out vec3 w_s, 
   link_factors(sigma_tr * d, e1, e2);
   vec3 z0 = min(3.0 * kappa, vec3(d)); /* at the inner node where the link is shorter */
   for (int c = 0; c < 3; c++) {
-    w_s[c] = sinh_ratio(sigma_tr[c] * (d - z0[c]), sigma_tr[c] * d);
-    w_k[c] = sinh_ratio(sigma_tr[c] * z0[c], sigma_tr[c] * d);
+    w_s[c] = sinh_ratio(sigma_tr[c], d - z0[c], d);
+    w_k[c] = sinh_ratio(sigma_tr[c], z0[c], d);
   }
 }
 

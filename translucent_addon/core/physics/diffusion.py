@@ -185,14 +185,19 @@ def surface_link(kappa_nodes: np.ndarray, mu_nodes: np.ndarray,
     return link_factors(np.sqrt(mu / k) * d_surface[:, None])
 
 
-def _sinh_ratio(a, b):
-    """sinh(a) / sinh(b) for 0 <= a <= b, without overflow; a / b as b -> 0."""
+def _sinh_ratio(sigma, a, b):
+    """sinh(sigma a) / sinh(sigma b) for lengths 0 <= a <= b, without overflow; its series
+    (a / b)(1 + sigma^2 (a^2 - b^2) / 6) where sigma b is small, so that a medium that absorbs nothing (sigma_tr
+    = 0: spectralon) gets the limit a / b, not 0 / 0."""
+    sigma = np.asarray(sigma, np.float64)
     a = np.asarray(a, np.float64)
     b = np.asarray(b, np.float64)
-    small = b < 1e-4
-    safe_b = np.where(small, 1.0, b)
-    ratio = np.exp(a - safe_b) * np.expm1(-2.0 * a) / np.expm1(-2.0 * safe_b)
-    return np.where(small, a / np.where(small, np.maximum(b, 1e-300), 1.0), ratio)
+    x, y = sigma * a, sigma * b
+    small = y < 1e-4
+    safe_y = np.where(small, 1.0, y)
+    ratio = np.exp(x - safe_y) * np.expm1(-2.0 * x) / np.expm1(-2.0 * safe_y)
+    series = a / np.maximum(b, 1e-300) * (1.0 + (x * x - y * y) / 6.0)
+    return np.where(small, series, ratio)
 
 
 def source_split(kappa_nodes: np.ndarray, mu_nodes: np.ndarray,
@@ -212,7 +217,7 @@ def source_split(kappa_nodes: np.ndarray, mu_nodes: np.ndarray,
     sigma_tr = np.sqrt(mu / k)
     d = np.asarray(d_surface, np.float64)[:, None]
     z0 = np.minimum(3.0 * k, d)
-    return _sinh_ratio(sigma_tr * (d - z0), sigma_tr * d), _sinh_ratio(sigma_tr * z0, sigma_tr * d)
+    return _sinh_ratio(sigma_tr, d - z0, d), _sinh_ratio(sigma_tr, z0, d)
 
 
 def edge_kappa(kappa_nodes: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
