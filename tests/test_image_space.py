@@ -554,3 +554,28 @@ def test_painted_mask_draws_the_masked_half_opaque(tr, scene):
     # The weights blend over the grid's one cell (1.25 mm, 2.7 px) at x = 0: up to column 52 fully masked.
     assert np.allclose(masked[:, :52, :3], opaque[:, :52, :3], rtol=1e-4, atol=1e-5)
     assert np.abs(masked[:, 57:, :3] - opaque[:, 57:, :3]).max() > 0.1 * opaque[..., :3].max()
+
+
+def test_a_profile_longer_than_the_camera_distance_keeps_its_splats(tr, scene):
+    """A 2 cm ball whose light scatters 20 times as far as marble's (Scattering scale 20: r_max far beyond the
+    ball), seen from 12 cm and, framed alike, from 3 m: the same image but for perspective (means within 5 %, the
+    shadowed half's too). The splats' quads, moved towards the camera by their radius, once landed in front of the
+    near plane from 12 cm, and clipping took them: the ball drew its shadow black."""
+    set_world(scene, (0.0, 0.0, 0.0))
+    ob = _ball(scene, location=(0, 0, 0), radius=0.02, preset="marble")
+    ob.translucent.scattering_scale = 20.0
+    add_light(scene, "POINT", (0.3, 0.0, 0.1), (0, 0, 0), energy=5.0)
+    images = []
+    for distance, lens in ((0.12, 50.0), (3.0, 1250.0)):
+        cam = add_camera(scene, (0.0, -distance, 0.0), (0, 0, 0), lens=lens)
+        cam.data.clip_start, cam.data.clip_end = 0.01 * distance, 10.0 * distance
+        images.append(render(scene, 64, 64))
+    near, far = images
+    on = (near[..., 3] > 0.5) & (far[..., 3] > 0.5)
+    assert on.sum() > 500
+    ratio = near[on][:, :3].mean(axis=0) / far[on][:, :3].mean(axis=0)
+    shadowed = on.copy()
+    shadowed[:, 32:] = False  # the ball's -x half, turned away from the light at +x
+    dark_ratio = near[shadowed][:, :3].mean(axis=0) / far[shadowed][:, :3].mean(axis=0)
+    print("near over far: whole ball", ratio, "shadowed half", dark_ratio)
+    assert np.abs(ratio - 1.0).max() < 0.05 and np.abs(dark_ratio - 1.0).max() < 0.05  # measured 0.965, 0.991

@@ -58,7 +58,11 @@ void main()
   float radius = reach / v_flux.a / mat.x; /* world units */
   vec4 c = frame.view * vec4(pid.xyz, 1.0);
   if (frame.camera_position.w < 0.5) {
-    c.z = min(c.z + radius, -1e-4);
+    /* No nearer than just past the near plane (GL's projection: near = P[3][2] / (P[2][2] - 1)): a profile
+     * reaching further than the camera's distance (a Principled material whose Subsurface Scale is near the
+     * object's size, seen close up) moved its quad in front of it, where clipping took the whole splat. */
+    float near = frame.proj[3][2] / (frame.proj[2][2] - 1.0);
+    c.z = min(c.z + radius, -1.001 * near);
   }
   gl_Position = frame.proj * (c + vec4(corner * radius, 0.0, 0.0));
 }
