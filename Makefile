@@ -20,7 +20,7 @@ GPU53_CASES := 5.3.0:VULKAN 5.3.0:OPENGL
 VENV53 := .venv-5.3
 
 .PHONY: demo test test-dev test-gpu53 test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu \
-	bench-material clean
+	bench-material bench-suite clean
 
 $(STAMP): requirements.txt
 	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
@@ -81,6 +81,7 @@ bench: $(STAMP)
 	$(PY) scripts/bench_frame.py
 	$(PY) scripts/bench_exact.py
 	$(PY) scripts/bench_exact.py --sweep --output bench/results/exact_sweep
+	$(PY) scripts/bench_suite.py
 	$(PY) scripts/bench_quadgraph.py
 	$(PY) scripts/bench_geocube.py
 	$(PY) scripts/bench_caustics.py
@@ -93,6 +94,12 @@ bench: $(STAMP)
 # The subsurface methods against exact transport (Cycles brute force, index-matched): about 40 minutes here.
 bench-exact: $(STAMP)
 	$(PY) scripts/bench_exact.py
+
+# The generalisation suite: every subsurface method against exact transport on 24 drawn scenes (ten shapes, 1 cm to
+# 1 m, the presets and Principled looks, four lights from four sides, IOR 1 and 1.3-1.4): about 75 minutes here, or
+# 30 with the references kept in bench/suite_references/.
+bench-suite: $(STAMP)
+	$(PY) scripts/bench_suite.py
 
 # The artist's material (textured, glossy, normal-mapped spot) against Cycles' random walk, and the surface layer's
 # cost on the demo frame: about 8 minutes here.

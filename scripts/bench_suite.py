@@ -281,7 +281,7 @@ def main() -> int:
     results = out / "results.json"
     rows = [r for r in json.loads(results.read_text())] if results.exists() and args.scenes else []
     for spec in specs:
-        rows = [r for r in rows if r["scene"] != spec.name]
+        rows = [r for r in rows if r["scene"] != spec.name or r["method"] not in args.methods]
         bpy.ops.wm.read_homefile(use_empty=True)
         scene, subject = suite_scenes.build(spec, package)
         seeds, frame = reference(spec.name, scene, subject, runner, n, args.samples, args.seeds,
@@ -297,8 +297,11 @@ def main() -> int:
                 "block_rmse_floor": round(float(floor), 4)}
         print(f"[{spec.name}] {spec}: thickness {info['thickness']:.3g}, curvature {info['curvature']:.3g}, "
               f"albedo {info['albedo']:.3f}, reference block noise {floor:.4f}", flush=True)
-        strip = [ref]
         raw = {"reference": ref, "mask": mask}
+        kept = Path(args.raw) / f"{spec.name}.npz" if args.raw else None
+        if kept is not None and kept.exists():  # a rerun of some methods keeps the others' images
+            with np.load(kept) as old:
+                raw.update({k: old[k] for k in METHODS if k in old.files and k not in args.methods})
         exposure = 0.5 / max(float(np.percentile(ref[mask], 95)), 1e-6) if mask.any() else 1.0
         if args.references_only:
             report.save_image_png(out / f"{spec.name}_exact.png", ref, exposure)
@@ -320,11 +323,11 @@ def main() -> int:
                    "rel_rmse": round(metrics.relative_rmse(image, ref, mask), 4),
                    "seconds": round(seconds, 3), "bake_seconds": round(bake_seconds, 1)}
             rows.append(row)
-            strip.append(image)
             raw[method] = image
             print(f"[{spec.name}] {method}: mean {row['mean_ratio']}, block {row['block_rmse']}, {seconds:.2f} s, "
                   f"bake {bake_seconds:.1f} s", flush=True)
         # Reference, then each method; exposure set by the reference so dark and bright scenes both read.
+        strip = [ref] + [raw[m] for m in METHODS if m in raw]
         report.save_image_png(out / f"{spec.name}.png", np.concatenate(strip, axis=1), exposure)
         if args.raw:
             Path(args.raw).mkdir(parents=True, exist_ok=True)
