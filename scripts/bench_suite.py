@@ -244,6 +244,24 @@ def markdown(rows, summary) -> str:
     return "\n".join(lines) + "\n"
 
 
+def report_only(out: Path, merges: list[Path], count: int) -> int:
+    rows = json.loads((out / "results.json").read_text())
+    for path in merges:
+        new = json.loads(path.read_text())
+        done = {(r["scene"], r["method"]) for r in new}
+        rows = [r for r in rows if (r["scene"], r["method"]) not in done] + new
+    order = {s.name: i for i, s in enumerate(suite_scenes.draw(count=count))}
+    rows.sort(key=lambda r: (order.get(r["scene"], 99), METHODS.index(r["method"])))
+    (out / "results.json").write_text(json.dumps(rows, indent=1))
+    summary = summarise(rows)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    chart(rows, out / "chart.png")
+    text = markdown(rows, summary)
+    (out / "summary.md").write_text(text)
+    print(text)
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", default=str(ROOT / "bench" / "results" / "suite"))
@@ -259,7 +277,14 @@ def main() -> int:
     parser.add_argument("--test-references", action="store_true",
                         help="render the exact references of the tests' scenes (suite_scenes.TEST_SCENES) at 64x64, "
                              "4 seeds, into tests/data/exact/, and draw each method on them")
+    parser.add_argument("--report-only", action="store_true",
+                        help="write summary.md, summary.json and chart.png from results.json as it stands (after rows "
+                             "of a rerun were merged into it)")
+    parser.add_argument("--merge", nargs="*", default=[],
+                        help="results.json files of partial reruns whose rows replace the same scene and method")
     args = parser.parse_args()
+    if args.report_only:
+        return report_only(Path(args.output), [Path(m) for m in args.merge], args.count)
     if args.test_references:
         args.size, args.seeds, args.samples = 64, 4, 1024
         args.references, args.output = str(TEST_REFERENCES), str(ROOT / "bench" / "results" / "suite_tests")

@@ -33,6 +33,18 @@ PRINCIPLED_LOOKS = (((0.80, 0.55, 0.45), (1.0, 0.2, 0.1)), ((0.90, 0.85, 0.70), 
                     ((0.35, 0.75, 0.45), (0.3, 1.0, 0.5)), ((0.95, 0.95, 0.93), (1.0, 1.0, 1.0)),
                     ((0.45, 0.70, 0.20), (0.5, 1.0, 0.3)))
 WORLD = (0.01, 0.011, 0.013)
+# The largest object a preset may make, in its reduced mean free paths (size x the largest sigma_s'): Cycles' brute
+# force follows each path up to 1024 bounces, and crossing a body of N mean free paths takes about N^2 of them: a
+# 16 cm spectralon slab (3,200) kept one seed of the reference running past ten minutes, and its light would be cut.
+MAX_SIZE_MFP = 1000.0
+
+
+# The presets' sigma_s' (mm^-1, data/materials_jensen2001.csv), for the size cap.
+PRESET_SIGMA_S_PRIME = {"apple": (2.29, 2.39, 1.97), "chicken1": (0.15, 0.21, 0.38), "chicken2": (0.19, 0.25, 0.32),
+                        "cream": (7.38, 5.47, 3.15), "ketchup": (0.18, 0.07, 0.03), "marble": (2.19, 2.62, 3.00),
+                        "potato": (0.68, 0.70, 0.55), "skimmilk": (0.70, 1.22, 1.90), "skin1": (0.74, 0.88, 1.01),
+                        "skin2": (1.09, 1.59, 1.79), "spectralon": (11.6, 20.4, 14.9),
+                        "wholemilk": (2.55, 3.21, 3.77)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,6 +96,8 @@ def draw(seed: int = 56, count: int = 24) -> list[Spec]:
                 medium = PRESETS[int(rng.integers(len(PRESETS)))]  # the Principled's own gloss is not the reference's
         scale = float(np.exp(rng.uniform(np.log(0.1), np.log(1.0)))) * size if medium.startswith("principled:") \
             else 0.0
+        if not medium.startswith("principled:"):
+            size = min(size, MAX_SIZE_MFP / (1000.0 * max(PRESET_SIGMA_S_PRIME[medium])))
         specs.append(Spec(f"s{i:02d}_{shapes[i]}_{directions[i].lower()}", shapes[i], round(size, 4), medium, light,
                           directions[i], eta, round(scale, 5), round(yaw, 1), "AB"[i % 2]))
     return specs
