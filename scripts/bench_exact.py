@@ -145,6 +145,21 @@ def peers(scene, subject, runner, metrics, cache, reference, mask, noise, floor,
     return rows
 
 
+def draw_timed(runner, scene, subject, method: str, n: int, supersample: int):
+    """``subject`` drawn with ``method``: baked first where the method bakes (timed), a frame that uploads and
+    caches, a timed n x n frame, then the image box-filtered from supersample x supersample samples a pixel, as
+    Cycles' BOX filter does: (RGBA (n, n, 4), seconds per frame, bake seconds)."""
+    t0 = time.perf_counter()
+    if method != "IMAGE_SPACE":
+        runner.bake_objects([subject], method, progress=lambda *_: None)
+    bake_seconds = time.perf_counter() - t0
+    with runner.engine_setup(scene, "TRANSLUCENT_RT"):
+        runner.render_pixels(scene, n, n)  # uploads and caches
+        _, seconds = runner.render_pixels(scene, n, n)
+        image, _ = runner.render_pixels(scene, n * supersample, n * supersample)
+    return image.reshape(n, supersample, n, supersample, 4).mean(axis=(1, 3)), seconds, bake_seconds
+
+
 def chart(rows, path: Path) -> None:
     """Speed against accuracy, one panel per scene: 4x4-block error against exact transport over seconds per
     frame, our methods (exact profile) and the peers; the reference's own block noise dashed."""
@@ -265,15 +280,7 @@ def main() -> int:
                 for profile, apply in variants(method, subject, args.sweep):
                     subject.translucent.method = method
                     apply()
-                    t0 = time.perf_counter()
-                    if method != "IMAGE_SPACE":
-                        runner.bake_objects([subject], method, progress=lambda *_: None)
-                    bake_seconds = time.perf_counter() - t0
-                    with runner.engine_setup(scene, "TRANSLUCENT_RT"):
-                        runner.render_pixels(scene, n, n)  # uploads and caches
-                        _, seconds = runner.render_pixels(scene, n, n)
-                        image, _ = runner.render_pixels(scene, n * SUPERSAMPLE, n * SUPERSAMPLE)
-                    image = image.reshape(n, SUPERSAMPLE, n, SUPERSAMPLE, 4).mean(axis=(1, 3))
+                    image, seconds, bake_seconds = draw_timed(runner, scene, subject, method, n, SUPERSAMPLE)
                     ratio = image[mask][:, :3].mean(0) / reference[mask][:, :3].mean(0)
                     row = {"scene": name, "method": method, "profile": profile, "seconds": round(seconds, 3),
                            "bake_seconds": round(bake_seconds, 1),

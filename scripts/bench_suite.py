@@ -25,6 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import blender_env  # noqa: E402
 import suite_scenes  # noqa: E402
+from bench_exact import draw_timed  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 METHODS = ("IMAGE_SPACE", "TEXTURE_SPACE", "QUADGRAPH")
@@ -252,7 +253,12 @@ def report_only(out: Path, merges: list[Path], count: int) -> int:
         new = json.loads(path.read_text())
         done = {(r["scene"], r["method"]) for r in new}
         rows = [r for r in rows if (r["scene"], r["method"]) not in done] + new
-    order = {s.name: i for i, s in enumerate(suite_scenes.draw(count=count))}
+    return write_report(out, rows, suite_scenes.draw(count=count))
+
+
+def write_report(out: Path, rows: list, specs) -> int:
+    """results.json (rows in the specs' order), summary.json, summary.md and chart.png."""
+    order = {s.name: i for i, s in enumerate(specs)}
     rows.sort(key=lambda r: (order.get(r["scene"], 99), METHODS.index(r["method"])))
     (out / "results.json").write_text(json.dumps(rows, indent=1))
     summary = summarise(rows)
@@ -336,15 +342,8 @@ def main() -> int:
             continue
         for method in args.methods:
             subject.translucent.method = method
-            t0 = time.perf_counter()
-            if method != "IMAGE_SPACE":
-                runner.bake_objects([subject], method, progress=lambda *_: None)
-            bake_seconds = time.perf_counter() - t0
-            with runner.engine_setup(scene, "TRANSLUCENT_RT"):
-                runner.render_pixels(scene, n, n)  # uploads and caches
-                _, seconds = runner.render_pixels(scene, n, n)
-                image, _ = runner.render_pixels(scene, n * SUPERSAMPLE, n * SUPERSAMPLE)
-            image = image[..., :3].reshape(n, SUPERSAMPLE, n, SUPERSAMPLE, 3).mean(axis=(1, 3))
+            image, seconds, bake_seconds = draw_timed(runner, scene, subject, method, n, SUPERSAMPLE)
+            image = image[..., :3]
             ratio = image[mask].mean(0) / ref[mask].mean(0)
             row = {**info, "method": method, "mean_ratio": [round(float(v), 4) for v in ratio],
                    "block_rmse": round(metrics.block_relative_rmse(image, ref, mask, BLOCK), 4),
@@ -362,18 +361,7 @@ def main() -> int:
             np.savez_compressed(Path(args.raw) / f"{spec.name}.npz", **{k: np.asarray(v, np.float32)
                                                                        for k, v in raw.items()})
         results.write_text(json.dumps(rows, indent=1))
-    if args.references_only:
-        return 0
-    order = {s.name: i for i, s in enumerate(specs)}
-    rows.sort(key=lambda r: (order.get(r["scene"], 99), METHODS.index(r["method"])))
-    results.write_text(json.dumps(rows, indent=1))
-    summary = summarise(rows)
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
-    chart(rows, out / "chart.png")
-    text = markdown(rows, summary)
-    (out / "summary.md").write_text(text)
-    print(text)
-    return 0
+    return 0 if args.references_only else write_report(out, rows, specs)
 
 
 if __name__ == "__main__":
