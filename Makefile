@@ -20,7 +20,7 @@ GPU53_CASES := 5.3.0:VULKAN 5.3.0:OPENGL
 VENV53 := .venv-5.3
 
 .PHONY: demo test test-dev test-gpu53 test-zip lint extension wheels venv bench bench-exact bench-frame bench-gpu \
-	bench-material bench-suite clean
+	bench-material bench-suite bench-instances clean
 
 $(STAMP): requirements.txt
 	@case "$(PYTHON)" in *not-found) echo "make: Python 3.13 not found (Blender 5.2 needs it): pyenv install 3.13, or PYTHON=..."; exit 1;; esac
@@ -109,6 +109,11 @@ bench-material: $(STAMP)
 # Where a frame's time goes (CPU work outside GPU calls, GPU calls), demo bunny at 64x64: about 3 minutes here.
 bench-frame: $(STAMP)
 	$(PY) scripts/bench_frame.py
+
+# Scenes of many: 1, 10 and 100 linked duplicates of a baked ball per method and 1,000 geometry-nodes instances, frame
+# time and Blender's peak memory, each count in a fresh process: about 25 minutes here.
+bench-instances: $(STAMP)
+	$(PY) scripts/bench_instances.py
 
 # Each method at 1920x1080 on the demo and bench scenes, frames per second and the split, the GPU named; at
 # most 5 minutes (what does not fit is listed as skipped). Run it on a machine with a GPU: on llvmpipe it draws

@@ -115,7 +115,8 @@ def test_an_unchanged_mesh_is_not_read_again_and_a_deforming_one_is(tr, scene):
     depsgraph.update()
     second = next(m for m in frame().meshes if m.name == "Ball")
     assert second.key == first.key and second.positions is first.positions
-    read = ext_module(tr, "translucent_addon.blender.session").current().reads.cache[("VIEWPORT", "Ball")]
+    source = ext_module(tr, "translucent_addon.blender.mesh_read").geometry_source(ball)  # its mesh's, shared
+    read = ext_module(tr, "translucent_addon.blender.session").current().reads.cache[("VIEWPORT", source)]
 
     ball.shape_key_add(name="Basis")
     key = ball.shape_key_add(name="Squash")
@@ -123,7 +124,7 @@ def test_an_unchanged_mesh_is_not_read_again_and_a_deforming_one_is(tr, scene):
     key.value = 1.0
     depsgraph.update()
     third = next(m for m in frame().meshes if m.name == "Ball")
-    moved = ext_module(tr, "translucent_addon.blender.session").current().reads.cache[("VIEWPORT", "Ball")]
+    moved = ext_module(tr, "translucent_addon.blender.session").current().reads.cache[("VIEWPORT", source)]
     assert third.key != first.key and not np.array_equal(third.positions, first.positions)
     assert moved is not read and moved.tri_loops is read.tri_loops, "the topology is kept, not read again"
 
@@ -276,7 +277,8 @@ def test_two_sessions_keep_their_own_caches_side_by_side(tr, scene):
     assert ball_a.key != ball_b.key, "each session names its own GPU arrays"
     np.testing.assert_array_equal(ball_a.positions, ball_b.positions)
     assert set(a.drawn) == set(b.drawn) and a.reads.cache.keys() == b.reads.cache.keys()
-    assert a.drawn[("VIEWPORT", "Ball")] is not b.drawn[("VIEWPORT", "Ball")]
+    source = ext_module(tr, "translucent_addon.blender.mesh_read").geometry_source(scene.objects["Ball"])
+    assert a.drawn[("VIEWPORT", source)] is not b.drawn[("VIEWPORT", source)]
     a.clear()
     assert not a.drawn and not a.reads.cache and b.drawn
     again = next(m for m in extract.frame_inputs(depsgraph, camera, session=b).meshes if m.name == "Ball")

@@ -196,8 +196,8 @@ def test_touching_objects_do_not_bleed(tr, scene):
     render(scene, 96, 48)
     cap = _capture(tr)
     g, scatter = cap["gbuffer"], cap["scatter"]
-    slot_dark = cap["plan"].slot_of[[m.name for m in cap["frame"].meshes].index("Dark")] + 1
-    slot_lit = cap["plan"].slot_of[[m.name for m in cap["frame"].meshes].index("Lit")] + 1
+    slot_dark = cap["plan"].tag_of[[m.name for m in cap["frame"].meshes].index("Dark")]  # the id channel's tags
+    slot_lit = cap["plan"].tag_of[[m.name for m in cap["frame"].meshes].index("Lit")]
     (pos_id, flux), = cap["samples"]
     lit_samples = flux[..., :3].max(axis=-1) > 0
     assert not np.any(np.isclose(pos_id[..., 3], slot_dark) & lit_samples), "the spot only reaches the lit ball"

@@ -260,17 +260,30 @@ def test_k_capped_by_the_pixel_is_reported_as_drawn():
             assert distance == 3.0 and k == round(k_pixel, 1) and notes[0].endswith(f"k capped at {k:.1f}")
 
 
-def test_image_space_past_its_material_slots_says_which_objects_it_leaves_out():
-    from translucent_addon.core.frame import FrameInputs
-    from translucent_addon.techniques.image_space.model import MAX_MATERIALS, plan
+def test_image_space_draws_any_number_of_objects_and_names_those_past_its_material_slots():
+    """Issue 57: IMAGE_SPACE drew subsurface light for at most 32 objects a frame (one material slot each). Objects
+    of one medium now share a slot and each keeps its own tag (the splats' id clipping): 200 boxes of marble are all
+    drawn; past MAX_MATERIALS different media, the objects of the others are named."""
+    import dataclasses
 
-    boxes = [_box_mesh(f"Box{i:02d}", 0.01, None) for i in range(MAX_MATERIALS + 2)]
+    from translucent_addon.core.frame import FrameInputs
+    from translucent_addon.techniques.image_space.model import MAX_MATERIALS, TAG_SLOTS, plan
+
+    boxes = [_box_mesh(f"Box{i:03d}", 0.01, None) for i in range(200)]
     frame = FrameInputs(boxes, [], _camera(1.0), np.zeros(3))
     p = plan(frame)
-    assert sorted(p.slot_of) == list(range(MAX_MATERIALS))
-    assert frame.warnings == [f"IMAGE_SPACE draws at most {MAX_MATERIALS} objects a frame: 'Box32', 'Box33' drawn "
-                              "without subsurface light (give them another method)"]
-    assert plan(FrameInputs(boxes[:MAX_MATERIALS], [], _camera(1.0), np.zeros(3))) is not None
+    assert sorted(p.slot_of) == list(range(200)) and set(p.slot_of.values()) == {0} and not frame.warnings
+    assert sorted(p.tag_of.values()) == [(n + 1) * TAG_SLOTS for n in range(200)]  # one tag per object
+    assert len(p.tables) == len(p.media) == 1
+    # MAX_MATERIALS + 2 different media: the two past the slots are named, the others drawn.
+    own = [dataclasses.replace(b, medium=dataclasses.replace(b.medium, sigma_a=(0.001 * (i + 1),) * 3))
+           for i, b in enumerate(boxes[:MAX_MATERIALS + 2])]
+    frame = FrameInputs(own, [], _camera(1.0), np.zeros(3))
+    p = plan(frame)
+    assert sorted(p.slot_of) == list(range(MAX_MATERIALS)) and len(p.tables) == MAX_MATERIALS
+    assert frame.warnings == [f"IMAGE_SPACE draws at most {MAX_MATERIALS} different media a frame: 'Box032', 'Box033' "
+                              "drawn without subsurface light (give them a medium another object has, or another "
+                              "method)"]
 
 
 # Blender: the operator and the bake.

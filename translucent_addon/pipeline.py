@@ -36,7 +36,7 @@ class Pipeline:
 
     def __init__(self):
         self._batches: dict[tuple, tuple] = {}  # (mesh key, shape operators on) -> (base batch, shadow batch)
-        self._shapes: dict[str, tuple] = {}  # mesh name -> (corner positions, on, shape_attributes) when computed
+        self._shapes: dict[str, tuple] = {}  # mesh source -> (corner positions, on, shape_attributes) when computed
         self._atlas = None  # (texels, color texture, depth texture, framebuffer)
         self.targets: dict = {}  # method render targets by (name, size), reused across frames
         self.last_timings: dict[str, float] = {}
@@ -56,7 +56,8 @@ class Pipeline:
         self.layer = None
 
     def forget(self, keys_alive: set[str], names_alive: set[str] | None = None) -> None:
-        """Drop batches of meshes that are no longer drawn (and the shape operators of names no longer drawn)."""
+        """Drop batches of meshes that are no longer drawn (and the shape operators of sources no longer drawn:
+        ``MeshInstance.source``)."""
         for key in list(self._batches):
             if key[0] not in keys_alive:
                 del self._batches[key]
@@ -93,14 +94,14 @@ class Pipeline:
     def _shape(self, mesh: MeshInstance) -> dict:
         """``shape_attributes`` of a mesh, reused for a new geometry of the same name (a deforming mesh: a new
         batch every frame) while its corners have moved less than ``SHAPE_REUSE`` of its size in the mean."""
-        known = self._shapes.get(mesh.name)
+        known = self._shapes.get(mesh.source)
         on = shapes_drawn(mesh)
         if known is not None and len(known[0]) == len(mesh.positions) and known[1] == on:
             size = float(np.ptp(mesh.positions, axis=0).max()) if len(mesh.positions) else 0.0
             if float(np.abs(mesh.positions - known[0]).mean()) <= SHAPE_REUSE * size:
                 return known[2]
         attributes = shape_attributes(mesh)
-        self._shapes[mesh.name] = (np.array(mesh.positions, np.float32), on, attributes)
+        self._shapes[mesh.source] = (np.array(mesh.positions, np.float32), on, attributes)
         return attributes
 
     def _shadow_atlas(self, texels: int):
@@ -145,7 +146,7 @@ class Pipeline:
         lighting = [t.base_lighting(state) for t, state in states if state is not None]
         active = [(t, state) for t, state in states if state is not None and t.id not in self.unavailable]
         materials_ubo, near_lut, slots = next(x for x in lighting if x is not None)
-        ctx.objects[:] = [gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, -1)))
+        ctx.objects[:] = [gpu.types.GPUUniformBuf(blocks.object_block(m.model, m.normal_matrix, slots.get(k, 0)))
                           for k, m in enumerate(frame.meshes)]
         skip = set().union(*(t.replaces_base(state) for t, state in active))
         centre, radius = frame.bounds()

@@ -1,6 +1,14 @@
 /* Functions shared by the passes (prepended to each pass source). */
 #define PI 3.14159265358979
 
+/* An object's tag (its object block's shading.x, and the id channel of IMAGE_SPACE's samples and G-buffer): its
+ * number among the frame's subsurface objects times 64 plus its material slot (image_space/model.py object_tag),
+ * 0 for other surfaces. Its material slot, or -1 for those. */
+int material_slot(float tag)
+{
+  return (tag < 0.5) ? -1 : int(tag + 0.5) % 64;
+}
+
 /* Unpolarised Fresnel reflectance entering a dielectric of relative index eta. */
 float fresnel_dielectric(float cos_i, float eta)
 {

@@ -13,7 +13,7 @@ struct FrameData {
 struct ObjectData {
   mat4 model;
   mat4 normal_matrix; /* inverse transpose of model's 3x3, padded */
-  vec4 shading;       /* x: subsurface material slot + 1 (0: Lambert); y: 1 when mirrored (det < 0) */
+  vec4 shading;       /* x: subsurface tag (common.glsl material_slot; 0: Lambert); y: 1 when mirrored (det < 0) */
 };
 
 struct LightData {

@@ -15,7 +15,7 @@ void main()
 #ifdef GPU_FRAGMENT_SHADER
 void main()
 {
-  int slot = int(object.shading.x + 0.5) - 1;
+  int slot = material_slot(object.shading.x);
   vec3 n = normalize(v_normal);
   if (!facing_out(object.shading)) {
     n = -n;

@@ -1,5 +1,5 @@
-/* IMAGE_SPACE pass 2 (Shah 6.4.1): camera-view world positions x_o and subsurface slot + 1
- * (0 for other surfaces, which occlude), and the facet normal at x_o (for the splats' partition). */
+/* IMAGE_SPACE pass 2 (Shah 6.4.1): camera-view world positions x_o and the object's tag (common.glsl: 0 for
+ * other surfaces, which occlude), and the facet normal at x_o (for the splats' partition). */
 #ifdef GPU_VERTEX_SHADER
 void main()
 {

@@ -1,5 +1,5 @@
 /* IMAGE_SPACE pass 1 (Shah 6.4.1): light-view samples x_i. Every surface is drawn (other
- * objects occlude: shadows); subsurface surfaces store their position and slot + 1, and the
+ * objects occlude: shadows); subsurface surfaces store their position and tag (common.glsl), and the
  * power entering through their texel, Phi = E F_t(w_i) dA (point: I F_t dw_texel; directional:
  * E F_t texel area), times mm per unit^2 (dA in mm^2), the mask, M_i and the angular law's a(cos_i)
  * (common/angular_law.glsl); alpha holds M_d. */
@@ -22,7 +22,7 @@ void main()
 const float MIN_FACET_COS = 0.05;
 void main()
 {
-  int slot = int(object.shading.x + 0.5) - 1;
+  int slot = material_slot(object.shading.x);
   if (slot < 0) {
     out_pos_id = vec4(0.0);
     out_flux = vec4(0.0);

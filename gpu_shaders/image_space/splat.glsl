@@ -53,7 +53,7 @@ void main()
     gl_Position = vec4(2.0, 2.0, 2.0, 1.0); /* no sample: outside the clip volume */
     return;
   }
-  vec4 mat = materials.params[2 * (int(pid.w + 0.5) - 1)];
+  vec4 mat = materials.params[2 * material_slot(pid.w)];
   float reach = (tail_pass == 1) ? tail_reach * mat.y : mat.y;
   float radius = reach / v_flux.a / mat.x; /* world units */
   vec4 c = frame.view * vec4(pid.xyz, 1.0);
@@ -118,7 +118,7 @@ void main()
   if (abs(xo.w - v_slot) > 0.5) {
     discard; /* another object, or the background */
   }
-  int slot = int(v_slot + 0.5) - 1;
+  int slot = material_slot(v_slot);
   vec4 mat = materials.params[2 * slot];
   float M = v_flux.a;
   float r_mm = length(xo.xyz - v_xi) * mat.x;

@@ -16,8 +16,9 @@ void main()
   vec4 current = texelFetch(scatter, pixel, 0);
   vec4 here = texelFetch(gbuffer, pixel, 0);
   out_accum = current;
-  int slot = int(here.w + 0.5) - 1;
-  if (slot < 0) {
+  /* the object's number from its tag (common.glsl); past the block's 32 objects, no history */
+  int slot = int(here.w + 0.5) / 64 - 1;
+  if (here.w < 0.5 || slot >= 32) {
     return;
   }
   vec4 previous_world = temporal.previous_model[slot] * (temporal.inverse_model[slot] * vec4(here.xyz, 1.0));

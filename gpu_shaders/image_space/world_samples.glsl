@@ -1,6 +1,6 @@
 /* IMAGE_SPACE world samples (Shah 6.4.2): layer `layer` of a depth peel of the subsurface meshes
  * along one axis (orthographic `view_proj`): the nearest surface beyond the previous layer's. Each
- * stores its position and slot + 1, and the world's power entering through its texel,
+ * stores its position and tag (common.glsl), and the world's power entering through its texel,
  * Phi = E_sh(n) texel_area / (|n_g.x| + |n_g.y| + |n_g.z|) (mm^2): the texel covers
  * texel_area / |n_g . a| of the facet, and the three axes share it by |n_g . a| / sum |n_g . b|. */
 #ifdef GPU_VERTEX_SHADER
@@ -18,7 +18,7 @@ void main()
 #ifdef GPU_FRAGMENT_SHADER
 void main()
 {
-  int slot = int(object.shading.x + 0.5) - 1;
+  int slot = material_slot(object.shading.x);
   if (slot < 0) {
     discard;
   }

@@ -47,7 +47,7 @@ void main()
     n = -n;
     S = -S;
   }
-  int slot = int(object.shading.x + 0.5) - 1;
+  int slot = material_slot(object.shading.x);
   vec3 to_eye = direction_to_eye(frame.camera_position, frame.camera_forward, v_world);
   float cos_o = max(dot(n, to_eye), 0.0);
   float m = (slot >= 0) ? v_paint.x : 0.0;

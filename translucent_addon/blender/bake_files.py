@@ -110,6 +110,13 @@ def stored_hash(ob, method: str) -> str | None:
     return store.stored_hash(owner(ob, method), method)
 
 
+def source_key(ob, method: str) -> str | None:
+    """``store.source_key`` of the object's bake of ``method``: what its GPU data is shared under."""
+    holder = owner(ob, method)
+    kind = "object" if holder == ob else "mesh"
+    return store.source_key(holder, method, f"{kind}:{holder.name}")
+
+
 def status(ob, method: str, digest: str) -> str:
     """``store.status`` of the object's bake of ``method`` (where it is held) for inputs ``digest``."""
     return store.status(owner(ob, method), method, digest)

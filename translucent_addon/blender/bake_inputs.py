@@ -95,7 +95,7 @@ def _read(ob_eval, mode: str, session: Session) -> mesh_read.MeshRead:
     """The evaluated object's mesh through ``mesh_read`` (cached under its depsgraph mode and name)."""
     mesh = ob_eval.to_mesh()
     try:
-        return session.reads.read(mesh, (mode, ob_eval.original.name))
+        return session.reads.read(mesh, (mode, mesh_read.geometry_source(ob_eval)))
     finally:
         ob_eval.to_mesh_clear()
 
@@ -107,7 +107,7 @@ def mesh_arrays(ob_eval, *, corner_normals: bool = False, mode: str = "VIEWPORT"
     mesh changed (``mesh_read``; ``mode``: the depsgraph's, which names its cache entry; ``read``: the mesh as
     the caller read it, not read again)."""
     session = session or current_session()
-    key = (mode, ob_eval.original.name)
+    key = (mode, mesh_read.geometry_source(ob_eval))
     if read is None:
         read = _read(ob_eval, mode, session)
     cached = session.bake_arrays.get((key, corner_normals))
@@ -202,7 +202,7 @@ def bake_status(ob_eval, method: str | None = None, mode: str = "VIEWPORT", read
     if store.stored_hash(holder, method) is None:
         return "MISSING"
     inputs = gather(ob_eval, method, mode=mode, read=read, session=session)
-    return store.status(holder, method, inputs_hash(inputs, mode, session))
+    return store.status(holder, method, inputs_hash(inputs, mode, session, mesh_read.geometry_source(ob_eval)))
 
 
 def serves_others(ob, method: str, digest: str) -> bool:
@@ -229,12 +229,14 @@ def serves_others(ob, method: str, digest: str) -> bool:
     return False
 
 
-def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT", session: Session | None = None) -> str:
+def inputs_hash(inputs: BakeInputs, mode: str = "VIEWPORT", session: Session | None = None,
+                source: str | None = None) -> str:
     """``inputs.hash()``, hashed again only when the mesh or a parameter changed: a frame and a panel redraw ask
     for it every time. The geometry is compared by identity: ``mesh_arrays`` hands out the same arrays while the
-    mesh is unchanged, and the memo holds them, so an equal identity is equal content."""
+    mesh is unchanged, and the memo holds them, so an equal identity is equal content. ``source``: what the mesh
+    was read under (``mesh_read.geometry_source``: linked duplicates share one memo while their scales agree)."""
     geometry, params = inputs.hash_parts()
-    key = (mode, inputs.name, inputs.method)
+    key = (mode, source or inputs.name, inputs.method)
     text = json.dumps(params, sort_keys=True, default=float)
     hashes = (session or current_session()).bake_hashes
     cached = hashes.get(key)

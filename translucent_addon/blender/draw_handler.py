@@ -31,7 +31,7 @@ def _draw():
     session = current_session()
     if session.overlay_pipeline is None:
         session.overlay_pipeline = Pipeline()
-    session.overlay_pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
+    session.overlay_pipeline.forget({m.key for m in frame.meshes}, {m.source for m in frame.meshes})
     session.overlay_pipeline.draw(frame, clear=False)
 
 

@@ -123,7 +123,7 @@ class Viewport:
         frame = dataclasses.replace(frame, settings=draw_settings(
             depsgraph.scene, frame, "viewport", self.frames, capture=False))
         t1 = time.perf_counter()
-        self.pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
+        self.pipeline.forget({m.key for m in frame.meshes}, {m.source for m in frame.meshes})
         draw_to_region(self.pipeline, frame, size, bind_display, unbind_display)
         _keep_timings(current_session(), self.pipeline, frame, "viewport", extract=t1 - t0,
                       frame=time.perf_counter() - t0)
@@ -195,7 +195,7 @@ class TranslucentRenderEngine(bpy.types.RenderEngine):
         frame = dataclasses.replace(frame, settings=draw_settings(
             scene, frame, f"F12:{scene.name}", scene.frame_current, scene.translucent.capture_passes, session))
         pipeline = final_pipeline(session)
-        pipeline.forget({m.key for m in frame.meshes}, {m.name for m in frame.meshes})
+        pipeline.forget({m.key for m in frame.meshes}, {m.source for m in frame.meshes})
         wanted = wanted_passes(scene, depsgraph.view_layer)
         if wanted:
             frame = dataclasses.replace(frame, settings=dataclasses.replace(frame.settings, passes=True))

@@ -33,16 +33,12 @@ from ..techniques.grass import bake as grass_btf
 from . import bake_files, material_surface, medium_source, mesh_read
 from .bake_inputs import bake_status, homogeneous_profile, technique_values
 from .images import image_data, image_stamp
+from .mesh_read import BLUR_GROUP, GLOW_GROUP, MASK_GROUP, PAINT_GROUPS
 from .props import bounded
 from .session import Session
 from .session import current as current_session
 
-# Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers.
-BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
-GLOW_GROUP = "translucent_glow"  # Weight Paint: irradiance modulation 1 + 3 w
-MASK_GROUP = "translucent_mask"  # Weight Paint: 1 translucent, 0 opaque (all translucent when absent)
 TINT_ATTRIBUTE = "translucent_tint"  # Vertex Paint (colour attribute): RGB irradiance modulation
-PAINT_GROUPS = (MASK_GROUP, BLUR_GROUP, GLOW_GROUP)
 
 DEFAULT_COLOR = (0.8, 0.8, 0.8)  # Blender's default surface colour
 
@@ -226,7 +222,7 @@ class ObjectReader:
             record = bake_files.read(o, key)
             return record.arrays, record.meta
 
-        return status, BakeHandle(f"{self.name}/{key.lower()}#{digest}", load)
+        return status, BakeHandle(bake_files.source_key(original, key), load, owner=f"{self.name}/{key.lower()}")
 
 
 def _uv_maps(mesh, tri_loops: np.ndarray, names) -> dict:
@@ -261,7 +257,7 @@ def surface_for(ob, drawn: DrawnMesh, mesh, medium: Medium | None, frame_warning
     reference = tuple(map(float, drawn.palette[min(medium_slot, len(drawn.palette) - 1)]))
     eta = None if medium is None else float(medium.eta)
     made_of = (drawn.key, tuple(slots), eta, reference if eta is not None else None)
-    cache_key = (drawn.key.split("#")[0], original.name)
+    cache_key = drawn.key.split("#")[0]  # the object's, or the mesh's that its linked duplicates share
     known = session.surfaces.get(cache_key)
     if known is not None and known[0] == made_of:
         surface = known[1]
@@ -444,17 +440,20 @@ def bake_handle(ob, method: str, mode: str, frame_warnings, session: Session, re
         frame_warnings.append(
             f"'{original.name}': {method} bake is {status.lower()}; drawn with its base colour. Press Bake")
         return None
-    return BakeHandle(f"{original.name}#{bake_files.stored_hash(original, method)}",
-                      lambda o=original, m=method: bake_files.read(o, m).arrays)
+    return BakeHandle(bake_files.source_key(original, method),
+                      lambda o=original, m=method: bake_files.read(o, m).arrays, owner=original.name)
 
 
-def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool = False, scene=None) -> dict | None:
+def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool = False, scene=None,
+                  generated: str | None = None) -> dict | None:
     """What every instance of an evaluated object shares in a frame (MeshInstance fields but the matrix), or
     None when it has no faces. ``trusted``: the caller knows the object's geometry and paint unchanged since
-    its last frame (the viewport's depsgraph updates said so): its mesh is not read again."""
+    its last frame (the viewport's depsgraph updates said so): its mesh is not read again. ``generated``: the
+    name of geometry that geometry nodes made and no object holds (``GeometryInstances``), drawn with its
+    instancer's method, else with the scene's method for generated geometry where its material has a medium."""
     original = ob.original
-    name = original.name
-    cache_key = (mode, name)
+    name = generated or original.name
+    cache_key = (mode, generated or mesh_read.geometry_source(ob))
     s = original.translucent
     drawn = session.drawn.get(cache_key) if trusted else None
     extras = None
@@ -480,10 +479,14 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
         frame_warnings.append(drawn.note)
     # Read settings from the original: editing a property does not re-evaluate the object.
     method = s.method
+    resolved = None
+    if generated is not None:
+        method, resolved = _generated_method(ob, method, scene)
     baked = method != "OFF" and bake_registry.needs_bake(method)
     # The bake's status from the mesh as read here.
     handle = bake_handle(ob, method, mode, frame_warnings, session, drawn.read) if baked else None
-    resolved = medium_source.resolve(original, scene) if method != "OFF" else None  # read once per frame
+    if resolved is None and method != "OFF":
+        resolved = medium_source.resolve(original, scene)  # read once per frame
     method, medium = medium_of(original, method, frame_warnings, scene, resolved)
     surface = surface_for(ob, drawn, None, medium, frame_warnings, session,  # opens the mesh when it must
                           resolved.source if resolved is not None else "PRINCIPLED")
@@ -495,6 +498,78 @@ def _object_parts(ob, mode: str, frame_warnings, session: Session, trusted: bool
 
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def _generated_method(ob, method: str, scene):
+    """(method, resolved medium or None) of generated geometry (``GeometryInstances``): its instancer's method
+    where it has one (medium from the geometry's own material), else the scene's method for generated geometry
+    where the geometry's material holds a medium (a Principled BSDF with subsurface, or coefficients), else OFF."""
+    resolved = medium_source.resolve(ob, scene)  # the evaluated geometry's materials, the instancer's settings
+    if method == "OFF" and resolved.source != "OBJECT":
+        method = scene.translucent.instance_method
+    if method != "OFF" and bake_registry.needs_bake(method):
+        return "OFF", None  # nothing holds a bake of generated geometry (the scene's method never bakes)
+    return method, resolved
+
+
+class GeometryInstances:
+    """Instances of geometry rather than of an object: what geometry nodes' Instance on Points makes of an Object
+    Info node without *As Instance* (Blender's default there), or of geometry made in the node tree. The depsgraph
+    hands each as a temporary object standing for the modifier's object, whose method (OFF, mostly) is not the
+    artist's: the method was set on the object the geometry came from.
+
+    ``source`` finds that object: an object of the file with a method whose mesh the geometry was copied from (the
+    copy keeps the mesh's name) and whose evaluated positions the geometry has. The instance is then drawn
+    as an instance of it (its method, medium, bake and shared GPU data), as *As Instance* would. Geometry no such
+    object holds is drawn as itself (``_object_parts(generated=...)``). One verdict per geometry per frame."""
+
+    def __init__(self, depsgraph, session: Session):
+        self.depsgraph, self.session = depsgraph, session
+        self._owners = None  # mesh name -> objects using that mesh, with a method
+        self._verdicts: dict = {}  # geometry pointer -> evaluated source object, or None
+
+    @staticmethod
+    def of_geometry(inst, ob) -> bool:
+        """Whether a depsgraph instance is of geometry, not of an object: the temporary object stands for its own
+        instancer (an instance of an object, from a collection, particles or *As Instance*, is that object)."""
+        if not inst.is_instance or ob.data is None:
+            return False
+        parent = inst.parent
+        return parent is not None and ob.original == parent.original
+
+    def source(self, ob):
+        """The evaluated object whose geometry this instance draws, or None."""
+        data = ob.data
+        key = data.as_pointer()
+        if key not in self._verdicts:
+            self._verdicts[key] = self._find(data)
+        return self._verdicts[key]
+
+    def _find(self, data):
+        import bpy
+
+        if self._owners is None:
+            self._owners = {}
+            for other in bpy.data.objects:
+                if other.type == "MESH" and other.data is not None and other.translucent.method != "OFF":
+                    self._owners.setdefault(other.data.name, []).append(other)
+        if not hasattr(data, "vertices"):
+            return None
+        positions = np.empty(len(data.vertices) * 3, np.float32)
+        data.vertices.foreach_get("co", positions)
+        for candidate in sorted(self._owners.get(data.name, ()), key=lambda o: o.name):
+            evaluated = candidate.evaluated_get(self.depsgraph)
+            mesh = evaluated.to_mesh()
+            try:
+                if mesh is None or len(mesh.vertices) * 3 != len(positions):
+                    continue
+                theirs = np.empty(len(positions), np.float32)
+                mesh.vertices.foreach_get("co", theirs)
+                if np.array_equal(theirs, positions):
+                    return evaluated
+            finally:
+                evaluated.to_mesh_clear()
+        return None
 
 
 def collapsed(matrix_world: np.ndarray) -> bool:
@@ -518,18 +593,28 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
     shared: dict = {}
     mode = depsgraph.mode
     session.reads.sweep()
+    geometry = GeometryInstances(depsgraph, session)
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type in GEOMETRY_TYPES:
-            if only_translucent and ob.original.translucent.method == "OFF":
+            generated = None
+            if geometry.of_geometry(inst, ob):  # geometry nodes' instances of geometry
+                source = geometry.source(ob)
+                if source is not None:
+                    ob = source  # drawn as an instance of the object the geometry came from
+                else:
+                    generated = f"{ob.original.name}: {ob.data.name}"
+            if only_translucent and ob.original.translucent.method == "OFF" and generated is None:
                 continue
             if collapsed(np.array(inst.matrix_world)):
                 continue  # scaled to zero (a common way to hide in animation): drawn as if hidden
-            identity = (ob.original.name, ob.as_pointer())
-            if identity not in shared:  # instances of one object read it once
+            # Instances of one object (or of one generated geometry: the depsgraph reuses its temporary objects'
+            # pointers for different geometries, so those are told apart by their data) read it once.
+            identity = (generated, ob.data.as_pointer()) if generated else (ob.original.name, ob.as_pointer())
+            if identity not in shared:
                 shared[identity] = _object_parts(ob, mode, warnings, session,
                                                  trusted is not None and not inst.is_instance
-                                                 and trusted(ob.original.name), scene)
+                                                 and trusted(ob.original.name), scene, generated)
             parts = shared[identity]
             if parts is not None:
                 meshes.append(MeshInstance(model=np.array(inst.matrix_world, dtype=np.float64), **parts))

@@ -20,6 +20,25 @@ from ..core.geometry.orientation import Orientation, components, orient_parts
 
 KEEP_SWEEPS = 4  # a key not read in this many sweeps (frames) is forgotten
 
+# Painted heterogeneity (Shah ch. 7) read from Blender's own paint layers: the object's vertex groups.
+BLUR_GROUP = "translucent_blur"  # Weight Paint: distance multiplier M_d = 1 / (1 + 3 w) (up to 4x spread)
+GLOW_GROUP = "translucent_glow"  # Weight Paint: irradiance modulation 1 + 3 w
+MASK_GROUP = "translucent_mask"  # Weight Paint: 1 translucent, 0 opaque (all translucent when absent)
+PAINT_GROUPS = (MASK_GROUP, BLUR_GROUP, GLOW_GROUP)
+
+
+def geometry_source(ob) -> str:
+    """What an evaluated object's mesh is read and cached under: its mesh's when nothing of the object itself
+    changes what is drawn (no modifiers, materials linked to the mesh, no paint groups: the object's vertex
+    groups), so that linked duplicates read, turn, colour, hash and upload it once; else the object's name."""
+    original = ob.original
+    data = getattr(original, "data", None)
+    if (original.type != "MESH" or data is None or len(original.modifiers)
+            or any(slot.link == "OBJECT" for slot in original.material_slots)
+            or any(group.name in PAINT_GROUPS for group in original.vertex_groups)):
+        return original.name
+    return f"mesh {data.session_uid}"
+
 
 @dataclasses.dataclass(eq=False)
 class MeshRead:

@@ -9,6 +9,7 @@ from .. import techniques
 from ..core import quality
 from ..core.physics.presets import USER_PREFIX, load_presets, load_user_presets
 from ..core.properties import Prop
+from ..techniques import registry as bake_registry
 from . import medium_source, preferences
 from .session import current as current_session
 
@@ -120,10 +121,23 @@ def _method_property():
                                   items=techniques.method_items(), default="OFF", update=_on_method)
 
 
+def _instance_method_property():
+    """Scene.translucent.instance_method: what draws geometry made by geometry nodes that no object holds (its
+    material's medium); only methods that need no bake, which such geometry cannot have."""
+    items = [i for i in techniques.method_items() if not bake_registry.needs_bake(i[0])]
+    default = "IMAGE_SPACE" if any(i[0] == "IMAGE_SPACE" for i in items) else "OFF"
+    return bpy.props.EnumProperty(
+        name="Generated geometry", items=items, default=default,
+        description="How instances of geometry that geometry nodes made (no object of yours holds it) are drawn "
+                    "when their material has a subsurface medium. Instances of an object are drawn with that "
+                    "object's method")
+
+
 def refresh_methods() -> None:
     """Rebuild the method property after the registry changed (a technique registered at run time), and bring
     the technique's own properties (or take an unregistered one's away)."""
     TranslucentObjectSettings.method = _method_property()
+    TranslucentSceneSettings.instance_method = _instance_method_property()
     _sync_technique_properties()
 
 
@@ -272,6 +286,7 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
                     "material's gloss) and Diffuse (the rest) passes, which add up to Combined",
         default=False,
     )
+    instance_method: _instance_method_property()
     overlay_other_engines: bpy.props.BoolProperty(
         name="Draw in other engines",
         description="Draw objects with a translucency method over the viewport of other render engines",

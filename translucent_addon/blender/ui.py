@@ -314,6 +314,7 @@ def _scene_general(layout, context) -> None:
     col.prop(s, "area_light_samples")
     layout.prop(context.scene.render, "film_transparent")
     layout.prop(s, "bake_storage")
+    layout.prop(s, "instance_method")
     layout.prop(s, "fail_on_lost_objects")
     layout.prop(s, "light_passes")
     layout.prop(s, "overlay_other_engines")

@@ -216,6 +216,17 @@ def stored_hash(idblock: Any, method: str) -> str | None:
     return str(g["inputs_hash"]) if int(g.get("format", 0)) == FORMAT_VERSION else None
 
 
+def source_key(idblock: Any, method: str, holder: str) -> str | None:
+    """What a bake's GPU data is cached under: its method, data hash and where its arrays are read from (its file,
+    or ``holder`` naming the ID for packed arrays). Equal keys are equal arrays from one source, so linked
+    duplicates and instances share one copy, and a damaged source is refused for every object reading it."""
+    if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
+        return None
+    g = idblock[BAKE_KEY][method]
+    source = str(g["file"]) if "file" in g else f"packed:{holder}"
+    return f"{method}#{g.get('data_hash', g.get('inputs_hash', ''))}@{source}"
+
+
 def status(idblock: Any, method: str, current_hash: str) -> str:
     """'MISSING', 'STALE' (inputs changed since the bake) or 'OK'."""
     h = stored_hash(idblock, method)

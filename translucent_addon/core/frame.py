@@ -49,12 +49,14 @@ class Lost(str):
 
 
 class BakeHandle:
-    """An up-to-date bake of a drawn object: ``key`` names it (object and inputs hash), ``load()``
+    """An up-to-date bake of a drawn object: ``key`` names its content (method, data hash, where it is read from:
+    every object drawing the same bake shares its GPU data), ``owner`` the object it is drawn for, ``load()``
     reads its arrays (only when the GPU data of that key is not cached yet)."""
 
-    def __init__(self, key: str, load: Callable[[], Any]):
+    def __init__(self, key: str, load: Callable[[], Any], owner: str = ""):
         self.key = key
         self.load = load
+        self.owner = owner
 
 
 @dataclasses.dataclass
@@ -92,6 +94,12 @@ class MeshInstance:
             self.tint = np.ones((n, 3), np.float32)
         if self.paint.shape != (n, 4) or self.tint.shape != (n, 3):
             raise ValueError(f"{self.name}: paint must be (3T, 4) and tint (3T, 3)")
+
+    @property
+    def source(self) -> str:
+        """What stays the same across frames of this geometry while its arrays change (a deforming mesh): its key
+        without the serial after '#' (the object's name, or its mesh's that linked duplicates share)."""
+        return self.key.split("#")[0]
 
     @property
     def triangle_count(self) -> int:

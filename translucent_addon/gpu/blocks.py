@@ -146,11 +146,12 @@ def frame_block(view, projection, world_color, world_sh) -> bytes:
     return data.tobytes()
 
 
-def object_block(model, normal_matrix, subsurface_slot: int = -1) -> bytes:
-    """ObjectData: model, normal matrix, shading (x: subsurface slot + 1, 0 for Lambert; y: 1 when the model
-    mirrors, its determinant negative: the fragment shaders' ``facing_out`` turns gl_FrontFacing then)."""
+def object_block(model, normal_matrix, tag: int = 0) -> bytes:
+    """ObjectData: model, normal matrix, shading (x: the subsurface tag, IMAGE_SPACE's object number times 64 plus
+    its material slot, ``image_space.model.object_tag``, 0 for Lambert; y: 1 when the model mirrors, its
+    determinant negative: the fragment shaders' ``facing_out`` turns gl_FrontFacing then)."""
     mirrored = float(np.linalg.det(np.asarray(model, np.float64)[:3, :3]) < 0.0)
-    shading = np.array([subsurface_slot + 1, mirrored, 0, 0], np.float32)
+    shading = np.array([tag, mirrored, 0, 0], np.float32)
     return np.concatenate([_mat(model), _mat(normal_matrix), shading]).astype(np.float32).tobytes()
 
 

@@ -20,6 +20,7 @@ class GpuResources:
         self.programs: dict = {}  # pass name -> compiled GPUShader, built on first use
         self.bakes: dict = {}  # bake key -> a technique's GPU data built from it (bake_cache)
         self.damaged: dict = {}  # bake key -> why it was refused (not read again every frame)
+        self.bake_users: dict = {}  # object (or object/stored bake) -> the bake key it draws (bake_cache)
         self.environments: dict = {}  # world key -> (EnvironmentChain, atlas texture)
         self.techniques: dict = {}  # cache name -> a technique's own cache (``cache``)
 
@@ -29,7 +30,7 @@ class GpuResources:
 
     def clear(self) -> None:
         """Every cache; the shader table stays."""
-        for d in (self.programs, self.bakes, self.damaged, self.environments, self.techniques):
+        for d in (self.programs, self.bakes, self.damaged, self.bake_users, self.environments, self.techniques):
             d.clear()
 
 

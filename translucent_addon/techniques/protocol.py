@@ -163,7 +163,7 @@ class Technique:
         return set()
 
     def base_lighting(self, state):
-        """(materials block, near-field LUT) for the base pass, or None."""
+        """(materials block, near-field LUT, {mesh index: its subsurface tag}) for the base pass, or None."""
         return None
 
     def unfitted_shadow(self, state, emitter) -> bool:

@@ -64,7 +64,6 @@ class Resources:
         if b is None:
             from gpu_extras.batch import batch_for_shader
 
-            self.batches.clear()
             start = np.repeat(self.gset.start_cube, 3).astype(np.float32)
             b = self.batches[mesh.key] = batch_for_shader(shaders.get("gc_refract"), "TRIS", {
                 "pos": np.ascontiguousarray(mesh.positions, np.float32),
@@ -87,8 +86,10 @@ def transfer(g: float):
 
 def prepare(frame) -> list[Active]:
     """The GEOCUBE meshes of a frame whose bake is loaded (on first use) and matches the mesh."""
-    return bake_cache.prepare(frame, "GEOCUBE", lambda arrays, mesh: Resources(arrays),
-                              lambda res, mesh: len(res.gset.start_cube) == mesh.triangle_count)
+    active = bake_cache.prepare(frame, "GEOCUBE", lambda arrays, mesh: Resources(arrays),
+                                lambda res, mesh: len(res.gset.start_cube) == mesh.triangle_count)
+    bake_cache.keep_drawn(active, "batches")
+    return active
 
 
 def max_steps_of(medium) -> int:

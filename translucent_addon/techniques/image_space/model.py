@@ -88,15 +88,27 @@ class EmitterSampling:
         return self.n_faces * self.grid * self.grid
 
 
+TAG_SLOTS = 64  # a tag holds the object's number times this plus its material slot (common.glsl material_slot)
+
+
+def object_tag(number: int, slot: int) -> int:
+    """The tag of the ``number``-th subsurface object of a frame (from 0) with material slot ``slot``: what its
+    object block and its samples and pixels carry (float32-exact up to 2^24 / 64 = 262,144 objects). Splats land
+    only on pixels of the same tag (Shah 6.4.3's id clipping: no light crosses between objects), and the slot names
+    its medium's tables, which objects of one medium share: any number of objects, at most MAX_MATERIALS media."""
+    return (number + 1) * TAG_SLOTS + slot
+
+
 @dataclasses.dataclass
 class ImageSpacePlan:
-    slot_of: dict  # mesh index in frame.meshes -> material slot (0-based)
+    slot_of: dict  # mesh index in frame.meshes -> material slot (0-based), shared by meshes of one medium and rho
     tables: list[ImageSpaceTables]
     media: list
     samplings: list[EmitterSampling]
     rho_world: list[float]
     world: WorldSampling | None = None
     epsilon: float = 0.01  # the profile share beyond the splat radius (SamplingSettings.epsilon)
+    tag_of: dict = dataclasses.field(default_factory=dict)  # mesh index -> its tag (``object_tag``)
 
     def far_lut(self) -> np.ndarray:
         """(3 rows per slot, FAR_SAMPLES, 4) float32: rows 0..n-1 the profile to r_max, rows n..2n-1 its tail
@@ -218,13 +230,9 @@ def _bounds(meshes: list[MeshInstance]):
 
 
 def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) -> ImageSpacePlan | None:
-    """Material slots, sampling grids and partition radii for the IMAGE_SPACE meshes of a frame."""
+    """Material slots, tags, sampling grids and partition radii for the IMAGE_SPACE meshes of a frame: any number
+    of objects; the objects of one medium and partition radius share a material slot (at most MAX_MATERIALS)."""
     idx = [k for k, m in enumerate(frame.meshes) if m.method == "IMAGE_SPACE" and m.medium is not None]
-    if len(idx) > MAX_MATERIALS:  # one material slot per mesh in the shaders' uniform block
-        dropped = ", ".join(f"'{frame.meshes[k].name}'" for k in idx[MAX_MATERIALS:])
-        frame.warnings.append(f"IMAGE_SPACE draws at most {MAX_MATERIALS} objects a frame: {dropped} "
-                              "drawn without subsurface light (give them another method)")
-    idx = idx[:MAX_MATERIALS]
     if not idx:
         return None
     meshes = [frame.meshes[k] for k in idx]
@@ -239,8 +247,8 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
                 frame.warnings.append(f"'{mesh.name}': {err}; drawn as the top layer alone, without its base")
                 media[j] = dataclasses.replace(med, layer_thickness_mm=None)
     # Splat radius per material: r_max of its profile (rho does not change it).
-    radii_mm = [material_tables(med, 1.0, settings.epsilon).r_max for med in media]
-    spacing_world = min(r / settings.overlap / med.mm_per_unit for r, med in zip(radii_mm, media))
+    radii_mm = [material_tables(med, 1.0, settings.epsilon).r_max for med in dict.fromkeys(media)]
+    spacing_world = min(r / settings.overlap / med.mm_per_unit for r, med in zip(radii_mm, dict.fromkeys(media)))
     centre, radius = _bounds(meshes)
     scene_centre, scene_radius = frame.bounds()
     samplings = []
@@ -272,7 +280,7 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
                 faces, origin = shadow_projection(e, scene_centre, scene_radius)
                 grid = int(np.clip(math.ceil(2 * max(d, radius) / spacing_world), MIN_GRID, settings.max_grid))
                 samplings.append(EmitterSampling(e, faces, origin, 6, grid, (2.0 / grid) ** 2, 1.0))
-    rho_world = []
+    rho_of = []
     for m in meshes:
         c_m = _bounds([m])[0]
         spacing = spacing_world
@@ -282,12 +290,30 @@ def plan(frame: FrameInputs, settings: SamplingSettings = SamplingSettings()) ->
             else:
                 d = max(float(np.linalg.norm(np.asarray(s.emitter.position) - c_m)), 1e-6)
                 spacing = max(spacing, 2.0 * d * s.tan_half / s.grid)
-        rho_world.append(partition_radius(2.0 * spacing))
-    tables = [material_tables(med, rho * med.mm_per_unit, settings.epsilon) for med, rho in zip(media, rho_world)]
+        rho_of.append(partition_radius(2.0 * spacing))
+    # One material slot per medium and partition radius (rho is rounded to RHO_STEPS per doubling, so objects
+    # of one material mostly share it).
+    slots: dict = {}
+    slot_of, tag_of, dropped = {}, {}, []
+    for k, med, rho in zip(idx, media, rho_of):
+        slot = slots.setdefault((med, rho), len(slots))
+        if slot >= MAX_MATERIALS:
+            dropped.append(k)
+            continue
+        slot_of[k] = slot
+        tag_of[k] = object_tag(len(tag_of), slot)
+    if dropped:  # one material slot per medium in the shaders' uniform block
+        names = ", ".join(f"'{frame.meshes[k].name}'" for k in dropped)
+        frame.warnings.append(f"IMAGE_SPACE draws at most {MAX_MATERIALS} different media a frame: {names} drawn "
+                              "without subsurface light (give them a medium another object has, or another method)")
+    keys = list(slots)[:MAX_MATERIALS]
+    media = [med for med, _ in keys]
+    rho_world = [rho for _, rho in keys]
+    tables = [material_tables(med, rho * med.mm_per_unit, settings.epsilon) for med, rho in keys]
     has_world = bool(np.any(np.asarray(frame.world_color) > 0)) or frame.environment is not None
-    world = world_sampling(meshes, media, tables, settings) if has_world else None
-    return ImageSpacePlan({k: j for j, k in enumerate(idx)}, tables, media, samplings, rho_world, world,
-                          settings.epsilon)
+    drawn = [frame.meshes[k] for k in slot_of]
+    world = world_sampling(drawn, media, tables, settings) if has_world else None
+    return ImageSpacePlan(slot_of, tables, media, samplings, rho_world, world, settings.epsilon, tag_of)
 
 
 RHO_STEPS = 8  # partition radii per doubling

@@ -23,7 +23,7 @@ from ...gpu.frame_context import FrameContext
 from ...gpu.targets import cached_target, clear_target, new_target, read_pixels, screen_quad, texture_from_array
 from ..protocol import Technique, Variant
 from . import quality as image_space_quality
-from .model import ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
+from .model import TAG_SLOTS, ImageSpacePlan, SamplingSettings, materials_block, plan  # noqa: F401
 
 # The GLSL interface of this technique's passes (one file each in gpu_shaders/), joined to the
 # shader table by the registry.
@@ -130,6 +130,7 @@ def _target(pipeline, name: str, size, depth: bool, attachments: int = 1):
 
 
 TEMPORAL_BLEND = 0.3  # weight of the current frame in the accumulated far field
+TEMPORAL_OBJECTS = 32  # objects whose motion the temporal block carries (structs.glsl TemporalData)
 
 
 def _history_for(pipeline, frame, p: ImageSpacePlan, size):
@@ -137,7 +138,7 @@ def _history_for(pipeline, frame, p: ImageSpacePlan, size):
     key = frame.settings.coherence_key
     if key is None:
         return None
-    signature = (tuple(size), tuple(sorted((frame.meshes[k].name, slot) for k, slot in p.slot_of.items())))
+    signature = (tuple(size), tuple(sorted((frame.meshes[k].name, tag) for k, tag in p.tag_of.items())))
     histories = _histories()
     history = histories.get(key)
     if history is None or history["signature"] != signature:
@@ -154,11 +155,13 @@ def _accumulate(history, frame, p: ImageSpacePlan, scatter, gbuf, pipeline, quad
     import gpu
 
     parity = history["parity"]
-    models = np.tile(np.eye(4), (32, 1, 1))
-    inverse = np.tile(np.eye(4), (32, 1, 1))
-    for k, slot in p.slot_of.items():
-        models[slot] = frame.meshes[k].model
-        inverse[slot] = np.linalg.inv(frame.meshes[k].model)
+    models = np.tile(np.eye(4), (TEMPORAL_OBJECTS, 1, 1))
+    inverse = np.tile(np.eye(4), (TEMPORAL_OBJECTS, 1, 1))
+    for k, tag in p.tag_of.items():
+        number = tag // TAG_SLOTS - 1  # the block's first TEMPORAL_OBJECTS objects (the others keep no history)
+        if number < TEMPORAL_OBJECTS:
+            models[number] = frame.meshes[k].model
+            inverse[number] = np.linalg.inv(frame.meshes[k].model)
     valid = history["frame"] == frame.settings.coherence_frame - 1 and history["view_proj"] is not None
     previous_models = history["models"] if valid else models
     data = np.concatenate([
@@ -441,7 +444,7 @@ class ImageSpace(Technique):
         return prepare(ctx.frame, ctx.frame.settings.of(self.id) or SamplingSettings())
 
     def base_lighting(self, state: Prepared):
-        return state.materials, state.near_lut, (state.plan.slot_of if state.plan else {})
+        return state.materials, state.near_lut, (state.plan.tag_of if state.plan else {})
 
     def finish(self, ctx: FrameContext, state: Prepared):
         if state.plan is None:

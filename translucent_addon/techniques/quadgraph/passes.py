@@ -123,8 +123,7 @@ class LevelGpu:
         self.links = texture_from_array(t.links_image)
         self.up = tuple(texture_from_array(img) for img in t.up_images) if t.up_images else None
         self.set_geometry(t)
-        self.incident = new_target(size)
-        self.phi = [new_target(size), new_target(size)]
+        self.phi = [new_target(size), new_target(size)]  # one instance's relaxation at a time: shared
         self.kappa = self.mu = self.q_factor = None  # set by Resources.set_material and set_paint
 
     def set_q_factor(self, q_factor: np.ndarray) -> None:
@@ -155,6 +154,16 @@ class LevelGpu:
         self.mu = texture_from_array(self.tables.image(mu))
 
 
+class Lit:
+    """One instance's light: q(n_s) at every level's nodes, and what the surface term takes over at the finest
+    level's surface nodes (its sum over emitters, and the world's R q_world)."""
+
+    def __init__(self, sizes: list):
+        self.incident = [new_target(size) for size in sizes]
+        self.loss = new_target(sizes[-1])
+        self.loss_world = new_target(sizes[-1])
+
+
 class Resources:
     """GPU data of one bake: its levels, the material images and the display batch."""
 
@@ -181,9 +190,15 @@ class Resources:
         self.surface = {}
         self._loss_scale = None  # (material key, finest tables, texture): Resources.loss_scale
         self.medium_tables = MediumTables()  # the tables below
-        self.loss = new_target(self.levels[-1].tables.layout.size)  # its sum at the finest level's nodes
-        self.loss_world = new_target(self.levels[-1].tables.layout.size)  # the world's, R q_world
+        self._lit: list[Lit] = []  # what each instance drawing this bake in a frame gathers of its light (``lit``)
         self.iterations: list[int] = []
+
+    def lit(self, slot: int) -> Lit:
+        """The light targets of the ``slot``-th instance drawing this bake: they add the world's and every
+        emitter's light before the solve reads them, so each instance keeps its own (made on first use)."""
+        while len(self._lit) <= slot:
+            self._lit.append(Lit([lg.tables.layout.size for lg in self.levels]))
+        return self._lit[slot]
 
     @property
     def embeddings(self) -> list[qgd.LevelEmbedding]:
@@ -327,9 +342,15 @@ class Resources:
 def prepare(frame) -> list[Active]:
     """The QUADGRAPH meshes of a frame whose bake is loaded (on first use) and current, with the
     current material's kappa and mu."""
+    # The nodes follow a mesh's pose, paint and medium: instances agreeing in those (one mesh key, one medium)
+    # share an entry, others take one each.
     active = bake_cache.prepare(frame, "QUADGRAPH",
                                 lambda arrays, mesh: Resources(arrays, mesh.medium.mm_per_unit),
-                                lambda res, mesh: len(res.display_index) == len(mesh.positions))
+                                lambda res, mesh: len(res.display_index) == len(mesh.positions),
+                                variant=lambda mesh: (mesh.key, mesh.medium))
+    last = {id(a.resources): a for a in active}  # the highest slot of each entry (slots count up)
+    for a in last.values():  # instances no longer drawn give their light targets back
+        del a.resources._lit[a.slot + 1:]
     followed = []
     for a in active:
         try:
@@ -350,23 +371,24 @@ def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atla
 
     for a in actives:
         m, res = a.mesh.medium, a.resources
+        lit = res.lit(a.slot)
         surface_term = qgd.extras_of(m).single_scattering
-        for lg in res.levels:
-            draw_illumination(lg.incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
+        for lg, incident in zip(res.levels, lit.incident):
+            draw_illumination(incident[0], lg.points, lg.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, unit_texture(pipeline))
         # The exitance the surface term takes over at the finest level's surface nodes.
         finest = res.levels[-1]
         if mode == 0:
-            with res.loss[0].bind():
-                clear_target(res.loss[0], depth=None)
+            with lit.loss[0].bind():
+                clear_target(lit.loss[0], depth=None)
             if surface_term:  # the world's flat-face response R q_world, drawn with its own law
-                draw_illumination(res.loss_world[0], finest.points, finest.tables.layout.size, objects[a.index],
+                draw_illumination(lit.loss_world[0], finest.points, finest.tables.layout.size, objects[a.index],
                                   frame_ubo, light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
             else:
-                with res.loss_world[0].bind():
-                    clear_target(res.loss_world[0], depth=None)
+                with lit.loss_world[0].bind():
+                    clear_target(lit.loss_world[0], depth=None)
         elif surface_term:
-            draw_illumination(res.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
+            draw_illumination(lit.loss[0], finest.points, finest.tables.layout.size, objects[a.index], frame_ubo,
                               light_ubo, shadow_atlas, mode, m.eta, res.exitance_loss(m))
     draw_single(actives, objects, frame_ubo, light_ubo, shadow_atlas, mode, pipeline, size, output)
 
@@ -432,9 +454,9 @@ def _relative_change(fb_new, fb_old, size) -> float:
     return df.relative_change(new, old)
 
 
-def _relax_uniforms(shader, lg, t, A: float) -> None:
+def _relax_uniforms(shader, lg, incident, t, A: float) -> None:
     """What every relaxation step of a level reads besides phi (Wang Eq. 8): set once per level."""
-    shader.uniform_sampler("incident", lg.incident[1][0])
+    shader.uniform_sampler("incident", incident[1][0])
     shader.uniform_sampler("links_map", lg.links)
     shader.uniform_sampler("weights_map", lg.weights)
     shader.uniform_sampler("node_kappa", lg.kappa)
@@ -456,8 +478,9 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
     A = float(internal_reflection(eta))
     res.iterations = []
     previous = None  # (LevelGpu, index of its current phi target)
-    levels = res.levels if multiresolution else res.levels[-1:]
-    for lg in levels:
+    lit = res.lit(a.slot).incident
+    levels = list(zip(res.levels, lit)) if multiresolution else [(res.levels[-1], lit[-1])]
+    for lg, incident in levels:
         t = lg.tables
         size = t.layout.size
         cur = 0
@@ -479,7 +502,7 @@ def solve(a: Active, pipeline, tolerance: float, max_iterations: int, multiresol
         # nothing between two steps binds another), so a step sets phi and draws.
         with draw_pass():
             shader.bind()
-            _relax_uniforms(shader, lg, t, A)
+            _relax_uniforms(shader, lg, incident, t, A)
             n = 0
             while n < max_iterations:
                 step = min(CHECK_EVERY, max_iterations - n)
@@ -511,9 +534,9 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             # "q": the light entering each level's nodes before the painted factor (resources.q_factors).
             record = {"name": a.mesh.name, "iterations": list(a.resources.iterations), "q": [],
                       "resources": a.resources}
-            for lg in a.resources.levels:
-                with lg.incident[0].bind():
-                    record["q"].append(lg.tables.from_image(read_pixels(lg.incident[0], *lg.tables.layout.size)))
+            for lg, incident in zip(a.resources.levels, a.resources.lit(a.slot).incident):
+                with incident[0].bind():
+                    record["q"].append(lg.tables.from_image(read_pixels(incident[0], *lg.tables.layout.size)))
             with finest.phi[cur][0].bind():
                 record["phi"] = finest.tables.from_image(read_pixels(finest.phi[cur][0], *size))
             # "spread": what B gives up of the terminator's spread per pixel (qg_single's second attachment).
@@ -532,8 +555,9 @@ def finish(actives: list[Active], frame, frame_ubo, objects, target_fb, pipeline
             shader.uniform_block("object", objects[a.index])
             shader.uniform_sampler("phi", finest.phi[cur][1][0])
             shader.uniform_sampler("q_factor", finest.q_factor)
-            shader.uniform_sampler("loss", a.resources.loss[1][0])
-            shader.uniform_sampler("loss_world", a.resources.loss_world[1][0])
+            lit = a.resources.lit(a.slot)
+            shader.uniform_sampler("loss", lit.loss[1][0])
+            shader.uniform_sampler("loss_world", lit.loss_world[1][0])
             shader.uniform_sampler("loss_scale", a.resources.loss_scale())
             term = qgd.extras_of(a.mesh.medium).single_scattering
             shader.uniform_sampler("world_law",

@@ -103,7 +103,8 @@ class Resources:
             "texel": t.gather_texel, "target": t.gather_target, "dual": t.gather_dual, "blend": t.gather_blend})
         self.filter_points = batch_for_shader(shaders.get("ts_filter"), "POINTS", {
             "texel": t.texel, "source": t.source_texel, "row": t.row, "bary": t.bary, "verts": t.verts})
-        self.irradiance = new_target(t.atlas_size)
+        self._irradiance = []  # one map per instance drawing this bake in a frame (``irradiance``)
+        # What one instance's finish step fills and reads before the next one's: made once, shared by all.
         self.maps = new_target(t.atlas_size, attachments=3)  # local, global, global through thin parts
         self.vertex_in = new_target(t.vertex_size, attachments=2)  # E^g, B^d
         self.vertex_out = new_target(t.vertex_size, attachments=2)  # B / T_p, B^t / T_p
@@ -119,12 +120,18 @@ class Resources:
         self.medium_tables = MediumTables()
         self._sparse = None
 
+    def irradiance(self, slot: int):
+        """The irradiance map of the ``slot``-th instance drawing this bake: it gathers the world's and every
+        emitter's light before the finish step reads it, so each instance keeps its own (made on first use)."""
+        while len(self._irradiance) <= slot:
+            self._irradiance.append(new_target(self.tables.atlas_size))
+        return self._irradiance[slot]
+
     def display_batch(self, mesh):
         batch = self.display.get(mesh.key)
         if batch is None:
             from gpu_extras.batch import batch_for_shader
 
-            self.display.clear()
             drawn = self.tables.drawn_corners
             batch = self.display[mesh.key] = batch_for_shader(shaders.get("ts_display"), "TRIS", {
                 "pos": np.ascontiguousarray(drawn(mesh.positions), np.float32),
@@ -153,18 +160,23 @@ class Resources:
 
 def prepare(frame) -> list[Active]:
     """The TEXTURE_SPACE meshes of a frame whose bake is loaded (on first use) and current."""
-    return bake_cache.prepare(
+    active = bake_cache.prepare(
         frame, "TEXTURE_SPACE",
         lambda arrays, mesh: Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays),
         lambda res, mesh: res.tables.fits(len(mesh.positions)))
+    bake_cache.keep_drawn(active, "display")
+    last = {id(a.resources): a for a in active}  # the highest slot of each bake (slots count up)
+    for a in last.values():  # instances no longer drawn give their irradiance maps back
+        del a.resources._irradiance[a.slot + 1:]
+    return active
 
 
 def illuminate(actives: list[Active], objects, frame_ubo, light_ubo, shadow_atlas, mode: int, pipeline) -> None:
     """Add one emitter's (mode 1, weighed by the angular law at its cosine) or the world's (mode 0, clears first;
     diffuse, over which the law averages 1) irradiance to each map."""
     for a in actives:
-        medium = a.mesh.medium
-        draw_illumination(a.resources.irradiance[0], a.resources.illumination_points, a.resources.tables.atlas_size,
+        medium, res = a.mesh.medium, a.resources
+        draw_illumination(res.irradiance(a.slot)[0], res.illumination_points, res.tables.atlas_size,
                           objects[a.index], frame_ubo, light_ubo, shadow_atlas, mode, medium.eta,
                           angular_texture(a) if mode == 1 else unit_texture(pipeline),
                           oblique_entry.medium_shift_mm(medium) / medium.mm_per_unit)
@@ -211,7 +223,7 @@ def _finish_mesh(a: Active, frame, frame_ubo, objects, target_fb, pipeline, prod
     res, t = a.resources, a.resources.tables
     product_here = _product_site(a, frame, product)
     t0 = time.perf_counter()
-    E_vertex, B_direct, E_g, B_d = _gather_vertices(res, product_here)
+    E_vertex, B_direct, E_g, B_d = _gather_vertices(res, a.slot, product_here)
     t1 = time.perf_counter()
     T_p = t.drawn_corners(np.asarray(a.mesh.colors, np.float32))[t.vertex_corner]
     if product_here == "CPU":
@@ -236,11 +248,11 @@ def _product_site(a: Active, frame, product: str) -> str:
     return product_here
 
 
-def _gather_vertices(res: Resources, product_here: str) -> tuple:
+def _gather_vertices(res: Resources, slot: int, product_here: str) -> tuple:
     """Step 2: E^g and B^d gathered to the vertices; returns their textures and, for the CPU product, their values."""
     t = res.tables
     E_g = B_d = None
-    _, (irradiance,), _ = res.irradiance
+    _, (irradiance,), _ = res.irradiance(slot)
     vin_fb, (E_vertex, B_direct), _ = res.vertex_in
     _gather(vin_fb, res.gather_points, irradiance, t.vertex_size)
     with vin_fb.bind():
@@ -291,7 +303,7 @@ def _product_on_gpu(res: Resources, T_p, E_vertex, B_direct, pipeline) -> tuple:
 def _filter_maps(a: Active, T_p, B_vertex, B_through, pipeline) -> tuple:
     """Step 4: local response (Eq. 15) and interpolated global response (Eq. 12) per texel; returns the three maps."""
     res, t = a.resources, a.resources.tables
-    irr_fb, (irradiance,), _ = res.irradiance
+    irr_fb, (irradiance,), _ = res.irradiance(a.slot)
     maps_fb, (local_map, global_map, through_map), _ = res.maps
     with draw_pass(maps_fb):
         clear_target(maps_fb, depth=None)
