@@ -243,7 +243,9 @@ def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
     reads = []
     session = ext_module(tr, "translucent_addon.blender.session").current()
     real = session.reads.read
-    session.reads.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
+    source = ext_module(tr, "translucent_addon.blender.mesh_read").geometry_source  # its mesh's, or its own name
+    name_of = {source(ob): ob.name for ob in scene.objects}
+    session.reads.read = lambda mesh, key: reads.append(name_of.get(key[1], key[1])) or real(mesh, key)
     try:
         _viewport_frame(scene)
         assert reads == [], "nothing changed: no mesh read"
@@ -253,7 +255,8 @@ def test_the_viewport_reads_only_the_objects_an_update_names(tr, scene, probe):
         session.reads.read = real
     add_mesh(scene, "Tri", [(0, 0, 2), (1, 0, 2), (0, 1, 2)], [(0, 1, 2)])
     reads.clear()
-    session.reads.read = lambda mesh, key: reads.append(key[1]) or real(mesh, key)
+    name_of.update({source(ob): ob.name for ob in scene.objects})
+    session.reads.read = lambda mesh, key: reads.append(name_of.get(key[1], key[1])) or real(mesh, key)
     try:  # an update of the scene (a frame change, a new object): every mesh is read and compared
         assert np.isfinite(_viewport_frame(scene, [viewport_probe.update_of(scene)])).all()
     finally:

@@ -105,10 +105,10 @@ def test_every_kind_of_instance_draws_as_the_same_scene_of_real_copies(tr, scene
     scatter.modifiers[0].node_group.nodes["Object Info"].inputs["As Instance"].default_value = True
     images["geometry nodes, as instance"] = _warm(scene)
     scatter.hide_render = True
-    collection = bpy.data.collections.new("Grapes")
+    collection = bpy.data.collections.new("Grapes")  # not in the scene: its grape is drawn through the instances
     collection.objects.link(grape)
+    scene.collection.objects.unlink(grape)
     grape.hide_render = False
-    collection.hide_render = True  # its objects are drawn through the instances only
     empties = []
     for p in POINTS:
         empty = bpy.data.objects.new("Bunch", None)
@@ -118,7 +118,7 @@ def test_every_kind_of_instance_draws_as_the_same_scene_of_real_copies(tr, scene
     images["collection instances"] = _warm(scene)
     for empty in empties:
         empty.hide_render = True
-    collection.hide_render = False
+    scene.collection.objects.link(grape)
     grape.hide_render = True
     duplicates = []
     for p in POINTS:
@@ -135,8 +135,8 @@ def test_every_kind_of_instance_draws_as_the_same_scene_of_real_copies(tr, scene
         assert len(held.bakes[entries[0]]._irradiance) == 3, "and a light map each"
     for twin in duplicates:
         twin.data = grape.data.copy()  # full copies: their own mesh, carrying their own packed bake
-    meshes = _frame_meshes(tr, scene)
-    assert len({m.key for m in meshes if m.method == method}) == 3
+    meshes = _frame_meshes(tr, scene)  # the viewport's: the (render-hidden) grape too
+    assert len({m.key for m in meshes if m.method == method and m.name != "Grape"}) == 3
     images["real copies"] = reference = _warm(scene)
     assert reference[..., :3].mean() > 0.01
     for label, image in images.items():
@@ -178,7 +178,7 @@ def test_two_hundred_image_space_objects_are_drawn_as_in_groups_of_twenty(tr, sc
     opaque: they still cast their shadows; the sampling grids follow the objects drawn, hence not equal)."""
     set_world(scene, (0.02, 0.02, 0.03))
     add_light(scene, "SUN", (1.0, -2.0, 3.0), energy=3.0)
-    add_camera(scene, (0.0, -3.2, 2.4), (0.0, 0.0, 0.0), lens=40)
+    add_camera(scene, (0.0, -2.2, 1.7), (0.0, 0.0, 0.0), lens=40)
     balls = []
     for k in range(200):
         bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.045,
@@ -189,7 +189,7 @@ def test_two_hundred_image_space_objects_are_drawn_as_in_groups_of_twenty(tr, sc
         ball.translucent.mm_per_unit = 100.0
         balls.append(ball)
     scene.translucent.capture_passes = True
-    width, height = 128, 96
+    width, height = 160, 120
     whole = render(scene, width, height)
     session = ext_module(tr, "translucent_addon.blender.session").current()
     capture = session.capture
@@ -213,3 +213,25 @@ def test_two_hundred_image_space_objects_are_drawn_as_in_groups_of_twenty(tr, sc
     rel = math.sqrt(float(((a - b) ** 2).mean()) / float((b ** 2).mean()))
     print(f"200 balls in one frame against groups of 20: relative RMSE {rel:.4f}")
     assert rel <= 0.02
+
+
+def test_particle_instances_are_drawn_with_their_object_s_method(tr, scene):
+    """Particles rendered as an object: each is an instance of it, drawn with its method and medium."""
+    _stage(scene)
+    grape = _grape(scene, "IMAGE_SPACE")
+    mesh = bpy.data.meshes.new("Emitter")
+    mesh.from_pydata(POINTS, [], [])
+    emitter = bpy.data.objects.new("Emitter", mesh)
+    scene.collection.objects.link(emitter)
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.count, settings.emit_from, settings.use_emit_random = 3, "VERT", False
+    settings.frame_start = settings.frame_end = 1
+    settings.physics_type, settings.render_type, settings.instance_object = "NO", "OBJECT", grape
+    scene.frame_set(1)
+    grape.location.z = -5.0  # the object itself (the viewport's depsgraph draws it) stands apart
+    drawn = [m for m in _frame_meshes(tr, scene) if m.name == "Grape" and m.model[2, 3] > -1.0]
+    assert len(drawn) == 3 and {m.method for m in drawn} == {"IMAGE_SPACE"}
+    assert all(m.medium is not None for m in drawn)
+    centres = sorted(tuple(np.round(m.model[:3, 3], 4)) for m in drawn)
+    assert centres == sorted(tuple(np.round(p, 4)) for p in POINTS)

@@ -407,10 +407,10 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
               tail: bool = False) -> np.ndarray:
     """The scatter sum S(x_o) = sum_i [id_i = id_o] R_d(M_i r) M_i^2 w(r) Phi_i, as the splat pass computes it.
 
-    sample_pos_id: (S, 4) world xyz and slot + 1 (0: no sample); sample_flux: (S, 4) Phi rgb and M_d;
-    x_o: (P, 3) world positions; id_o: (P,) slot + 1; n_o: (P, 3) facet normals (w leaves out samples off
-    x_o's tangent plane, ``physics.lut.partition_off_plane``); to_eye: (P, 3) unit directions to the eye (the
-    light across a thin part leaves by ``through_exit_law``). Light samples take R_d (1 - t(M r)), their
+    sample_pos_id: (S, 4) world xyz and the object's tag (``object_tag``; 0: no sample); sample_flux: (S, 4) Phi
+    rgb and M_d; x_o: (P, 3) world positions; id_o: (P,) the tag there; n_o: (P, 3) facet normals (w leaves out
+    samples off x_o's tangent plane, ``physics.lut.partition_off_plane``); to_eye: (P, 3) unit directions to the
+    eye (the light across a thin part leaves by ``through_exit_law``). Light samples take R_d (1 - t(M r)), their
     tail splats (``tail``, from ``tail_samples``) R_d t(M r) out to TAIL_REACH r_max (``physics.lut.crossover``);
     ``world``: world samples, the whole profile to r_max, split at the world's rho.
     """
@@ -422,7 +422,7 @@ def splat_cpu(plan_: ImageSpacePlan, sample_pos_id: np.ndarray, sample_flux: np.
         same = ids == int(round(id_o[p]))
         if not same.any() or id_o[p] < 0.5:
             continue
-        slot = int(round(id_o[p])) - 1
+        slot = int(round(id_o[p])) % TAG_SLOTS  # the tag's material slot (common.glsl material_slot)
         table, med = plan_.tables[slot], plan_.media[slot]
         r_mm = np.linalg.norm(pos[same] - x_o[p], axis=1) * med.mm_per_unit
         M = np.clip(flux[same, 3], BLUR_MIN, 1.0)
