@@ -523,8 +523,8 @@ class GeometryInstances:
     as an instance of it (its method, medium, bake and shared GPU data), as *As Instance* would. Geometry no such
     object holds is drawn as itself (``_object_parts(generated=...)``). One verdict per geometry per frame."""
 
-    def __init__(self, depsgraph, session: Session):
-        self.depsgraph, self.session = depsgraph, session
+    def __init__(self, depsgraph):
+        self.depsgraph = depsgraph
         self._owners = None  # mesh name -> objects using that mesh, with a method
         self._verdicts: dict = {}  # geometry pointer -> evaluated source object, or None
 
@@ -593,7 +593,7 @@ def frame_inputs(depsgraph, camera: CameraView, *, only_translucent: bool = Fals
     shared: dict = {}
     mode = depsgraph.mode
     session.reads.sweep()
-    geometry = GeometryInstances(depsgraph, session)
+    geometry = GeometryInstances(depsgraph)
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type in GEOMETRY_TYPES:
