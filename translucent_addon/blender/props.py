@@ -125,7 +125,7 @@ def _instance_method_property():
     """Scene.translucent.instance_method: what draws geometry made by geometry nodes that no object holds (its
     material's medium); only methods that need no bake, which such geometry cannot have."""
     items = [i for i in techniques.method_items() if not bake_registry.needs_bake(i[0])]
-    default = "IMAGE_SPACE" if any(i[0] == "IMAGE_SPACE" for i in items) else "OFF"
+    default = items[1][0] if len(items) > 1 else items[0][0]  # the first such method (by its number), else OFF
     return bpy.props.EnumProperty(
         name="Generated geometry", items=items, default=default,
         description="How instances of geometry that geometry nodes made (no object of yours holds it) are drawn "
