@@ -235,3 +235,26 @@ def test_particle_instances_are_drawn_with_their_object_s_method(tr, scene):
     assert all(m.medium is not None for m in drawn)
     centres = sorted(tuple(np.round(m.model[:3, 3], 4)) for m in drawn)
     assert centres == sorted(tuple(np.round(p, 4)) for p in POINTS)
+
+
+@pytest.mark.parametrize("method", ["TEXTURE_SPACE", "QUADGRAPH"])
+def test_instances_the_camera_cannot_see_are_not_lit(tr, scene, method):
+    """A crowd running out of the frame: instances whose box lies outside the view are not lit, gathered or solved
+    (TEXTURE_SPACE and QUADGRAPH light reaches no pixel outside the object's own), and the image is that of the
+    scene without them to 1e-5."""
+    _stage(scene)
+    grape = _grape(scene, method)
+    grape.hide_render = False
+    seen = _warm(scene)
+    away = grape.copy()
+    away.location = (0.0, -3.0, 0.5)  # behind the camera (at y -1.4, looking along +y)
+    scene.collection.objects.link(away)
+    assert len([m for m in _frame_meshes(tr, scene) if m.method == method]) == 2
+    np.testing.assert_allclose(_warm(scene), seen, atol=1e-5)
+    held = ext_module(tr, "translucent_addon.gpu.resources").current()
+    entry = next(res for key, res in held.bakes.items() if key.startswith(f"{method}#"))
+    lit = entry._irradiance if method == "TEXTURE_SPACE" else entry._lit
+    assert len(lit) == 1, "one instance lit: the one in view"
+    away.location = (0.3, 0.0, 0.0)  # in view: lit too
+    _warm(scene)
+    assert len(lit) == 2

@@ -849,3 +849,18 @@ def test_charts_survive_degenerate_data_and_show_every_series(tmp_path):
     image = read_png(tmp_path / "same.png")
     for name in ("A", "B"):
         assert _near(image, colours[name]).sum() > 30
+
+
+def test_the_camera_sees_a_box_unless_it_lies_wholly_beyond_one_frustum_plane():
+    from translucent_addon.core.frame import CameraView
+    from translucent_addon.gpu import blocks
+
+    view = blocks.look_at((0.0, -5.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    camera = CameraView(view, blocks.perspective(np.radians(40.0), 1.0, 0.1, 100.0), 64, 64)
+    box = np.array([0.2, 0.2, 0.2])
+    assert camera.sees_box(-box, box)  # in front, centred
+    assert not camera.sees_box((0.0, -9.0, 0.0) - box, (0.0, -9.0, 0.0) + box)  # behind the camera
+    assert not camera.sees_box((6.0, 0.0, 0.0) - box, (6.0, 0.0, 0.0) + box)  # beside the view
+    assert not camera.sees_box((0.0, 200.0, 0.0) - box, (0.0, 200.0, 0.0) + box)  # past the far plane
+    assert camera.sees_box((1.9, 0.0, 0.0) - box, (1.9, 0.0, 0.0) + box)  # half out at the side: kept
+    assert camera.sees_box((-50.0, -9.0, -1.0), (50.0, 50.0, 1.0))  # around the camera: kept

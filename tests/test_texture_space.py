@@ -140,7 +140,8 @@ def test_light_entering_a_stretched_ball_is_read_with_its_world_curvature(tr, sc
     ob.translucent.atlas_resolution = RESOLUTION
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     light = add_light(scene, "POINT", (0.02, 0.03, 0.025), (0, 0, 0), energy=2.0)
-    add_camera(scene, (0.0, -0.08, 0.01), (0, 0, 0), lens=50)
+    camera = add_camera(scene, (0.0, -0.08, 0.01), (0, 0, 0), lens=50)
+    camera.data.clip_start = 0.001  # 8 cm away: in view (an object the camera cannot see is not lit)
     scene.translucent.capture_passes = True
     shift = ext_module(tr, "translucent_addon.core.physics.oblique_entry")
     t, shifted, plain, medium, ell = _shifted_and_plain(tr, scene, ob)

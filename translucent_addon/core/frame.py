@@ -156,6 +156,14 @@ class CameraView:
     def position(self) -> np.ndarray:
         return np.linalg.inv(self.view)[:3, 3]
 
+    def sees_box(self, lo, hi) -> bool:
+        """Whether a world box may show in the image: False only when all eight corners lie outside one plane of the
+        view frustum (clip space, x, y, z against +-w), so a box the camera sees in part is always kept."""
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        clip = corners @ np.asarray(self.view_proj, np.float64).T
+        w = clip[:, 3]
+        return not any(bool(np.all(sign * clip[:, axis] > w)) for axis in range(3) for sign in (1.0, -1.0))
+
 
 @dataclasses.dataclass
 class Environment:

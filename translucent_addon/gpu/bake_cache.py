@@ -26,16 +26,20 @@ class Active:
     slot: int = 0  # this instance's number among the frame's instances drawing the same ``resources``
 
 
-def prepare(frame, method: str, build, matches, variant=None) -> list[Active]:
+def prepare(frame, method: str, build, matches, variant=None, in_view: bool = False) -> list[Active]:
     """The meshes of ``method`` in a frame whose bake is current, with its GPU data (``build(arrays, mesh)``
     on first use). A bake that does not ``matches(resources, mesh)`` is not drawn: the mesh keeps its base
     colour and the frame says why. ``variant(mesh)``: for a technique whose GPU data follow the drawn mesh as well
     as the bake (QUADGRAPH's nodes follow its pose), what tells two meshes of one bake apart; instances of one
-    variant share an entry, and the frame's n-th distinct variant of a bake takes its n-th entry."""
+    variant share an entry, and the frame's n-th distinct variant of a bake takes its n-th entry. ``in_view``: for
+    a technique whose light reaches no pixel outside the object's own, the meshes the camera cannot see are left
+    out (not lit, not solved: a crowd running out of the frame costs what the camera sees)."""
     active, slots, variants = [], {}, {}
     for k, mesh in enumerate(frame.meshes):
         handle = getattr(mesh, "bake", None)
         if mesh.method != method or handle is None or mesh.medium is None:
+            continue
+        if in_view and not frame.camera.sees_box(*mesh.world_box()):
             continue
         if variant is not None:
             seen = variants.setdefault(handle.key, {})

@@ -347,7 +347,7 @@ def prepare(frame) -> list[Active]:
     active = bake_cache.prepare(frame, "QUADGRAPH",
                                 lambda arrays, mesh: Resources(arrays, mesh.medium.mm_per_unit),
                                 lambda res, mesh: len(res.display_index) == len(mesh.positions),
-                                variant=lambda mesh: (mesh.key, mesh.medium))
+                                variant=lambda mesh: (mesh.key, mesh.medium), in_view=True)
     last = {id(a.resources): a for a in active}  # the highest slot of each entry (slots count up)
     for a in last.values():  # instances no longer drawn give their light targets back
         del a.resources._lit[a.slot + 1:]

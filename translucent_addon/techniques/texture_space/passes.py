@@ -163,7 +163,7 @@ def prepare(frame) -> list[Active]:
     active = bake_cache.prepare(
         frame, "TEXTURE_SPACE",
         lambda arrays, mesh: Resources(tsd.gpu_tables(arrays, mesh.medium.mm_per_unit), arrays),
-        lambda res, mesh: res.tables.fits(len(mesh.positions)))
+        lambda res, mesh: res.tables.fits(len(mesh.positions)), in_view=True)
     bake_cache.keep_drawn(active, "display")
     last = {id(a.resources): a for a in active}  # the highest slot of each bake (slots count up)
     for a in last.values():  # instances no longer drawn give their irradiance maps back
