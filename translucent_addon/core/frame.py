@@ -156,7 +156,7 @@ class CameraView:
     def position(self) -> np.ndarray:
         return np.linalg.inv(self.view)[:3, 3]
 
-    def sees_box(self, lo, hi) -> bool:
+    def sees_box(self, lo: np.ndarray, hi: np.ndarray) -> bool:
         """Whether a world box may show in the image: False only when all eight corners lie outside one plane of the
         view frustum (clip space, x, y, z against +-w), so a box the camera sees in part is always kept."""
         corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
