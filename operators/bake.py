@@ -1,10 +1,11 @@
-"""translucent.bake and translucent.clear_bake.
+"""translucent.bake, translucent.bake_all, translucent.clear_bake and translucent.purge_bakes.
 
 The bake is a generator of stages (``translucent_addon.techniques.registry.run``). In
 the UI the operator is modal: a timer steps the generator, the status bar shows
 progress, Esc cancels. In background mode (batch, scripts) it runs blocking and
 prints one progress line per step. Nothing is written until the last step, so
-a cancelled or failed bake leaves the object as it was.
+a cancelled or failed bake leaves the object as it was. Bake All runs the bakes of
+many objects as one such job, each object written when its own bake ends.
 """
 
 import time
@@ -12,7 +13,7 @@ import time
 import bpy
 
 from ..translucent_addon.blender import bake_files, material_surface
-from ..translucent_addon.blender.bake_inputs import gather, make_proxies, serves_others
+from ..translucent_addon.blender.bake_inputs import bake_status, gather, make_proxies, serves_others
 from ..translucent_addon.blender.quality_apply import apply_auto, restore
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
@@ -68,6 +69,10 @@ class ModalJob:
     def _undo_prepare(self, ob) -> None:
         """Put back what ``_prepare`` wrote: the job did not finish."""
 
+    def _cancelled(self) -> str:
+        """What Esc left, said in the status bar."""
+        return f"'{self._object.name}': {self._what} cancelled, nothing changed"
+
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
@@ -88,7 +93,7 @@ class ModalJob:
         if event.type == "ESC" and event.value == "PRESS":
             self._job.close()  # runs the job's cleanup (restores what a step changed) now
             self._undo_prepare(self._object)
-            self._end(context, f"'{self._object.name}': {self._what} cancelled, nothing changed")
+            self._end(context, self._cancelled())
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
@@ -148,24 +153,11 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
             self.report({"ERROR"}, error)
             return None
         self._previous = {}
-        if ob.translucent.quality == "AUTO" and registry.bakes_auto(ob.translucent.method):
-            try:
-                choice = apply_auto(context, ob, self._previous)
-            except registry.BakeInputError as err:
-                self.report({"ERROR"}, str(err))
-                return None
-            self.report({"INFO"}, f"'{ob.name}' Auto: {choice.summary()}")
-        depsgraph = context.evaluated_depsgraph_get()
         try:
-            inputs = gather(ob.evaluated_get(depsgraph), for_bake=True, proxies=False)  # the job makes them
-            for warning in registry.validate(inputs):
-                self.report({"WARNING"}, warning)
+            inputs = _inputs(self, context, ob, self._previous)
         except registry.BakeInputError as err:
-            self._undo_prepare(ob)
             self.report({"ERROR"}, str(err))
             return None
-        if ob.modifiers:
-            self.report({"INFO"}, f"'{ob.name}': baked with its modifiers applied; editing them marks the bake stale")
         return ob, inputs
 
     def _undo_prepare(self, ob) -> None:
@@ -175,18 +167,43 @@ class TRANSLUCENT_OT_bake(ModalJob, bpy.types.Operator):
         return _proxies_then_bake(inputs)
 
     def _finish(self, ob, inputs, result):
-        arrays, meta = result
-        meta["seconds"] = round(time.perf_counter() - self._t0, 3)
-        digest = inputs.hash()
-        own = serves_others(ob, inputs.method, digest)
-        why = bake_files.write(ob, inputs.method, digest, arrays, meta, bpy.context.scene, own=own)
-        if own:
-            self.report({"INFO"}, f"'{ob.name}': differs from the linked duplicates sharing its mesh (scale, "
-                                  f"material or modifiers): its bake is kept on the object")
-        if why:
-            self.report({"WARNING"}, why)
-        bake_cache.forget(ob.name)
-        self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {meta['seconds']:.2f} s")
+        seconds = _store(self, ob, inputs, result, self._t0)
+        self.report({"INFO"}, f"'{ob.name}': {inputs.method} baked in {seconds:.2f} s")
+
+
+def _inputs(op, context, ob, previous: dict):
+    """A bake's inputs for ``ob`` (its Auto quality resolved first, written into ``previous`` to be put back if the
+    bake does not finish); warnings and notes reported on ``op``. Raises ``BakeInputError``, ``previous`` put back."""
+    if ob.translucent.quality == "AUTO" and registry.bakes_auto(ob.translucent.method):
+        choice = apply_auto(context, ob, previous)
+        op.report({"INFO"}, f"'{ob.name}' Auto: {choice.summary()}")
+    depsgraph = context.evaluated_depsgraph_get()
+    try:
+        inputs = gather(ob.evaluated_get(depsgraph), for_bake=True, proxies=False)  # the job makes them
+        for warning in registry.validate(inputs):
+            op.report({"WARNING"}, warning)
+    except registry.BakeInputError:
+        restore(ob, previous)
+        raise
+    if ob.modifiers:
+        op.report({"INFO"}, f"'{ob.name}': baked with its modifiers applied; editing them marks the bake stale")
+    return inputs
+
+
+def _store(op, ob, inputs, result, t0: float) -> float:
+    """Write a finished bake (on the mesh, or the object when the mesh's serves other duplicates); its seconds."""
+    arrays, meta = result
+    meta["seconds"] = round(time.perf_counter() - t0, 3)
+    digest = inputs.hash()
+    own = serves_others(ob, inputs.method, digest)
+    why = bake_files.write(ob, inputs.method, digest, arrays, meta, bpy.context.scene, own=own)
+    if own:
+        op.report({"INFO"}, f"'{ob.name}': differs from the linked duplicates sharing its mesh (scale, "
+                            f"material or modifiers): its bake is kept on the object")
+    if why:
+        op.report({"WARNING"}, why)
+    bake_cache.forget(ob.name)
+    return meta["seconds"]
 
 
 def _proxies_then_bake(inputs):
@@ -195,6 +212,128 @@ def _proxies_then_bake(inputs):
     for _, text in make_proxies(inputs):
         yield 0.0, text
     return (yield from registry.run(inputs))
+
+
+def _to_bake(objects, depsgraph, everything: bool = False) -> list:
+    """The mesh objects among ``objects`` whose method bakes and whose bake is missing or stale (every such one
+    with ``everything``); an object whose inputs cannot be read is listed (its bake will say why)."""
+    found = []
+    for ob in objects:
+        if ob.type != "MESH" or not registry.needs_bake(ob.translucent.method):
+            continue
+        try:
+            stale = everything or bake_status(ob.evaluated_get(depsgraph), ob.translucent.method) != "OK"
+        except registry.BakeInputError:
+            stale = True
+        if stale:
+            found.append(ob)
+    return found
+
+
+class TRANSLUCENT_OT_bake_all(ModalJob, bpy.types.Operator):
+    """Bake every object of the scene whose bake is missing or out of date (or the selected objects), one after
+    another in one job with one progress bar; an object that fails is named and the others are still baked"""
+
+    bl_idname = "translucent.bake_all"
+    bl_label = "Bake All"
+    bl_options = {"REGISTER", "UNDO"}
+    _what = "bake of every object"
+
+    selected_only: bpy.props.BoolProperty(
+        name="Selected only", default=False,
+        description="Bake the selected objects (also those whose bakes are up to date), not the whole scene")
+
+    @classmethod
+    def poll(cls, context):
+        return polls.idle(cls, ModalJob.running) and (context.scene is not None or polls.refuse(cls, "no scene"))
+
+    def _prepare(self, context):
+        depsgraph = context.evaluated_depsgraph_get()
+        objects = context.selected_objects if self.selected_only else context.scene.objects
+        pending = _to_bake(objects, depsgraph, everything=self.selected_only)
+        if not pending:
+            what = "of the selected objects" if self.selected_only else "in the scene"
+            self.report({"INFO"}, f"nothing to bake {what}: every bake is up to date")
+            return None
+        self._names = [ob.name for ob in pending]
+        self._baked, self._failed = [], []
+        return context.scene, pending
+
+    def _cancelled(self) -> str:
+        done = f"{len(self._baked)} baked ({', '.join(self._baked)})" if self._baked else "none baked"
+        return f"Bake All cancelled: {done}, {len(self._names) - len(self._baked)} left as they were"
+
+    def _job_for(self, pending):
+        return self._bake_each(bpy.context, pending)
+
+    def _bake_each(self, context, pending):
+        """Generator of (fraction, text) over every object's bake; each object written when its bake ends. An
+        object whose bake fails is recorded (``_failed``) and the job goes on."""
+        n = len(pending)
+        for i, ob in enumerate(pending):
+            if not self.selected_only and not _to_bake([ob], context.evaluated_depsgraph_get()):
+                self._names.remove(ob.name)  # a linked duplicate baked before it: it shares that bake
+                continue
+            label = f"'{ob.name}' ({i + 1}/{n})"
+            previous = {}
+            t0 = time.perf_counter()
+            job = None
+            try:
+                inputs = _inputs(self, context, ob, previous)
+                job = _proxies_then_bake(inputs)
+                while True:
+                    try:
+                        fraction, text = next(job)
+                    except StopIteration as done:
+                        result = done.value
+                        break
+                    yield (i + fraction) / n, f"{label}: {text}"
+                _store(self, ob, inputs, result, t0)
+                self._baked.append(ob.name)
+                print(f"Translucent Bake All: {label} {inputs.method} baked in {time.perf_counter() - t0:.1f} s",
+                      flush=True)
+            except GeneratorExit:  # Esc: this object is left as it was, those baked before stay baked
+                restore(ob, previous)
+                raise
+            except Exception as err:  # this object's bake failed: said, left as it was, the others go on
+                restore(ob, previous)
+                self._failed.append((ob.name, str(err)))
+                print(f"Translucent Bake All: {label} failed: {err}", flush=True)
+            finally:
+                if job is not None:
+                    job.close()  # the stage's own cleanup runs now
+        return None
+
+    def _finish(self, scene, pending, result):
+        seconds = time.perf_counter() - self._t0
+        skipped = len(pending) - len(self._names)
+        text = f"Bake All: {len(self._baked)} of {len(self._names)} object(s) baked in {seconds:.1f} s"
+        if skipped:
+            text += f" ({skipped} linked duplicate(s) share a bake made here)"
+        self.report({"INFO"}, text)
+        if self._failed:
+            self.report({"ERROR"}, f"Bake All: {len(self._failed)} bake(s) failed: "
+                        + "; ".join(f"'{name}': {why}" for name, why in self._failed))
+
+
+class TRANSLUCENT_OT_purge_bakes(bpy.types.Operator):
+    """Delete the files in this .blend's bake folder that none of its objects uses any more (older bakes, bakes of
+    removed objects). Files the saved .blend still uses are kept; Undo cannot bring back a bake purged here"""
+
+    bl_idname = "translucent.purge_bakes"
+    bl_label = "Purge Unused Bake Files"
+    bl_options = {"REGISTER"}
+
+    def execute(self, context):
+        from ..translucent_addon.blender.session import current
+
+        removed, freed = bake_files.purge(current().bake_files_saved)
+        folder = bake_files.folder_for(bpy.data.filepath)
+        if removed:
+            self.report({"INFO"}, f"{removed} unused bake file(s) deleted, {freed / 2**20:.1f} MB freed ({folder})")
+        else:
+            self.report({"INFO"}, f"no unused bake files in {folder}")
+        return {"FINISHED"}
 
 
 class TRANSLUCENT_OT_clear_bake(bpy.types.Operator):
@@ -262,4 +401,5 @@ class TRANSLUCENT_OT_bake_textures(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (TRANSLUCENT_OT_bake, TRANSLUCENT_OT_clear_bake, TRANSLUCENT_OT_bake_textures)
+classes = (TRANSLUCENT_OT_bake, TRANSLUCENT_OT_bake_all, TRANSLUCENT_OT_clear_bake, TRANSLUCENT_OT_purge_bakes,
+           TRANSLUCENT_OT_bake_textures)

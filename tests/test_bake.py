@@ -296,7 +296,7 @@ def test_a_bake_folder_that_cannot_be_written_keeps_the_bake_inside_the_blend(tr
     (tmp_path / "blocked_translucent").write_text("not a folder")
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     group = ob.data["translucent_bake"]["TEXTURE_SPACE"]
-    assert "file" not in group and len(group["arrays"]) > 10 and _status(tr, ob) == "OK"
+    assert "image" not in group and len(group["arrays"]) > 10 and _status(tr, ob) == "OK"
     assert "the bake folder could not be written" in capfd.readouterr().out
     bpy.ops.wm.read_homefile(use_empty=True)
 
@@ -327,12 +327,14 @@ def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     group = ball.data["translucent_bake"]["TEXTURE_SPACE"]
     bake_mb = _meta_mb(group)
-    assert group["file"].startswith("//empty_translucent/") and len(group["arrays"]) == 0
+    assert group["image"].filepath.startswith("//empty_translucent/") and len(group["arrays"]) == 0
+    assert bpy.utils.blend_paths() and group["image"].filepath in bpy.utils.blend_paths()  # what Blender's tools see
     good = render(scene, 32, 32)
 
     path = tmp_path / "baked.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
-    assert group["file"].startswith("//baked_translucent/") and (tmp_path / group["file"][2:]).is_file()
+    assert group["image"].filepath.startswith("//baked_translucent/")
+    assert (tmp_path / group["image"].filepath[2:]).is_file()
     grown = _blend_mb(path) - _blend_mb(empty)
     bpy.ops.object.duplicate(linked=True)  # Alt+D
     twin = bpy.context.object
@@ -345,8 +347,8 @@ def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(
     # Saving a copy elsewhere copies the file there, and leaves this session's bakes pointing where they were.
     (tmp_path / "copies").mkdir()
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "copies" / "copy.blend"), copy=True)
-    assert group["file"].startswith("//baked_translucent/") and bpy.data.filepath == str(path)
-    assert (tmp_path / "copies" / "copy_translucent" / Path(group["file"]).name).is_file()
+    assert group["image"].filepath.startswith("//baked_translucent/") and bpy.data.filepath == str(path)
+    assert (tmp_path / "copies" / "copy_translucent" / Path(group["image"].filepath).name).is_file()
     assert _status(tr, ball) == "OK"
 
     other = tmp_path / "elsewhere" / "moved.blend"
@@ -355,8 +357,8 @@ def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(
     name = ball.name
     bpy.ops.wm.open_mainfile(filepath=str(other))
     ball = bpy.data.objects[name]
-    ref = ball.data["translucent_bake"]["TEXTURE_SPACE"]["file"]
-    assert ref.startswith("//moved_translucent/") and (other.parent / ref[2:]).is_file()
+    ref = ball.data["translucent_bake"]["TEXTURE_SPACE"]["image"].filepath
+    assert ref.startswith("//moved_translucent/") and (other.parent / ref[2:]).is_file()  # relative as saved
     assert _status(tr, ball) == "OK"
     np.testing.assert_allclose(render(bpy.context.scene, 32, 32), good, atol=1e-5)
 
@@ -365,8 +367,9 @@ def test_a_bake_lives_beside_the_blend_shared_by_duplicates_and_follows_save_as(
     shutil.rmtree(other.parent / "moved_translucent")
     ext_module(tr, "translucent_addon.gpu.bake_cache").clear()
     ext_module(tr, "translucent_addon.blender.session").current().final_pipeline = None  # a new F12 pipeline
-    with pytest.raises(RuntimeError, match=r"TEXTURE_SPACE bake is damaged: its file //moved_translucent/\w+\.npz "
-                                           r"is missing \(was the \.blend moved without its bake folder\?\)"):
+    missing = (r"TEXTURE_SPACE bake is damaged: its file //moved_translucent/\w+\.exr is missing \(was the \.blend "
+               r"moved without its bake folder\? File > External Data > Find Missing Files can look for it\)")
+    with pytest.raises(RuntimeError, match=missing):
         render(bpy.context.scene, 32, 32)
     bpy.ops.wm.read_homefile(use_empty=True)
 
@@ -381,36 +384,42 @@ def test_a_bake_made_before_the_file_is_saved_moves_beside_it_and_packed_bakes_s
     ob = _spot(tr, scene)
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     group = ob.data["translucent_bake"]["TEXTURE_SPACE"]
-    assert group["file"].startswith(bpy.app.tempdir)  # unsaved: Blender's temporary folder
+    assert group["image"].filepath.startswith(bpy.app.tempdir)  # unsaved: Blender's temporary folder
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "first.blend"))
-    assert group["file"].startswith("//first_translucent/") and (tmp_path / group["file"][2:]).is_file()
+    ref = group["image"].filepath
+    assert ref.startswith("//first_translucent/") and (tmp_path / ref[2:]).is_file()
     assert _status(tr, ob) == "OK"
     scene = bpy.context.scene
     scene.translucent.bake_storage = "PACKED"
     ob.translucent.atlas_resolution = 64
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     group = ob.data["translucent_bake"]["TEXTURE_SPACE"]
-    assert "file" not in group and len(group["arrays"]) > 10 and _status(tr, ob) == "OK"
+    assert "image" not in group and len(group["arrays"]) > 10 and _status(tr, ob) == "OK"
     bpy.ops.wm.read_homefile(use_empty=True)
 
 
 def test_a_tampered_bake_file_is_refused(tr, scene, tmp_path):
     store = ext_module(tr, "translucent_addon.core.bake_store")
+    bake_exr = ext_module(tr, "translucent_addon.core.bake_exr")
     sidecar = store.Sidecar(tmp_path)
     idblock = {}
     arrays = {"big": np.arange(store.SIDECAR_MIN_BYTES // 4, dtype=np.float32), "small": np.ones(3, np.int32)}
     store.write(idblock, "TEXTURE_SPACE", "h", arrays, {"a": 1}, sidecar=sidecar)
-    ref = idblock["translucent_bake"]["TEXTURE_SPACE"]["file"]
+    ref = idblock["translucent_bake"]["TEXTURE_SPACE"]["image"]
+    assert ref.endswith(".exr")
     np.testing.assert_array_equal(store.read(idblock, "TEXTURE_SPACE", sidecar).arrays["big"], arrays["big"])
     with pytest.raises(store.DamagedBakeError, match="cannot be read here"):
         store.read(idblock, "TEXTURE_SPACE")
-    with np.load(ref) as data:
-        changed = {k: data[k].copy() for k in data.files}
+    changed = {k: v.copy() for k, v in bake_exr.read(Path(ref)).items()}
     changed["big"][7] = -1.0
-    np.savez(ref, **changed)
+    bake_exr.write(Path(ref), changed)
     with pytest.raises(store.DamagedBakeError, match="its data changed since it was baked"):
         store.read(idblock, "TEXTURE_SPACE", sidecar)
-    (tmp_path / "x.npz").write_bytes(b"not a zip")
+    Path(ref).write_bytes(Path(ref).read_bytes()[:5000])  # cut short
+    with pytest.raises(store.DamagedBakeError, match="cannot be read .*cut short"):
+        store.read(idblock, "TEXTURE_SPACE", sidecar)
+    (tmp_path / "x.npz").write_bytes(b"not a zip")  # a bake from before image files, its .npz damaged
+    del idblock["translucent_bake"]["TEXTURE_SPACE"]["image"]
     idblock["translucent_bake"]["TEXTURE_SPACE"]["file"] = str(tmp_path / "x.npz")
     with pytest.raises(store.DamagedBakeError, match="cannot be read"):
         store.read(idblock, "TEXTURE_SPACE", sidecar)

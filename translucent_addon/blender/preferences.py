@@ -1,4 +1,5 @@
-"""Add-on preferences: cache folder, default quality, timing overlay (Edit > Preferences > Add-ons)."""
+"""Add-on preferences: cache folder, default quality, timing overlay, purging bake files on save (Edit >
+Preferences > Add-ons)."""
 import bpy
 
 from ..core.quality import TIERS
@@ -24,12 +25,18 @@ class TranslucentPreferences(bpy.types.AddonPreferences):
         name="Timing overlay", default=False,
         description="Show the last frame's milliseconds per pass in the corner of the 3D viewport",
     )
+    purge_on_save: bpy.props.BoolProperty(
+        name="Purge bake files on save", default=True,
+        description="When a file is saved, delete the files in its bake folder that its objects stopped using "
+                    "before this session (those Undo could still need are kept)",
+    )
 
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "cache_folder")
         layout.prop(self, "default_quality")
         layout.prop(self, "timing_overlay")
+        layout.prop(self, "purge_on_save")
 
 
 def get(context=None):

@@ -41,7 +41,11 @@ class Session:
         self.capture: dict = {}  # read-backs of the last F12's passes (Scene.translucent.capture_passes)
         self.results: dict = {}  # technique id -> what its ``frame_settings`` left of the last frame
         self.technique_caches: dict = {}  # technique id -> its own cache across frames (``frame_settings``)
-        self.before_copy: list = []  # (ID, collection, method, reference) before saving a copy (bake_files)
+        self.before_copy: list = []  # (kind, name, method, reference) before a save moved bake files (bake_files)
+        # Bake files the file on disk refers to, and every one referred to since it was opened (the purges keep them:
+        # a revert, an Undo step or the .blend1 backup may read them) (bake_files).
+        self.bake_files_saved: set = set()
+        self.bake_files_seen: set = set()
         self.cycles_rates: dict = {}  # (scene, width, height) -> Cycles' measured cost (compare_runner.cycles_rate)
         # Kept while the extension is enabled (``clear`` leaves them): Blender keeps pointers into the preset
         # enum's item strings, and a preset's coefficients are being written (props.apply_preset).

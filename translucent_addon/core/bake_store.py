@@ -6,22 +6,26 @@ buffers directly and survive save and reload.
 
 Layout: ``id["translucent_bake"][method] = {"inputs_hash", "format", "meta" (JSON), "data_hash",
 "arrays": {name: flat array}, "shapes": {name: [dims]}, "dtypes": {name: str}}``. A bake of at least
-``SIDECAR_MIN_BYTES`` written with a ``Sidecar`` keeps its arrays in a file instead (``"file"``: where, as the
-sidecar names it; ``"arrays"`` empty): a TEXTURE_SPACE bake of the demo bunny is 125 MB, which the .blend, every
-linked duplicate and the undo memory carried. The file is named by the data hash (which covers the meta, bake
-time included): a file never holds other data than its name says, and copies of one bake share it.
+``SIDECAR_MIN_BYTES`` written with a ``Sidecar`` keeps its arrays in an OpenEXR file instead (``bake_exr``;
+``"image"``: what the sidecar makes of the file, on the Blender side an image data block, which Pack Resources and
+a farm's packer follow; ``"arrays"`` empty): a TEXTURE_SPACE bake of the demo bunny is 125 MB, which the .blend,
+every linked duplicate and the undo memory carried. The file is named by the data hash (which covers the meta, bake
+time included): a file never holds other data than its name says, and copies of one bake share it. Earlier bakes
+kept theirs in ``.npz`` files named by a path string (``"file"``), which Blender's tools did not see: they are still
+read (``Sidecar.load_npz``) and converted once (``convert``).
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 import json
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from . import bake_exr
 
 BAKE_KEY = "translucent_bake"
 FORMAT_VERSION = 1
@@ -71,24 +75,39 @@ SIDECAR_MIN_BYTES = 256 * 1024
 
 @dataclasses.dataclass
 class Sidecar:
-    """Bake files in one folder, ``<data hash>.npz`` each. ``ref_of`` names a file as the ID stores it and
-    ``path_of`` finds it again (the Blender side: relative to the .blend, ``//...``)."""
+    """Bake files in one folder, ``<data hash>.exr`` each (``bake_exr``). ``ref_of`` turns a written file into what
+    the ID stores (the Blender side: an image data block), ``source_of`` gives a stored reference's file or bytes
+    (a packed image's), raising ``DamagedBakeError`` when it has neither; ``path_of`` finds an older ``.npz`` file
+    from its stored string (relative to the .blend, ``//...``, on the Blender side)."""
 
     folder: Path
-    ref_of: Callable[[Path], str] = str
+    ref_of: Callable[[Path], Any] = str
+    source_of: Callable[[Any], Path | bytes] = Path
     path_of: Callable[[str], Path] = Path
 
-    def save(self, name: str, arrays: dict[str, np.ndarray]) -> str:
+    def save(self, name: str, arrays: dict[str, np.ndarray]) -> Any:
         """Write the stored (flat) arrays unless a file of this data hash is there already; its reference."""
-        path = Path(self.folder) / f"{name}.npz"
+        path = Path(self.folder) / f"{name}.exr"
         if not path.exists():
-            path.parent.mkdir(parents=True, exist_ok=True)
-            partial = path.with_name(f"{name}.{os.getpid()}.partial.npz")
-            np.savez(partial, **arrays)
-            partial.replace(path)  # whole or absent, also when Blender is killed while writing
+            bake_exr.write(path, arrays)  # whole or absent, also when Blender is killed while writing
         return self.ref_of(path)
 
-    def load(self, ref: str) -> dict[str, np.ndarray]:
+    def load(self, ref: Any) -> dict[str, np.ndarray]:
+        """The stored arrays of a reference ``save`` returned."""
+        source = self.source_of(ref)
+        if isinstance(source, (bytes, bytearray, memoryview)):
+            what = "its packed image"
+        else:
+            what = f"its file {source}"
+            if not Path(source).is_file():
+                raise DamagedBakeError(f"{what} is missing (was the .blend moved without its bake folder?)")
+        try:
+            return bake_exr.decode(source) if what == "its packed image" else bake_exr.read(Path(source))
+        except (OSError, bake_exr.ExrError) as err:
+            raise DamagedBakeError(f"{what} cannot be read ({err})") from None
+
+    def load_npz(self, ref: str) -> dict[str, np.ndarray]:
+        """The stored arrays of an older bake's ``.npz`` file."""
         path = self.path_of(ref)
         if not Path(path).is_file():
             raise DamagedBakeError(f"its file {ref} is missing (was the .blend moved without its bake folder?)")
@@ -128,7 +147,7 @@ def write(idblock: Any, method: str, digest: str, arrays: dict[str, np.ndarray],
     group["meta"] = json.dumps(meta or {}, sort_keys=True)
     group["data_hash"] = data_hash(group["arrays"], group["shapes"], group["dtypes"], group["meta"], digest)
     if sidecar is not None and sum(a.nbytes for a in group["arrays"].values()) >= SIDECAR_MIN_BYTES:
-        group["file"] = sidecar.save(group["data_hash"], group["arrays"])
+        group["image"] = sidecar.save(group["data_hash"], group["arrays"])
         group["arrays"] = {}
     if BAKE_KEY in idblock:
         idblock[BAKE_KEY][method] = group
@@ -152,10 +171,10 @@ def read(idblock: Any, method: str, sidecar: Sidecar | None = None) -> BakeRecor
     if int(g.get("format", 0)) != FORMAT_VERSION:
         return None
     try:
-        if "file" in g:
+        if "image" in g or "file" in g:
             if sidecar is None:
-                raise DamagedBakeError(f"its file {g['file']} cannot be read here")
-            source = sidecar.load(str(g["file"]))
+                raise DamagedBakeError("its file cannot be read here")
+            source = sidecar.load(g["image"]) if "image" in g else sidecar.load_npz(str(g["file"]))
         else:
             source = g["arrays"]
         stored = {name: _stored(source[name], g["dtypes"][name]) for name in source.keys()}
@@ -190,15 +209,34 @@ def _stored(value, dtype: str) -> np.ndarray:
 
 
 def files(idblock: Any) -> dict[str, str]:
-    """The sidecar file of each bake on the ID that has one: {method: reference}."""
+    """The ``.npz`` file of each older bake on the ID that has one: {method: reference}."""
     if BAKE_KEY not in idblock:
         return {}
     return {m: str(g["file"]) for m, g in idblock[BAKE_KEY].items() if "file" in g}
 
 
+def images(idblock: Any) -> dict[str, Any]:
+    """The file reference of each bake on the ID that keeps its arrays in one: {method: reference}."""
+    if BAKE_KEY not in idblock:
+        return {}
+    return {m: g["image"] for m, g in idblock[BAKE_KEY].items() if "image" in g}
+
+
 def refer(idblock: Any, method: str, ref: str) -> None:
-    """Point a bake at its file's new reference (the file was copied beside a .blend saved elsewhere)."""
+    """Point an older bake at its ``.npz`` file's new reference (the file was copied beside a .blend saved
+    elsewhere)."""
     idblock[BAKE_KEY][method]["file"] = ref
+
+
+def convert(idblock: Any, method: str, sidecar: Sidecar) -> None:
+    """Move an older bake's arrays from its ``.npz`` file into the sidecar's image file, unchanged (its data hash
+    still holds). Raises ``DamagedBakeError`` when the old file cannot be read, ``OSError`` when the new one cannot
+    be written; the bake is left as it was then."""
+    g = idblock[BAKE_KEY][method]
+    arrays = sidecar.load_npz(str(g["file"]))
+    ref = sidecar.save(str(g.get("data_hash") or g["inputs_hash"]), arrays)
+    g["image"] = ref
+    del g["file"]
 
 
 def read_meta(idblock: Any, method: str) -> dict | None:
@@ -223,7 +261,10 @@ def source_key(idblock: Any, method: str, holder: str) -> str | None:
     if BAKE_KEY not in idblock or method not in idblock[BAKE_KEY]:
         return None
     g = idblock[BAKE_KEY][method]
-    source = str(g["file"]) if "file" in g else f"packed:{holder}"
+    if "image" in g:
+        source = f"image:{getattr(g['image'], 'name', g['image'])}"
+    else:
+        source = str(g["file"]) if "file" in g else f"packed:{holder}"
     return f"{method}#{g.get('data_hash', g.get('inputs_hash', ''))}@{source}"
 
 
