@@ -15,6 +15,7 @@ import bpy
 from ..translucent_addon.blender import bake_files, material_surface
 from ..translucent_addon.blender.bake_inputs import bake_status, gather, make_proxies, serves_others
 from ..translucent_addon.blender.quality_apply import apply_auto, restore
+from ..translucent_addon.blender.session import current as current_session
 from ..translucent_addon.gpu import bake_cache
 from ..translucent_addon.techniques import registry
 from . import polls
@@ -325,9 +326,7 @@ class TRANSLUCENT_OT_purge_bakes(bpy.types.Operator):
     bl_options = {"REGISTER"}
 
     def execute(self, context):
-        from ..translucent_addon.blender.session import current
-
-        removed, freed = bake_files.purge(current().bake_files_saved)
+        removed, freed = bake_files.purge(current_session().bake_files_saved)
         folder = bake_files.folder_for(bpy.data.filepath)
         if removed:
             self.report({"INFO"}, f"{removed} unused bake file(s) deleted, {freed / 2**20:.1f} MB freed ({folder})")

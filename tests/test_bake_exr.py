@@ -7,6 +7,7 @@ import struct
 
 import numpy as np
 import pytest
+from exr_read import read_exr
 
 from translucent_addon.core import bake_exr, bake_store
 
@@ -55,6 +56,19 @@ def test_the_file_is_the_openexr_scanline_layout_it_claims():
     values = np.frombuffer(data, "<f4", bake_exr.WIDTH, second + 8)
     np.testing.assert_array_equal(values[:10], np.arange(bake_exr.WIDTH, bake_exr.WIDTH + 10))
     assert not values[10:].any()
+
+
+def test_another_openexr_reader_reads_the_words(tmp_path):
+    """``tests/exr_read.py``, written for Blender's own render files, reads the bake image: its Y channel holds the
+    arrays' words in order, the rest of the last line zero."""
+    arrays = {"a": np.arange(5000, dtype=np.float32), "b": np.arange(7, dtype=np.int32)}
+    bake_exr.write(tmp_path / "bake.exr", arrays)
+    y = read_exr(tmp_path / "bake.exr")["Y"]
+    assert y.shape == (2, bake_exr.WIDTH)
+    words = np.ascontiguousarray(y[::-1]).reshape(-1).view(np.uint32)  # row 0 at the bottom, as Blender's
+    expected = np.concatenate([arrays["a"].view(np.uint32), arrays["b"].view(np.uint32)])
+    np.testing.assert_array_equal(words[:expected.size], expected)
+    assert not words[expected.size:].any()
 
 
 @pytest.mark.parametrize("damage, said", [

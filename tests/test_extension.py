@@ -10,7 +10,7 @@ bpy = pytest.importorskip("bpy")
 from conftest import ext_module  # noqa: E402
 
 OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT_clear_bake",
-               "TRANSLUCENT_OT_bake_textures",
+               "TRANSLUCENT_OT_bake_textures", "TRANSLUCENT_OT_bake_all", "TRANSLUCENT_OT_purge_bakes",
                "TRANSLUCENT_OT_add_demo_scene", "TRANSLUCENT_OT_compare_cycles", "TRANSLUCENT_OT_add_paint_layer",
                "TRANSLUCENT_OT_bake_grass_btf", "TRANSLUCENT_OT_add_grass_field", "TRANSLUCENT_OT_set_physical_size",
                "TRANSLUCENT_OT_apply_quality", "TRANSLUCENT_OT_auto_quality", "TRANSLUCENT_OT_save_preset",

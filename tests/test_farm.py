@@ -171,7 +171,8 @@ def test_bake_all_on_the_command_line_exits_non_zero_naming_the_object_that_fail
 def test_five_rebakes_then_purge_leave_one_file_per_object_and_saving_purges_older_leftovers(tr, scene, tmp_path,
                                                                                              capfd):
     """Every re-bake writes a file named by its hash; Purge removes those no object refers to and says how much it
-    freed. Saving removes on its own only what nothing referred to in this session (Undo cannot need it)."""
+    freed. Saving removes on its own only what nothing referred to in this session (Undo cannot need it). Then
+    Blender's path tools handle the bake as a file: Make Paths Absolute and Relative, Find Missing Files."""
     _stage(scene)
     ball = _ball("Ball", "TEXTURE_SPACE", 0.0)
     blend = tmp_path / "scene.blend"
@@ -199,7 +200,20 @@ def test_five_rebakes_then_purge_leave_one_file_per_object_and_saving_purges_old
     bpy.ops.wm.save_mainfile()
     assert not leftover.exists() and (folder / "notes.txt").exists()
     assert "removed 1 bake file(s) no longer used" in capfd.readouterr().out
-    assert _status(tr, bpy.data.objects["Ball"]) == "OK"
+    ball = bpy.data.objects["Ball"]
+    assert _status(tr, ball) == "OK"
+
+    # Blender's own path tools: Make Paths Absolute / Relative, and Find Missing Files after the folder moved.
+    image = _record(ball)["image"]
+    name = Path(image.filepath).name
+    assert bpy.ops.file.make_paths_absolute() == {"FINISHED"} and image.filepath == str(folder / name)
+    assert bpy.ops.file.make_paths_relative() == {"FINISHED"} and image.filepath == f"//scene_translucent/{name}"
+    moved = tmp_path / "elsewhere"
+    folder.rename(moved)
+    assert bpy.ops.file.find_missing_files(directory=str(moved)) == {"FINISHED"}
+    assert bpy.path.abspath(image.filepath) == str(moved / name)
+    _forget_gpu_data(tr)
+    assert _status(tr, ball) == "OK" and np.isfinite(render(bpy.context.scene, SIZE, SIZE)).all()
     bpy.ops.wm.read_homefile(use_empty=True)
 
 

@@ -31,6 +31,7 @@ import bpy
 from ..core import bake_store as store
 from ..core.bake_store import DamagedBakeError
 from ..gpu import bake_cache
+from . import preferences
 from .session import current as current_session
 
 
@@ -308,8 +309,6 @@ def purge(keep: set[Path] = frozenset()) -> tuple[int, int]:
 def purge_after_save() -> None:
     """The automatic purge after a save (a preference): only files nothing referred to in this session, which
     neither Undo nor the previous save (``.blend1``, written by this session or read when it began) can need."""
-    from . import preferences
-
     prefs = preferences.get()
     if prefs is not None and not prefs.purge_on_save:
         return

@@ -268,8 +268,9 @@ class TranslucentSceneSettings(bpy.types.PropertyGroup):
     bake_storage: bpy.props.EnumProperty(
         name="Bake storage",
         description="Where new bakes keep their arrays",
-        items=(("SIDECAR", "Beside the .blend", "In a folder next to the .blend (<name>_translucent): a small "
-                                                 "file, one copy for linked duplicates, light undo", 0),
+        items=(("SIDECAR", "Beside the .blend", "In image files in a folder next to the .blend (<name>_translucent): "
+                                                 "a small .blend, light undo; File > External Data > Pack Resources "
+                                                 "packs them, and farm packers carry them", 0),
                ("PACKED", "In the .blend", "Inside the .blend, one file to hand on; a Texture Space bake can add "
                                            "100 MB, for every copy", 1)),
         default="SIDECAR",

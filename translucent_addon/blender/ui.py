@@ -314,6 +314,10 @@ def _scene_general(layout, context) -> None:
     col.prop(s, "area_light_samples")
     layout.prop(context.scene.render, "film_transparent")
     layout.prop(s, "bake_storage")
+    row = layout.row(align=True)
+    row.operator("translucent.bake_all", icon="RENDER_STILL")
+    row.operator("translucent.bake_all", text="Bake Selected").selected_only = True
+    layout.operator("translucent.purge_bakes", icon="TRASH")
     layout.prop(s, "instance_method")
     layout.prop(s, "fail_on_lost_objects")
     layout.prop(s, "light_passes")
