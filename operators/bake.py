@@ -325,6 +325,10 @@ class TRANSLUCENT_OT_purge_bakes(bpy.types.Operator):
     bl_label = "Purge Unused Bake Files"
     bl_options = {"REGISTER"}
 
+    @classmethod
+    def poll(cls, context):
+        return polls.idle(cls, ModalJob.running) and polls.bake_folder(cls)
+
     def execute(self, context):
         removed, freed = bake_files.purge(current_session().bake_files_saved)
         folder = bake_files.folder_for(bpy.data.filepath)

@@ -1,5 +1,7 @@
 """What an operator needs before it can run, as ``poll()``: a button greys out and its tooltip says why
 (``poll_message_set``), instead of an error after the click. Cheap: polls run on every redraw."""
+import bpy
+
 from ..translucent_addon.blender import bake_files
 from ..translucent_addon.core import bake_store as store
 from ..translucent_addon.techniques import registry
@@ -47,6 +49,12 @@ def baked(cls, context) -> bool:
     """An active mesh holding a bake."""
     return _mesh_that(cls, context, "clear its bake", lambda ob: None if store.BAKE_KEY in bake_files.owner(ob)
                       else f"'{ob.name}' holds no bake")
+
+
+def bake_folder(cls) -> bool:
+    """This file has a bake folder (one stat: polls run on every redraw)."""
+    folder = bake_files.folder_for(bpy.data.filepath)
+    return folder.is_dir() or refuse(cls, f"no bake folder ({folder.name}) yet: nothing to purge")
 
 
 def ground(cls, context) -> bool:

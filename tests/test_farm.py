@@ -57,8 +57,10 @@ def _status(tr, ob):
     return inputs.bake_status(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()))
 
 
-def _record(ob):
-    return ob.data["translucent_bake"][ob.translucent.method]
+def _record(tr, ob):
+    """The object's bake record, where it is held (its mesh, or itself when it holds its own)."""
+    holder = ext_module(tr, "translucent_addon.blender.bake_files").owner(ob, ob.translucent.method)
+    return holder["translucent_bake"][ob.translucent.method]
 
 
 def _child(*args, timeout=600):
@@ -98,7 +100,7 @@ def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_
     stale.translucent.mm_per_unit = 50.0
     before = {ob.name: _status(tr, ob) for ob in balls}
     assert sorted(before.values()) == ["MISSING"] * 4 + ["OK", "STALE"]
-    kept = str(_record(current)["data_hash"])
+    kept = str(_record(tr, current)["data_hash"])
     capfd.readouterr()
     assert bpy.ops.translucent.bake_all() == {"FINISHED"}
     out = capfd.readouterr().out
@@ -106,11 +108,13 @@ def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_
                    and " baked in " in line)
     assert baked == sorted(ob.name for ob in balls if ob != current), out[-3000:]
     assert "Bake All: 5 of 5 object(s) baked" in out
-    assert all(_status(tr, ob) == "OK" for ob in balls) and str(_record(current)["data_hash"]) == kept
-    assert all(_record(ob)["image"].filepath.startswith("//scene_translucent/") for ob in balls)  # files, not IDs
+    assert all(_status(tr, ob) == "OK" for ob in balls) and str(_record(tr, current)["data_hash"]) == kept
+    held = {ob.name: (sorted(_record(tr, ob).keys()), _record(tr, ob)["meta"][:300]) for ob in balls}
+    assert all("image" in _record(tr, ob) for ob in balls), (held, out[-4000:])
+    assert all(_record(tr, ob)["image"].filepath.startswith("//scene_translucent/") for ob in balls)  # files, not IDs
     bpy.ops.wm.save_mainfile()
     paths = bpy.utils.blend_paths()
-    assert all(_record(ob)["image"].filepath in paths for ob in balls)  # what Blender's file tools list
+    assert all(_record(tr, ob)["image"].filepath in paths for ob in balls)  # what Blender's file tools list
     good = render(scene, SIZE, SIZE)
     assert np.isfinite(good).all() and good[..., :3].std() > 0.01
 
@@ -119,7 +123,7 @@ def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_
                           capture_output=True, text=True, timeout=300, env=dict(os.environ, VIRTUAL_ENV=sys.prefix))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     shipped = sorted(p.name for p in (farm / "scene_translucent").iterdir())
-    assert shipped == sorted({Path(_record(ob)["image"].filepath).name for ob in balls})
+    assert shipped == sorted({Path(_record(tr, ob)["image"].filepath).name for ob in balls})
     project.rename(tmp_path / "gone")  # the worker has only the pack
     try:
         elsewhere = tmp_path / "worker" / "job"
@@ -131,7 +135,7 @@ def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_
         (tmp_path / "gone").rename(project)
 
     assert bpy.ops.file.pack_all() == {"FINISHED"}  # File > External Data > Pack Resources
-    assert all(_record(ob)["image"].packed_file is not None for ob in balls)
+    assert all(_record(tr, ob)["image"].packed_file is not None for ob in balls)
     bpy.ops.wm.save_mainfile()
     shutil.rmtree(project / "scene_translucent")
     packed_frame = _render_fresh(blend, tmp_path / "packed.npy")
@@ -140,7 +144,7 @@ def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_
     _forget_gpu_data(tr)
     np.testing.assert_allclose(render(scene, SIZE, SIZE), good, atol=1e-6)
     assert bpy.ops.file.unpack_all(method="WRITE_ORIGINAL") == {"FINISHED"}
-    assert all(_record(ob)["image"].packed_file is None for ob in balls)
+    assert all(_record(tr, ob)["image"].packed_file is None for ob in balls)
     assert set(shipped) <= {p.name for p in (project / "scene_translucent").glob("*.exr")}
     _forget_gpu_data(tr)
     np.testing.assert_allclose(render(scene, SIZE, SIZE), good, atol=1e-6)
@@ -188,12 +192,12 @@ def test_five_rebakes_then_purge_leave_one_file_per_object_and_saving_purges_old
         assert bpy.ops.translucent.bake() == {"FINISHED"}
     bpy.ops.wm.save_mainfile()
     assert len(list(folder.glob("*.exr"))) == 5  # each was this session's: Undo may bring any back
-    sizes = sum(p.stat().st_size for p in folder.glob("*.exr")) - (folder / Path(_record(ball)["image"].filepath).name
-                                                                   ).stat().st_size
+    last = folder / Path(_record(tr, ball)["image"].filepath).name
+    sizes = sum(p.stat().st_size for p in folder.glob("*.exr")) - last.stat().st_size
     capfd.readouterr()
     assert bpy.ops.translucent.purge_bakes() == {"FINISHED"}
     said = capfd.readouterr().out
-    assert [p.name for p in folder.glob("*.exr")] == [Path(_record(ball)["image"].filepath).name]
+    assert [p.name for p in folder.glob("*.exr")] == [Path(_record(tr, ball)["image"].filepath).name]
     assert f"4 unused bake file(s) deleted, {sizes / 2**20:.1f} MB freed" in said, said
     assert _status(tr, ball) == "OK"
 
@@ -208,7 +212,7 @@ def test_five_rebakes_then_purge_leave_one_file_per_object_and_saving_purges_old
     assert _status(tr, ball) == "OK"
 
     # Blender's own path tools: Make Paths Absolute / Relative, and Find Missing Files after the folder moved.
-    image = _record(ball)["image"]
+    image = _record(tr, ball)["image"]
     name = Path(image.filepath).name
     assert bpy.ops.file.make_paths_absolute() == {"FINISHED"} and image.filepath == str(folder / name)
     assert bpy.ops.file.make_paths_relative() == {"FINISHED"} and image.filepath == f"//scene_translucent/{name}"
@@ -232,7 +236,7 @@ def test_bakes_kept_in_npz_files_are_converted_once_on_opening(tr, scene, tmp_pa
     _select(ball)
     assert bpy.ops.translucent.bake() == {"FINISHED"}
     good = render(scene, SIZE, SIZE)
-    group = _record(ball)
+    group = _record(tr, ball)
     exr = tmp_path / group["image"].filepath[2:]
     npz = exr.with_suffix(".npz")
     np.savez(npz, **bake_exr.read(exr))  # the earlier format: the stored arrays, a path string
@@ -245,7 +249,7 @@ def test_bakes_kept_in_npz_files_are_converted_once_on_opening(tr, scene, tmp_pa
     lines = [line for line in capfd.readouterr().out.splitlines() if "moved from .npz" in line]
     assert len(lines) == 1 and lines[0].startswith("Translucent: 1 bake(s) of this file moved from .npz")
     ball = bpy.data.objects["Ball"]
-    group = _record(ball)
+    group = _record(tr, ball)
     assert "file" not in group and group["image"].filepath == "//old_translucent/" + exr.name and exr.is_file()
     assert _status(tr, ball) == "OK"
     np.testing.assert_allclose(render(bpy.context.scene, SIZE, SIZE), good, atol=1e-6)
