@@ -139,8 +139,8 @@ def _medium_group(context):
 
 
 class TRANSLUCENT_OT_save_preset(bpy.types.Operator):
-    """Save the medium's coefficients as your own preset (kept in Blender's user configuration, listed under
-    Preset in every file)"""
+    """Save the medium's coefficients as your own preset (kept in the extension's user folder, listed under Preset
+    in every file)"""
 
     bl_idname = "translucent.save_preset"
     bl_label = "Save Preset"

@@ -144,6 +144,37 @@ def test_user_presets_are_saved_listed_applied_and_removed(tr, scene):
         bpy.ops.translucent.save_preset(name="  ")
 
 
+def test_user_presets_live_in_the_extensions_own_folder_moved_once_from_the_old_place(tr, scene, capfd):
+    """Presets were kept in Blender's configuration folder; Blender keeps an extension's user data in its own
+    folder (``bpy.utils.extension_path_user``). A file in the old place is moved there once, with one line, and its
+    presets are listed as before."""
+    import json
+    from pathlib import Path
+
+    props = ext_module(tr, "translucent_addon.blender.props")
+    prefs = ext_module(tr, "translucent_addon.blender.preferences")
+    own = Path(bpy.utils.extension_path_user(prefs.ROOT_PACKAGE, create=True)) / "presets.json"
+    old = Path(bpy.utils.user_resource("CONFIG", path="translucent")) / "presets.json"
+    kept = own.read_bytes() if own.exists() else None
+    try:
+        own.unlink(missing_ok=True)
+        old.parent.mkdir(parents=True, exist_ok=True)
+        old.write_text(json.dumps({"old wax": {"sigma_a": [0.01, 0.02, 0.03], "sigma_s_prime": [1, 1, 1],
+                                               "eta": 1.4}}))
+        capfd.readouterr()
+        assert props.user_presets_path() == own and own.is_file() and not old.exists()
+        assert props.user_presets_path() == own  # once
+        assert capfd.readouterr().out.count("user presets moved from") == 1
+        props.refresh_preset_items()
+        assert "USER:old wax" in [item[0] for item in props._preset_items(None, None)]
+    finally:
+        old.unlink(missing_ok=True)
+        own.unlink(missing_ok=True)
+        if kept is not None:
+            own.write_bytes(kept)
+        props.refresh_preset_items()
+
+
 def test_saving_a_preset_leaves_the_one_another_object_shows(tr, scene):
     """Files store an enum's number: a user preset's was its position in the list, so saving 'Apple' moved the
     object showing 'Zebra' to whatever came next. Now it is a number of the preset's name."""

@@ -1,7 +1,9 @@
 """Properties: ``Object.translucent`` (method, quality, its own medium), ``Material.translucent`` (the medium its
 objects share), ``Scene.translucent`` and ``Light.translucent``."""
 
+import shutil
 import zlib
+from pathlib import Path
 
 import bpy
 
@@ -14,11 +16,28 @@ from . import medium_source, preferences
 from .session import current as current_session
 
 
-def user_presets_path():
-    """The user presets' JSON file in Blender's user configuration (created on first save)."""
-    from pathlib import Path
-
+def _old_presets_path() -> Path:
+    """Where user presets were kept up to 0.2.0: Blender's user configuration."""
     return Path(bpy.utils.user_resource("CONFIG", path="translucent")) / "presets.json"
+
+
+def user_presets_path() -> Path:
+    """The user presets' JSON file (created on first save) in the extension's own user folder, which Blender keeps
+    for it across updates (``bpy.utils.extension_path_user``; Blender's configuration folder when enabled as a
+    legacy add-on). A file in the old place is moved there once, with one console line."""
+    try:
+        path = Path(bpy.utils.extension_path_user(preferences.ROOT_PACKAGE, create=True)) / "presets.json"
+    except ValueError:  # not an extension: no folder of its own
+        return _old_presets_path()
+    old = _old_presets_path()
+    if not path.exists() and old.is_file():
+        try:
+            shutil.move(old, path)
+            print(f"Translucent: user presets moved from {old} to the extension's own folder {path}", flush=True)
+        except OSError as err:
+            print(f"Translucent: user presets stay in {old}: they could not be moved ({err})", flush=True)
+            return old
+    return path
 
 
 USER_PRESET_NUMBERS = 1 << 16  # user presets' enum numbers start here: 0 Custom, 1-12 the measured ones
