@@ -83,6 +83,38 @@ def render(scene, width=96, height=96) -> np.ndarray:
     return render_pixels(scene, width, height)[0]
 
 
+def scatter_on_points(scene, points, source, as_instance: bool = False):
+    """A mesh of ``points`` whose geometry nodes put ``source`` on each point: an object through Object Info (*As
+    Instance* or its geometry), or a material, for an ico sphere made in the tree (geometry no object owns)."""
+    mesh = bpy.data.meshes.new("Points")
+    mesh.from_pydata([tuple(p) for p in points], [], [])
+    ob = bpy.data.objects.new("Scatter", mesh)
+    scene.collection.objects.link(ob)
+    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes = tree.nodes
+    group_in, group_out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    if isinstance(source, bpy.types.Object):
+        info = nodes.new("GeometryNodeObjectInfo")
+        info.inputs["Object"].default_value = source
+        info.inputs["As Instance"].default_value = as_instance
+        tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+    else:
+        sphere = nodes.new("GeometryNodeMeshIcoSphere")
+        sphere.inputs["Radius"].default_value = 0.1
+        sphere.inputs["Subdivisions"].default_value = 2
+        material = nodes.new("GeometryNodeSetMaterial")
+        material.inputs["Material"].default_value = source
+        tree.links.new(sphere.outputs["Mesh"], material.inputs["Geometry"])
+        tree.links.new(material.outputs["Geometry"], on_points.inputs["Instance"])
+    tree.links.new(group_in.outputs[0], on_points.inputs["Points"])
+    tree.links.new(on_points.outputs[0], group_out.inputs[0])
+    ob.modifiers.new("Scatter", "NODES").node_group = tree
+    return ob
+
+
 def lit_cube_scene(scene):
     """A cube on a plane under a sun, a point light and a spot, seen from above at an angle."""
     set_world(scene, (0.05, 0.06, 0.08))

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from blender_helpers import add_camera, add_light, diffuse_material, render, set_world
+from blender_helpers import add_camera, add_light, diffuse_material, render, scatter_on_points, set_world
 from conftest import ext_module
 
 bpy = pytest.importorskip("bpy")
@@ -45,34 +45,8 @@ def _grape(scene, method: str):
 
 
 def _instancer(scene, source, as_instance: bool):
-    """A mesh of POINTS whose geometry nodes put ``source`` on each point (Object Info, *As Instance* or not)."""
-    mesh = bpy.data.meshes.new("Points")
-    mesh.from_pydata(POINTS, [], [])
-    ob = bpy.data.objects.new("Scatter", mesh)
-    scene.collection.objects.link(ob)
-    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    nodes = tree.nodes
-    group_in, group_out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
-    on_points = nodes.new("GeometryNodeInstanceOnPoints")
-    if isinstance(source, bpy.types.Object):
-        info = nodes.new("GeometryNodeObjectInfo")
-        info.inputs["Object"].default_value = source
-        info.inputs["As Instance"].default_value = as_instance
-        tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
-    else:  # geometry made in the tree: an ico sphere of ``source`` material
-        sphere = nodes.new("GeometryNodeMeshIcoSphere")
-        sphere.inputs["Radius"].default_value = 0.1
-        sphere.inputs["Subdivisions"].default_value = 2
-        material = nodes.new("GeometryNodeSetMaterial")
-        material.inputs["Material"].default_value = source
-        tree.links.new(sphere.outputs["Mesh"], material.inputs["Geometry"])
-        tree.links.new(material.outputs["Geometry"], on_points.inputs["Instance"])
-    tree.links.new(group_in.outputs[0], on_points.inputs["Points"])
-    tree.links.new(on_points.outputs[0], group_out.inputs[0])
-    ob.modifiers.new("Scatter", "NODES").node_group = tree
-    return ob
+    """Geometry nodes putting ``source`` on each of POINTS (``blender_helpers.scatter_on_points``)."""
+    return scatter_on_points(scene, POINTS, source, as_instance)
 
 
 def _stage(scene):
