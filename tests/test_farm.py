@@ -26,7 +26,7 @@ HERE = Path(__file__).resolve().parent
 SIZE = 48
 # Small settings: these tests are about where bakes live, not their accuracy.
 SETTINGS = {"TEXTURE_SPACE": dict(atlas_resolution=64), "QUADGRAPH": dict(quadgraph_levels=1, quadgraph_K=0.5),
-            "GEOCUBE": dict(geocube_resolution=48)}
+            "GEOCUBE": dict(geocube_resolution=16)}
 
 
 def _ball(name, method, x, y=0.0):
@@ -80,7 +80,15 @@ def _forget_gpu_data(tr):
     ext_module(tr, "translucent_addon.blender.session").current().final_pipeline = None
 
 
-def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_them(tr, scene, tmp_path, capfd):
+@pytest.fixture
+def every_bake_in_a_file(tr, monkeypatch):
+    """Bakes of any size in image files (small ones stay in the ID properties, and a QUADGRAPH bake's size varies
+    with its tetrahedra): these tests are about the files."""
+    monkeypatch.setattr(ext_module(tr, "translucent_addon.core.bake_store"), "SIDECAR_MIN_BYTES", 1024)
+
+
+def test_bake_all_bakes_the_missing_and_stale_then_bat_and_pack_resources_carry_them(tr, scene, tmp_path, capfd,
+                                                                                      every_bake_in_a_file):
     """Six objects of three methods: one baked and current, one baked and then made stale, four never baked. Bake
     All bakes exactly those five in one job. Then the farm: ``bat pack`` copies the .blend with its bake files; the
     copy renders in a fresh Blender from another folder, the original project gone, equal to the frame here
