@@ -216,6 +216,12 @@ def test_five_rebakes_then_purge_leave_one_file_per_object_and_saving_purges_old
     bpy.ops.wm.save_mainfile()
     assert not leftover.exists() and (folder / "notes.txt").exists()
     assert "removed 1 bake file(s) no longer used" in capfd.readouterr().out
+    session = ext_module(tr, "translucent_addon.blender.session").current()
+    session.bake_files_seen = None  # as when the extension is enabled with a file open: Undo may reach any bake
+    leftover.write_bytes(b"an old bake")
+    bpy.ops.wm.save_mainfile()
+    assert leftover.exists()
+    leftover.unlink()
     ball = bpy.data.objects["Ball"]
     assert _status(tr, ball) == "OK"
 

@@ -134,7 +134,9 @@ def write(ob, method: str, digest: str, arrays: dict, meta: dict, scene=None, ow
     except OSError as err:
         store.write(holder, method, digest, arrays, meta)
         why = f"'{ob.name}': the bake folder could not be written ({err}); the bake is kept inside the .blend"
-    current_session().bake_files_seen.update(referenced([holder]))
+    seen = current_session().bake_files_seen
+    if seen is not None:
+        seen.update(referenced([holder]))
     if holder is not ob and _holds(ob, method):  # the object's own bake (or a 0.1.x one): the mesh's is it now
         store.clear(ob, method)
     return why
@@ -280,8 +282,9 @@ def restore(filepath, *_args) -> None:
     held.before_copy.clear()
     if not copy and filepath:
         held.bake_files_saved = referenced()
-        held.bake_files_seen |= held.bake_files_saved
-        purge_after_save()
+        if held.bake_files_seen is not None:
+            held.bake_files_seen |= held.bake_files_saved
+            purge_after_save()
 
 
 BAKE_FILE = re.compile(r"^[0-9a-f]{32}\.(exr|npz)$")  # a data hash names every bake file
@@ -307,8 +310,8 @@ def purge(keep: set[Path] = frozenset()) -> tuple[int, int]:
 
 
 def purge_after_save() -> None:
-    """The automatic purge after a save (a preference): only files nothing referred to in this session, which
-    neither Undo nor the previous save (``.blend1``, written by this session or read when it began) can need."""
+    """The automatic purge after a save (a preference): only files nothing referred to since the file was opened,
+    which neither Undo nor the previous save (``.blend1``, written since or read when it was opened) can need."""
     prefs = preferences.get()
     if prefs is not None and not prefs.purge_on_save:
         return

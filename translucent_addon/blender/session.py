@@ -43,9 +43,10 @@ class Session:
         self.technique_caches: dict = {}  # technique id -> its own cache across frames (``frame_settings``)
         self.before_copy: list = []  # (kind, name, method, reference) before a save moved bake files (bake_files)
         # Bake files the file on disk refers to, and every one referred to since it was opened (the purges keep them:
-        # a revert, an Undo step or the .blend1 backup may read them) (bake_files).
+        # a revert, an Undo step or the .blend1 backup may read them); None until a file is opened with the extension
+        # enabled, when Undo may reach bakes this session never saw: no purge on save then (bake_files).
         self.bake_files_saved: set = set()
-        self.bake_files_seen: set = set()
+        self.bake_files_seen: set | None = None
         self.cycles_rates: dict = {}  # (scene, width, height) -> Cycles' measured cost (compare_runner.cycles_rate)
         # Kept while the extension is enabled (``clear`` leaves them): Blender keeps pointers into the preset
         # enum's item strings, and a preset's coefficients are being written (props.apply_preset).
