@@ -183,6 +183,26 @@ def test_the_panels_draw_the_medium_where_it_is_set(tr, scene):
         drawn(draw)
 
 
+def test_sizes_in_the_panel_follow_the_scene_s_unit_system(tr, scene):
+    """*Scatters as* said mm / cm / m whatever the scene's units: an imperial scene shows inches and feet, through
+    Blender's own unit formatting; a metric one metric units."""
+    ui = ext_module(tr, "translucent_addon.blender.ui")
+    ob = add_cube(scene, size=1.0, color=None)
+    ob.scale = (0.05, 0.05, 2.0)  # 5 cm x 5 cm x 2 m
+    ob.translucent.scattering_scale = 1.0
+    bpy.context.view_layer.update()
+
+    def scatters_as():
+        layout = _Layout()
+        ui.draw_object(layout, bpy.context, ob)
+        return next(t for t in layout.labels() if t.startswith("Scatters as: "))
+
+    scene.unit_settings.system = "IMPERIAL"
+    assert scatters_as() == 'Scatters as: 1.97" x 1.97" x 6.56\''
+    scene.unit_settings.system = "METRIC"
+    assert scatters_as() == "Scatters as: 5 cm x 5 cm x 2 m"
+
+
 def test_the_demo_button_says_which_scene_it_adds(tr, scene):
     import types
 

@@ -69,7 +69,8 @@ def _size(layout, context, ob) -> None:
     if max(ob.dimensions) > 0:
         row = layout.row(align=True)
         mm = medium_source.mm_per_unit(s, context.scene)
-        row.label(text="Scatters as: " + " x ".join(_length(d * mm) for d in ob.dimensions), icon="DRIVER_DISTANCE")
+        row.label(text="Scatters as: " + " x ".join(_length(d * mm, context.scene) for d in ob.dimensions),
+                  icon="DRIVER_DISTANCE")
         row.operator("translucent.set_physical_size", text="", icon="FULLSCREEN_ENTER")
 
 
@@ -272,8 +273,12 @@ def _grass_box(layout, ob) -> None:
     box.operator("translucent.bake_grass_btf", icon="RENDER_STILL")
 
 
-def _length(mm: float) -> str:
-    """A length in the unit an artist would say it in."""
+def _length(mm: float, scene=None) -> str:
+    """A length as the scene's unit system writes it (Blender's own units: inches and feet in an imperial scene),
+    in the metric unit an artist would say it in when the scene has none."""
+    system = scene.unit_settings.system if scene is not None else "NONE"
+    if system != "NONE":
+        return bpy.utils.units.to_string(system, "LENGTH", mm / 1000.0, precision=3)
     if mm >= 1000.0:
         return f"{mm / 1000.0:.3g} m"
     if mm >= 10.0:
