@@ -13,7 +13,7 @@ class TRANSLUCENT_OT_add_demo_scene(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     KINDS = (("BUNNY", "Marble bunny", "A back-lit marble Stanford bunny on a ground plane"),
-             ("GLASS_BALL", "Caustics", "A glass ball over a white floor under a small lamp (Shah ch. 5)"),
+             ("GLASS_BALL", "Caustics", "A glass ball over a white floor under a small lamp"),
              ("GLASS_BUNNY", "Caustics: glass bunny", "A glass Stanford bunny throwing caustics"))
     kind: bpy.props.EnumProperty(name="Scene", description="Which demo scene to add", items=KINDS, default="BUNNY")
 

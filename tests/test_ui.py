@@ -99,6 +99,57 @@ def test_every_setting_says_what_it_does_in_one_short_sentence(tr, scene):
     assert all(op.description for op in operators)
 
 
+# What belongs in the docs and code comments, not in a tooltip: citations, equations, technique ids, paths.
+_NOT_FOR_ARTISTS = (r"\b(Eqs?|Figs?|Sec|ch)\. ?\d|\b(Lensch|Shah|Jensen|Donner|Mertens|Wang|Chan|Jakob|et al)\b"
+                    r"|\.py\b|\b\w+/\w+\.\w+|\bsigma_|_prime\b|\^|\b[A-Z]{2,}(_[A-Z]+)+\b")
+
+
+def _ui_strings(tr) -> list[tuple[str, str]]:
+    """Every string an artist reads: the settings' and operators' names, tooltips and choices, the presets', the
+    preferences'."""
+    prefs = ext_module(tr, "translucent_addon.blender.preferences")
+    groups = [getattr(bpy.types, t).bl_rna.properties["translucent"].fixed_type
+              for t in ("Object", "Material", "Scene", "Light")]
+    operators = [getattr(bpy.ops.translucent, n).get_rna_type() for n in dir(bpy.ops.translucent)]
+    addon = bpy.context.preferences.addons[prefs.ROOT_PACKAGE].preferences.bl_rna
+    found = [(f"{op.identifier}", text) for op in operators for text in (op.name, op.description)]
+    for rna in groups + operators + [addon]:
+        for p in rna.properties:
+            if p.identifier in ("rna_type", "bl_idname") or (rna in groups and p.is_hidden):
+                continue
+            where = f"{rna.identifier}.{p.identifier}"
+            found += [(where, p.name), (where, p.description)]
+            if p.type == "ENUM":
+                found += [(f"{where}[{i.identifier}]", text) for i in p.enum_items for text in (i.name, i.description)]
+    props = ext_module(tr, "translucent_addon.blender.props")
+    found += [(f"preset {item[0]}", text) for item in props._preset_items(None, None) for text in item[1:3]]
+    return found
+
+
+def test_no_tooltip_quotes_an_equation_an_id_or_a_path(tr, scene):
+    """Tooltips quoted equations and internal ids ("F^0 E (Lensch Eq. 11)", "TEXTURE_SPACE: ...", "Shah Eq. 6.16");
+    citations belong in the docs and the code. Every name, tooltip and choice an artist reads, checked."""
+    import re
+
+    techniques = ext_module(tr, "translucent_addon.techniques")
+    technique_ids = {t.id for t in techniques.REGISTRY}
+    strings = _ui_strings(tr)
+    assert len(strings) > 250
+    ui = ext_module(tr, "translucent_addon.blender.ui")  # and what the panels write, for every method
+    ob = add_cube(scene)
+    bpy.context.view_layer.objects.active = ob
+    for method in techniques.method_ids():
+        ob.translucent.method = method
+        for draw, args in ((ui.draw_object, (ob,)), (ui.draw_material, (ob.active_material,)),
+                           (ui._scene_general, ()), *((d, ()) for _, d in ui.SCENE_SECTIONS)):
+            layout = _Layout()
+            draw(layout, bpy.context, *args)
+            strings += [(f"panel ({method})", text) for text in layout.labels()]
+    bad = [(where, text) for where, text in strings if text and (
+        re.search(_NOT_FOR_ARTISTS, text) or any(re.search(rf"\b{i}\b", text) for i in technique_ids))]
+    assert not bad, "\n".join(f"{where}: {text}" for where, text in bad)
+
+
 class _Layout:
     """A stand-in for ``UILayout`` that records what a panel draws and refuses what Blender would: a property
     the data does not have, an operator that does not exist (panels cannot draw without a window)."""

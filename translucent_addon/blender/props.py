@@ -58,7 +58,7 @@ def refresh_preset_items() -> None:
     items.clear()
     items.append(("CUSTOM", "Custom", "Coefficients set by hand", 0))
     for number, name in enumerate(sorted(load_presets()), start=1):
-        items.append((name, name.capitalize(), f"Measured {name} (Jensen et al. 2001)", number))
+        items.append((name, name.capitalize(), f"The absorption and scattering measured for real {name}", number))
     problems: list[str] = []
     for name in sorted(load_user_presets(user_presets_path(), problems)):
         items.append((USER_PREFIX + name, name, f"Your preset '{name}'", user_preset_number(name)))
@@ -172,14 +172,17 @@ def _medium_properties() -> dict:
     """The medium's settings, on the Material (shared by its objects) and on the Object (its own, when it has
     no material or its material leaves the medium to it): ``medium_source`` says which holds."""
     return dict(
-        preset=bpy.props.EnumProperty(name="Preset", description="Measured material coefficients (Jensen et al. "
-                                      "2001), or your own", items=_preset_items, update=_on_preset),
+        preset=bpy.props.EnumProperty(name="Preset", description="Measured real materials (marble, skin, milk, "
+                                                                 "ketchup...), or your own saved presets",
+                                      items=_preset_items, update=_on_preset),
         sigma_a=bpy.props.FloatVectorProperty(
-            name="Absorption (mm⁻¹)", description="Absorption coefficient sigma_a per RGB channel, in 1/mm",
+            name="Absorption (mm⁻¹)", description="How strongly the material absorbs light, per colour channel, per "
+                                                  "millimetre: higher is darker and more saturated",
             size=3, min=0.0, soft_max=2.0, precision=4, default=(0.0021, 0.0041, 0.0071), update=_on_coefficients),
         sigma_s_prime=bpy.props.FloatVectorProperty(
             name="Reduced scattering (mm⁻¹)",
-            description="Reduced scattering coefficient sigma_s' = (1 - g) sigma_s per RGB channel, in 1/mm",
+            description="How often light changes direction, per colour channel, per millimetre: higher keeps light "
+                        "nearer where it enters",
             size=3, min=1e-6, soft_max=20.0, precision=3, default=(2.19, 2.62, 3.00), update=_on_coefficients),
         eta=bpy.props.FloatProperty(name="IOR", description="Relative index of refraction eta",
                                     min=medium_source.ETA_RANGE[0], max=medium_source.ETA_RANGE[1], default=1.3,
@@ -191,9 +194,9 @@ def _medium_properties() -> dict:
             name="Profile", description="Radial profile of the light that scatters under the surface",
             # Numbered: files store the number, and EXACT came after the other two.
             items=[("EXACT", "Exact", "Homogeneous medium, profile of exact transport (half-space Monte Carlo)", 2),
-                   ("DIPOLE", "Dipole", "Homogeneous medium, the papers' dipole diffusion (Jensen 2001)", 0),
-                   ("MULTIPOLE", "Layer over base", "This medium as a layer over a base medium (Donner & Jensen "
-                                                    "2005): Image Space draws both, the other methods the layer alone",
+                   ("DIPOLE", "Dipole", "One uniform material throughout", 0),
+                   ("MULTIPOLE", "Layer over base", "This material as a thin layer over a base material: Image Space "
+                                                    "draws both, the other methods the layer alone",
                     1)],
             default="EXACT"),
         layer_thickness=bpy.props.FloatProperty(

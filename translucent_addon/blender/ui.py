@@ -141,7 +141,7 @@ def _relief_box(layout, ob) -> None:
 def _paint_box(layout) -> None:
     """Buttons adding the painted layers (Shah ch. 7) the method draws."""
     box = layout.box()
-    box.label(text="Paint translucency (Shah ch. 7)", icon="BRUSH_DATA")
+    box.label(text="Paint translucency", icon="BRUSH_DATA")
     grid = box.grid_flow(columns=2, align=True)
     for layer, label in (("translucent_blur", "Blur"), ("translucent_glow", "Glow"),
                          ("translucent_mask", "Mask"), ("translucent_tint", "Tint")):

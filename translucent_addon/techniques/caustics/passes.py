@@ -314,8 +314,8 @@ class Caustics(Technique):
     object_props = (
         Prop("caustics_caster", "EnumProperty", {
             "name": "Caustics",
-            "description": ("Throw caustics onto the other objects (Shah ch. 5): every light with caustics on is "
-                            "refracted or mirrored by this object; it still casts its shadow"),
+            "description": ("Throw caustics onto the other objects: every light with caustics on is bent or mirrored "
+                            "by this object; it still casts its shadow"),
             "items": (
                 ("NONE", "None", "Not a caustics caster (other casters' caustics land on it)"),
                 ("REFRACTIVE", "Refractive", "Glass, water: light refracts through the surface"),
@@ -342,8 +342,8 @@ class Caustics(Technique):
         }),
         Prop("caustics_color", "FloatVectorProperty", {
             "name": "Caustics colour",
-            "description": ("Refractive: the colour light takes after travelling Colour distance through the "
-                            "medium (absorption, Shah Eq. 5.7); reflective: the mirror's reflectance"),
+            "description": ("Refractive: the colour light takes after travelling Colour distance through the object; "
+                            "reflective: the mirror's colour"),
             "subtype": "COLOR",
             "size": 3,
             "min": 0.0,
@@ -361,8 +361,8 @@ class Caustics(Technique):
         }),
         Prop("caustics_dispersion", "FloatProperty", {
             "name": "Dispersion",
-            "description": ("Spread of the index of refraction over the colour channels: red eta - d, green eta, "
-                            "blue eta + d (Shah Fig. 5.13); 0 uses one index"),
+            "description": ("Spread of the index of refraction over the colour channels, splitting caustics into "
+                            "colours (red bends least, blue most); 0 uses one index"),
             "min": 0.0,
             "max": 0.2,
             "default": 0.0,
@@ -379,8 +379,8 @@ class Caustics(Technique):
     scene_props = (
         Prop("caustics_grid", "IntProperty", {
             "name": "Caustics grid",
-            "description": ("Vertex grid per caster and light, per side (Shah used 128: 64 leaves gaps between "
-                            "fixed splats, Fig. 5.11)"),
+            "description": ("Rays per side traced from each light through each caster: more fills caustics without "
+                            "gaps, slower (64 can leave gaps)"),
             "min": 8,
             "max": 1024,
             "default": 128,
@@ -397,16 +397,17 @@ class Caustics(Technique):
         }),
         Prop("caustics_guard", "BoolProperty", {
             "name": "Oscillation guard",
-            "description": "Bisect once two estimates bracket the intersection (Shah 5.3.4)",
+            "description": "Once two guesses of where a caustic ray lands lie on either side of the surface, halve "
+                           "between them: fewer stray spots",
             "default": True,
         }),
         Prop("caustics_estimator", "EnumProperty", {
             "name": "Estimator",
-            "description": "Root finding of the intersection estimate (Shah 5.3.4)",
+            "description": "How each caustic ray's landing point is found",
             "items": (
-                ("SECANT", "Secant", "Shah's first step, then secant steps through the last two estimates: converges "
-                                     "in fewer look-ups where rays cross the surface obliquely"),
-                ("SHAH", "Shah", "Shah's fixed-point step d = |y(v + d r) - v| every time"),
+                ("SECANT", "Secant", "Refine through the last two guesses: fewer look-ups where rays meet the surface "
+                                     "at a glancing angle"),
+                ("SHAH", "Fixed step", "The same fixed step every time: simpler, slower at glancing angles"),
             ),
             "default": "SECANT",
         }),

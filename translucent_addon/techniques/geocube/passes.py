@@ -147,17 +147,17 @@ class Geocube(Technique):
     object_props = (
         Prop("geocube_resolution", "IntProperty", {
             "name": "Cube texels",
-            "description": ("GEOCUBE: texels along a cube face (Chan & Wang used 64); 0 chooses it from the "
-                            "object's size on the scene camera's image at bake time. Changing it needs a new bake"),
+            "description": ("Texels along each face of the object's distance cube: more follows finer shapes; 0 "
+                            "chooses it from the object's size in the camera's view at bake time. Changing it needs a "
+                            "new bake"),
             "min": 0,
             "max": 256,
             "default": 0,
         }),
         Prop("geocube_steps", "IntProperty", {
             "name": "Max steps",
-            "description": ("GEOCUBE: cap on the cone-propelled steps of a ray inside the object (Chan & Wang Sec."
-                            " 4: 5 to 10 there); a ray that reaches it exits early at the last surface point it "
-                            "saw"),
+            "description": ("Most steps a ray takes inside the object: more follows thick or winding shapes further, "
+                            "slower; a ray that runs out leaves at the last surface it saw"),
             "min": 1,
             "max": 256,
             "default": 32,
@@ -177,7 +177,7 @@ class Geocube(Technique):
     )
     shader_specs = SHADER_SPECS
     id, label, method_number = "GEOCUBE", "Geocube", 4
-    description = "Geocube refraction and thickness blur (Chan & Wang 2005): glass and slight scattering"
+    description = "Refraction through a baked distance cube, blurred by thickness: glass and slightly cloudy materials"
     scene_properties = ("geocube_output",)
     bake_stages, bake_errors = ("geocube",), (GeocubeError,)
     bake_properties = ("geocube_resolution",)

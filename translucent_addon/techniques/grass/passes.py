@@ -136,8 +136,8 @@ class Grass(Technique):
     object_props = (
         Prop("grass", "BoolProperty", {
             "name": "Grass field",
-            "description": ("Grow a grass field on this mesh, drawn from a BTF (Shah ch. 4): the cost is set by "
-                            "pixels, not blades. Add it with Add Grass Field; bake the BTF with Bake Grass BTF"),
+            "description": ("Grow a grass field on this mesh, drawn from baked views of its blades: its cost follows "
+                            "the pixels it covers, not the blades. Add it with Add Grass Field, then Bake Grass BTF"),
             "default": False,
         }),
         Prop("grass_tile", "FloatProperty", {
@@ -176,7 +176,7 @@ class Grass(Technique):
             "description": "Texels per side of each of the 1,701 BTF images",
             "items": (
                 ("64", "64", "Fast bake, soft blades"),
-                ("128", "128", "As Shah"),
+                ("128", "128", "Balanced: the bake and sharpness most fields need"),
                 ("256", "256", "Sharp, 4x the bake"),
             ),
             "default": "128",

@@ -339,7 +339,8 @@ class ImageSpace(Technique):
     scene_props = (
         Prop("splat_threshold", "FloatProperty", {
             "name": "Splat threshold",
-            "description": "IMAGE_SPACE: share of the profile's energy beyond the splat radius (Shah Eq. 6.16)",
+            "description": "Share of the spread light each splat may cut off at its edge: smaller reaches further and "
+                           "is slower",
             "min": 0.0001,
             "max": 0.2,
             "default": 0.01,
@@ -347,45 +348,45 @@ class ImageSpace(Technique):
         }),
         Prop("splat_overlap", "FloatProperty", {
             "name": "Splat overlap",
-            "description": "IMAGE_SPACE: light-view samples per splat radius; more is smoother and slower",
+            "description": "Light samples per splat radius: more is smoother and slower",
             "min": 2.0,
             "max": 128.0,
             "default": 32.0,
         }),
         Prop("splat_max_grid", "IntProperty", {
             "name": "Max samples per side",
-            "description": "IMAGE_SPACE: light-view samples per face side, at most",
+            "description": "Light samples per side of a light's view, at most: caps the cost of a light close to the "
+                           "object",
             "min": 16,
             "max": 4096,
             "default": 1024,
         }),
         Prop("splat_world_layers", "IntProperty", {
             "name": "World layers",
-            "description": ("IMAGE_SPACE: depth-peeled layers per axis that receive world light, splatted like the"
-                            " lights' samples (Shah 6.4.2); 0 takes the world over a locally flat surface "
-                            "(cheaper, no light through thin parts)"),
+            "description": ("Layers of each object lit by the world, per axis: more lets sky light through thin parts, "
+                            "slower; 0 lights only the surface (cheaper)"),
             "min": 0,
             "max": 16,
             "default": 4,
         }),
         Prop("splat_world_overlap", "FloatProperty", {
             "name": "World overlap",
-            "description": ("IMAGE_SPACE: world samples per splat radius (fewer than the lights' suffice: world "
-                            "light is smooth)"),
+            "description": ("World light samples per splat radius (fewer than the lights' suffice: world light is "
+                            "smooth)"),
             "min": 2.0,
             "max": 64.0,
             "default": 16.0,
         }),
         Prop("temporal_coherence", "BoolProperty", {
             "name": "Temporal coherence",
-            "description": ("IMAGE_SPACE: reuse the previous frame's light samples to reduce flicker in animation "
-                            "and in the viewport (Shah 6.5.2)"),
+            "description": ("Reuse the previous frame's light samples to reduce flicker in animation and in the "
+                            "viewport"),
             "default": True,
         }),
     )
     shader_specs = SHADER_SPECS
     id, label, method_number, timing = "IMAGE_SPACE", "Image Space", 1, "IMAGE_SPACE"
-    description = "Image-space splatting of the profile (Shah 2007): no bake, deforming objects"
+    description = "Light spread across the screen from each light's view: no bake, works on deforming objects"
     no_bake_reason = "IMAGE_SPACE needs no bake: it splats the profile every frame"
     scene_properties = ("splat_threshold", "splat_overlap", "splat_max_grid", "splat_world_layers",
                         "splat_world_overlap")

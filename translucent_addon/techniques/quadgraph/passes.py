@@ -590,9 +590,8 @@ class Quadgraph(Technique):
     object_props = (
         Prop("quadgraph_K", "FloatProperty", {
             "name": "Density K",
-            "description": ("QUADGRAPH: tetrahedron size as the paper's K (Wang 2010 Fig. 11-13); smaller is "
-                            "denser, slower and more accurate (1: about 10 % error, 0.1: about 2 % in the paper). "
-                            "Changing it needs a new bake"),
+            "description": ("Size of the volume cells light flows through: smaller is more accurate (about 2 % error "
+                            "at 0.1, 10 % at 1) and slower. Changing it needs a new bake"),
             "min": 0.05,
             "max": 2.0,
             "default": 1.0,
@@ -600,16 +599,16 @@ class Quadgraph(Technique):
         }),
         Prop("quadgraph_levels", "IntProperty", {
             "name": "Levels",
-            "description": ("QUADGRAPH: multi-resolution levels, each with about a quarter of the surface nodes of"
-                            " the next (Wang 2010 Sec. 4.3); the solver starts on the coarsest"),
+            "description": ("Coarser copies of the volume the light solver starts from: more settles the light in "
+                            "fewer steps. Changing it needs a new bake"),
             "min": 1,
             "max": 5,
             "default": 3,
         }),
         Prop("veins", "FloatProperty", {
             "name": "Veins",
-            "description": ("QUADGRAPH: strength of procedural marble veins in the volume (more absorption and "
-                            "scattering along noise veins, as Lensch's marble); 0 is homogeneous"),
+            "description": ("Strength of procedural marble veins through the volume (darker, denser streaks); 0 is "
+                            "uniform"),
             "min": 0.0,
             "max": 1.0,
             "default": 0.0,
@@ -619,13 +618,13 @@ class Quadgraph(Technique):
             # Light scattered once (marched along the view ray through the light's distance map) and the
             # multiple scattering of a lit half-space (Chandrasekhar): the diffusion alone is Lambertian and
             # leaves out the first order.
-            "description": ("QUADGRAPH: add the surface's own response to each light (single scattering): the "
-                            "bright rims where a light grazes a back-lit object"),
+            "description": ("Add the surface's own response to each light: the bright rims where a light grazes a "
+                            "back-lit object"),
             "default": True,
         }),
         Prop("veins_scale", "FloatProperty", {
             "name": "Vein spacing",
-            "description": "QUADGRAPH: distance between veins",
+            "description": "Distance between the marble veins",
             "subtype": "DISTANCE",
             "unit": "LENGTH",
             "min": 1e-4,
@@ -638,8 +637,8 @@ class Quadgraph(Technique):
             "name": "Solver tolerance",
             # Checked every 16 iterations, relative to the largest flux; the GPU holds the flux in 32-bit floats,
             # so 1e-6 is the smallest change it can resolve.
-            "description": ("QUADGRAPH: a level's relaxation stops when one iteration changes the flux by less "
-                            "than this, relative to its largest value"),
+            "description": ("The light solver stops refining a level once a step changes the light by less than this "
+                            "share of its brightest value: smaller is more exact, slower"),
             "min": 1e-06,
             "max": 0.1,
             "default": 2e-05,
@@ -647,7 +646,7 @@ class Quadgraph(Technique):
         }),
         Prop("quadgraph_iterations", "IntProperty", {
             "name": "Max iterations",
-            "description": "QUADGRAPH: iteration cap per level",
+            "description": "Most light solver steps per level: caps the time a frame spends settling the light",
             "min": 8,
             "max": 20000,
             "default": 1000,
@@ -664,8 +663,8 @@ class Quadgraph(Technique):
     )
     shader_specs = SHADER_SPECS
     id, label, method_number, timing = "QUADGRAPH", "QuadGraph", 3, "QUADGRAPH"
-    description = ("Diffusion equation on a tetrahedral QuadGraph (Wang 2010): thin parts, veins; edit without "
-                   "re-baking")
+    description = ("Light flowing through a baked volume of the object: thin parts, veins; materials change without a "
+                   "new bake")
     scene_properties = ("quadgraph_tolerance", "quadgraph_iterations", "quadgraph_output")
     bake_stages, bake_errors = ("quadgraph",), (TetrahedraError,)
     bake_properties = ("quadgraph_K", "quadgraph_levels")

@@ -110,11 +110,12 @@ class Relief(Technique):
     object_props = (
         Prop("relief", "EnumProperty", {
             "name": "Height field",
-            "description": ("Per-pixel displacement by a height map over the object's UVs (Shah ch. 3): occlusion,"
-                            " self-shadowing and correct depth without extra geometry"),
+            "description": ("Displace the surface per pixel by a height map over the object's UVs: bumps hide and "
+                            "shadow each other without extra geometry"),
             "items": (
                 ("OFF", "Off", "No height field"),
-                ("INTERVAL", "Interval mapping", "Linear search, then interval (secant) refinement (Shah 2007)"),
+                ("INTERVAL", "Interval mapping", "Even steps along the view ray, then refined between the last two: "
+                                                 "sharper relief edges"),
                 ("RELIEF", "Relief mapping", "Linear search, then binary search (Policarpo 2005), for comparison"),
             ),
             "default": "OFF",
@@ -134,14 +135,15 @@ class Relief(Technique):
         }),
         Prop("relief_linear_steps", "IntProperty", {
             "name": "Linear steps",
-            "description": "Uniform steps that find the first interval the ray enters (Shah: 5)",
+            "description": "Even steps along the view ray to find where it first enters the relief: more catches "
+                           "thinner bumps, slower",
             "min": 2,
             "max": 64,
             "default": 8,
         }),
         Prop("relief_iterations", "IntProperty", {
             "name": "Refinements",
-            "description": "Most refinement steps after the linear search (Shah: 10)",
+            "description": "Refinement steps after the even ones, at most: more gives smoother relief edges, slower",
             "min": 1,
             "max": 32,
             "default": 10,

@@ -359,8 +359,8 @@ class TextureSpace(Technique):
     object_props = (
         Prop("atlas_resolution", "IntProperty", {
             "name": "Atlas texels",
-            "description": ("TEXTURE_SPACE: texels along the side of the texture atlas (Lensch used 512); the "
-                            "proxy mesh follows it at Proxy spacing texels per edge. Changing it needs a new bake"),
+            "description": ("Texels along each side of the object's light atlas: more resolves finer light detail, "
+                            "bakes slower and takes more memory. Changing it needs a new bake"),
             "min": 64,
             "max": 4096,
             "soft_max": 2048,
@@ -379,15 +379,15 @@ class TextureSpace(Technique):
         }),
         Prop("texture_blending", "BoolProperty", {
             "name": "Blend local and global",
-            "description": ("TEXTURE_SPACE: Lensch Sec. 5.4, fit the direct radiosity B^d and correct the kernels;"
-                            " off shows the paper's Fig. 6 artefact (light counted twice near where it enters)"),
+            "description": ("Blend the light where it enters with the light spread from elsewhere, removing a bright "
+                            "band near lit edges (off shows it)"),
             "default": True,
         }),
     )
     scene_props = (
         Prop("texture_product", "EnumProperty", {
             "name": "Global product",
-            "description": "TEXTURE_SPACE: where the sparse vertex-to-vertex product F^0 E runs (Lensch Eq. 11)",
+            "description": "Where the light's long-range spread through the object is computed each frame",
             "items": (
                 ("GPU", "GPU", "A fragment per vertex walks its row of the sparse matrix"),
                 ("CPU", "CPU", "scipy.sparse after reading the vertex irradiance back"),
@@ -397,7 +397,7 @@ class TextureSpace(Technique):
     )
     shader_specs = SHADER_SPECS
     id, label, method_number, timing = "TEXTURE_SPACE", "Texture Space", 2, "TEXTURE_SPACE"
-    description = "Texture-space kernels plus global throughput (Lensch 2002): rigid hero objects"
+    description = "Light spread through a baked texture atlas of the object: for rigid hero objects"
     scene_properties = ("texture_product",)
     bake_stages, bake_errors = ("texture_space",), (tsd.KernelTableError,)
     bake_properties = ("atlas_resolution", "proxy_spacing", "texture_blending")
