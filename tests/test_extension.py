@@ -19,7 +19,9 @@ OUR_CLASSES = ("TranslucentRenderEngine", "TRANSLUCENT_OT_bake", "TRANSLUCENT_OT
                "TranslucentMaterialSettings", "MATERIAL_PT_translucent",
                "TranslucentLightSettings", "RENDER_PT_translucent", "RENDER_PT_translucent_image_space",
                "RENDER_PT_translucent_texture_space", "RENDER_PT_translucent_quadgraph_solver",
-               "RENDER_PT_translucent_caustics", "RENDER_PT_translucent_last_frame", "OBJECT_PT_translucent")
+               "RENDER_PT_translucent_caustics", "RENDER_PT_translucent_last_frame", "OBJECT_PT_translucent",
+               *(f"{parent}_{section}" for parent in ("VIEW3D_PT_translucent_object", "OBJECT_PT_translucent")
+                 for section in ("medium", "quality", "bake", "caustics", "grass", "height_field", "paint")))
 _CLASSES = ()
 
 

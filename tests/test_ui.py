@@ -254,6 +254,42 @@ def test_sizes_in_the_panel_follow_the_scene_s_unit_system(tr, scene):
     assert scatters_as() == "Scatters as: 5 cm x 5 cm x 2 m"
 
 
+def test_the_object_settings_are_collapsible_sub_panels_shown_where_they_act(tr, scene):
+    """The object's settings were one long panel (method, medium, quality, bake, Compare, caustics, grass, height
+    field, paint); now the method heads it and each section is a sub-panel, in the Object properties and in the
+    sidebar, shown only where it acts (no Quality for Off, Paint only for the methods that draw paint)."""
+    import types
+
+    ui = ext_module(tr, "translucent_addon.blender.ui")
+    ob = add_cube(scene)
+    bpy.context.view_layer.objects.active = ob
+    scene.render.engine = ENGINE
+    ctx = bpy.context
+    for parent in ("OBJECT_PT_translucent", "VIEW3D_PT_translucent_object"):
+        children = {label: getattr(bpy.types, f"{parent}_{label.lower().replace(' ', '_')}")
+                    for label, *_ in ui.OBJECT_SECTIONS}
+        assert all(c.bl_parent_id == parent for c in children.values())
+        assert "DEFAULT_CLOSED" in children["Grass"].bl_options and not children["Medium"].bl_options
+        ob.translucent.method = "OFF"
+        assert children["Medium"].poll(ctx) and children["Bake"].poll(ctx)
+        assert not children["Quality"].poll(ctx) and not children["Paint"].poll(ctx)
+        ob.translucent.method = "IMAGE_SPACE"
+        assert children["Quality"].poll(ctx) and children["Paint"].poll(ctx)
+        drawn = {}
+        for label, child in children.items():
+            layout = _Layout()
+            child.draw(types.SimpleNamespace(layout=layout), ctx)
+            drawn[label] = layout
+        assert ("TranslucentObjectSettings", "sigma_a") in drawn["Medium"].props()
+        assert ("TranslucentObjectSettings", "quality") in drawn["Quality"].props()
+        assert ("operator", "translucent.bake") in drawn["Bake"].record
+        assert ("TranslucentObjectSettings", "caustics_caster") in drawn["Caustics"].props()
+        assert ("operator", "translucent.add_paint_layer") in drawn["Paint"].record
+        head = _Layout()
+        getattr(bpy.types, parent).draw(types.SimpleNamespace(layout=head), ctx)
+        assert head.props() == [("TranslucentObjectSettings", "method")]  # the head: the method, what it is
+
+
 def test_the_demo_button_says_which_scene_it_adds(tr, scene):
     import types
 

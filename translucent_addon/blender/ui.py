@@ -22,32 +22,66 @@ _STATUS_TEXT = {
 
 
 def draw_object(layout, context, ob) -> None:
-    """An object's method, medium, quality and bake: the Object properties' panel (its object, pinned or not)
-    and the sidebar's (the active object)."""
+    """An object's method, medium, quality and bake, all of it (the panels draw the same in collapsible
+    sub-panels, ``OBJECT_SECTIONS``)."""
+    if not _object_head(layout, ob):
+        return
+    for _, shows, draw, _ in OBJECT_SECTIONS:
+        if shows is None or shows(ob):
+            draw(layout, context, ob)
+
+
+def _object_head(layout, ob) -> bool:
+    """The top of the object's panel: a light's caustics switch, or a mesh's method; False when nothing more
+    belongs under it."""
     if ob is not None and ob.type == "LIGHT":
         layout.prop(ob.data.translucent, "caustics")
-        return
+        return False
     if ob is None or ob.type != "MESH":
         layout.label(text="Select a mesh object", icon="INFO")
-        return
-    s = ob.translucent
-    technique = techniques.get(s.method)
+        return False
     _method(layout, ob)
+    return True
+
+
+def _draw_medium(layout, context, ob) -> None:
     _medium(layout, ob)
     _size(layout, context, ob)
-    if s.method != "OFF" or s.grass:
-        _quality(layout, ob, technique)
+
+
+def _shows_quality(ob) -> bool:
+    return ob.translucent.method != "OFF" or ob.translucent.grass
+
+
+def _draw_quality(layout, context, ob) -> None:
+    """Quality tiers or Auto, then the method's own settings as it lays them out."""
+    s = ob.translucent
+    technique = techniques.get(s.method)
+    _quality(layout, ob, technique)
     if technique is not None:
-        for names in technique.panel:  # the method's own properties, as it lays them out
+        for names in technique.panel:
             col = layout.column(align=True)
             for name in names:
                 col.prop(s, name)
-    _bake(layout, context, ob, technique)
-    _caustics_box(layout, s)
-    _grass_box(layout, ob)
-    _relief_box(layout, ob)
-    if technique is not None and technique.draws_paint:
-        _paint_box(layout)
+
+
+def _shows_paint(ob) -> bool:
+    technique = techniques.get(ob.translucent.method)
+    return technique is not None and technique.draws_paint
+
+
+# The object settings' sections, each a collapsible sub-panel as Cycles' material panels are: (label, whether it
+# shows for the object (None: always), how it draws, open at first).
+OBJECT_SECTIONS = (
+    ("Medium", None, _draw_medium, True),
+    ("Quality", _shows_quality, _draw_quality, True),
+    ("Bake", None, lambda layout, context, ob: _bake(layout, context, ob, techniques.get(ob.translucent.method)),
+     True),
+    ("Caustics", None, lambda layout, context, ob: _caustics_box(layout, ob.translucent), False),
+    ("Grass", None, lambda layout, context, ob: _grass_box(layout, ob), False),
+    ("Height Field", None, lambda layout, context, ob: _relief_box(layout, ob), False),
+    ("Paint", _shows_paint, lambda layout, context, ob: _paint_box(layout), False),
+)
 
 
 def _method(layout, ob) -> None:
@@ -365,7 +399,7 @@ SCENE_SECTIONS = tuple(scene_sections())
 
 
 class VIEW3D_PT_translucent_object(bpy.types.Panel):
-    """The sidebar's shortcut to the Object properties' Translucent panel."""
+    """The sidebar's shortcut to the Object properties' Translucent panel (its sections as sub-panels)."""
 
     bl_label = "Translucent Object"
     bl_space_type = "VIEW_3D"
@@ -373,7 +407,7 @@ class VIEW3D_PT_translucent_object(bpy.types.Panel):
     bl_category = "Translucent"
 
     def draw(self, context):
-        draw_object(self.layout, context, context.active_object)
+        _object_head(self.layout, context.active_object)
 
 
 class VIEW3D_PT_translucent_scene(bpy.types.Panel):
@@ -453,11 +487,40 @@ class OBJECT_PT_translucent(_OursInProperties, bpy.types.Panel):
         return super().poll(context) and ob is not None and ob.type in {"MESH", "LIGHT"}
 
     def draw(self, context):
-        draw_object(self.layout, context, context.object)
+        _object_head(self.layout, context.object)
 
 
-classes = (VIEW3D_PT_translucent_object, VIEW3D_PT_translucent_scene, RENDER_PT_translucent,
+def _object_section_panel(parent: type, section) -> type:
+    """A sub-panel of ``parent`` drawing one of OBJECT_SECTIONS for the parent's object (the Properties editor's
+    object, or the sidebar's active one)."""
+    label, shows, draw, is_open = section
+    in_properties = parent.bl_space_type == "PROPERTIES"
+
+    def object_of(context):
+        return context.object if in_properties else context.active_object
+
+    def poll(cls, context):
+        ob = object_of(context)
+        if ob is None or ob.type != "MESH" or (in_properties and not parent.poll(context)):
+            return False
+        return shows is None or shows(ob)
+
+    attributes = {"bl_label": label, "bl_parent_id": parent.__name__, "bl_space_type": parent.bl_space_type,
+                  "bl_region_type": parent.bl_region_type, "bl_options": set() if is_open else {"DEFAULT_CLOSED"},
+                  "poll": classmethod(poll),
+                  "draw": lambda self, context: draw(self.layout, context, object_of(context))}
+    for name in ("bl_context", "bl_category", "COMPAT_ENGINES"):
+        if hasattr(parent, name):
+            attributes[name] = getattr(parent, name)
+    name = f"{parent.__name__}_{label.lower().replace(' ', '_')}"
+    return type(name, (bpy.types.Panel,), attributes)
+
+
+classes = (VIEW3D_PT_translucent_object,
+           *(_object_section_panel(VIEW3D_PT_translucent_object, section) for section in OBJECT_SECTIONS),
+           VIEW3D_PT_translucent_scene, RENDER_PT_translucent,
            *(_section_panel(label, draw) for label, draw in SCENE_SECTIONS), OBJECT_PT_translucent,
+           *(_object_section_panel(OBJECT_PT_translucent, section) for section in OBJECT_SECTIONS),
            MATERIAL_PT_translucent)
 
 # Blender's own panels show only for the engines in their COMPAT_ENGINES. Ours is added beside EEVEE's where the
