@@ -297,6 +297,16 @@ def test_the_demo_button_says_which_scene_it_adds(tr, scene):
     assert cls.description(bpy.context, types.SimpleNamespace(kind="BUNNY")) == (
         "Add a new scene: a back-lit marble stanford bunny on a ground plane")
     assert "glass ball" in cls.description(bpy.context, types.SimpleNamespace(kind="GLASS_BALL"))
+    # Where a new user finds it: first in the sidebar's tab, atop the Render panel, and with no mesh selected (it
+    # sat under Last Frame, in a closed panel).
+    for panel in (bpy.types.VIEW3D_PT_translucent_demo, bpy.types.RENDER_PT_translucent):
+        layout = _Layout()
+        panel.draw(types.SimpleNamespace(layout=layout), bpy.context)
+        assert ("operator", "translucent.add_demo_scene") in layout.record[:2], panel
+    assert "DEFAULT_CLOSED" not in getattr(bpy.types.VIEW3D_PT_translucent_demo, "bl_options", set())
+    layout = _Layout()
+    ext_module(tr, "translucent_addon.blender.ui").draw_object(layout, bpy.context, None)
+    assert ("operator", "translucent.add_demo_scene") in layout.record
 
 
 def test_a_job_in_progress_greys_out_the_bake_buttons(tr, scene):

@@ -38,7 +38,8 @@ def _object_head(layout, ob) -> bool:
         layout.prop(ob.data.translucent, "caustics")
         return False
     if ob is None or ob.type != "MESH":
-        layout.label(text="Select a mesh object", icon="INFO")
+        layout.label(text="Select a mesh object, or start from a demo scene", icon="INFO")
+        _demo_buttons(layout)
         return False
     _method(layout, ob)
     return True
@@ -388,6 +389,11 @@ def scene_sections() -> list:
 
 def _scene_last_frame(layout, context) -> None:
     _last_frame(layout)
+
+
+def _demo_buttons(layout) -> None:
+    """The demo scenes: where a new user starts (the top of the sidebar's tab, the Render panel, an empty
+    selection)."""
     row = layout.row(align=True)
     row.operator("translucent.add_demo_scene", icon="SCENE_DATA").kind = "BUNNY"
     row.operator("translucent.add_demo_scene", text="Caustics Demo", icon="LIGHT_POINT").kind = "GLASS_BALL"
@@ -396,6 +402,18 @@ def _scene_last_frame(layout, context) -> None:
 # The scene's settings in sections: each a sub-panel of the Render properties (those registered with the
 # extension), all of them in the sidebar (a technique registered later too).
 SCENE_SECTIONS = tuple(scene_sections())
+
+
+class VIEW3D_PT_translucent_demo(bpy.types.Panel):
+    """The first thing in the sidebar's tab: the demo scenes a new user starts from."""
+
+    bl_label = "Demo Scenes"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Translucent"
+
+    def draw(self, context):
+        _demo_buttons(self.layout)
 
 
 class VIEW3D_PT_translucent_object(bpy.types.Panel):
@@ -443,6 +461,7 @@ class RENDER_PT_translucent(_OursInProperties, bpy.types.Panel):
     bl_context = "render"
 
     def draw(self, context):
+        _demo_buttons(self.layout)
         self.layout.use_property_split = True
         _scene_general(self.layout, context)
 
@@ -516,7 +535,7 @@ def _object_section_panel(parent: type, section) -> type:
     return type(name, (bpy.types.Panel,), attributes)
 
 
-classes = (VIEW3D_PT_translucent_object,
+classes = (VIEW3D_PT_translucent_demo, VIEW3D_PT_translucent_object,
            *(_object_section_panel(VIEW3D_PT_translucent_object, section) for section in OBJECT_SECTIONS),
            VIEW3D_PT_translucent_scene, RENDER_PT_translucent,
            *(_section_panel(label, draw) for label, draw in SCENE_SECTIONS), OBJECT_PT_translucent,
