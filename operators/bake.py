@@ -23,11 +23,12 @@ from .polls import active_mesh as _active_mesh
 
 
 class ModalJob:
-    """A long job on the active object as a generator of (fraction, text): modal with a progress bar and
-    Esc in the UI, blocking with progress lines in background mode. Subclasses give ``_prepare``
-    (context -> (object, inputs) or None, having reported why), ``_job_for`` (inputs -> generator) and
-    ``_finish`` (object, inputs, result), which alone writes to the object; what ``_prepare`` had to write
-    first it undoes in ``_undo_prepare``. One job runs at a time (``running``): the progress bar is the window's."""
+    """A long job on the active object as a generator of (fraction, text): modal in the UI, with a progress bar
+    and what runs now in the status bar (``_draw_status``) and Esc, blocking with progress lines in background
+    mode. Subclasses give ``_prepare`` (context -> (object, inputs) or None, having reported why), ``_job_for``
+    (inputs -> generator) and ``_finish`` (object, inputs, result), which alone writes to the object; what
+    ``_prepare`` had to write first it undoes in ``_undo_prepare``. One job runs at a time (``running``): the
+    progress bar is the window's."""
 
     running: set = set()  # the modal jobs in progress (their operators)
     _timer = None
@@ -114,8 +115,18 @@ class ModalJob:
             self._end(context, f"'{self._object.name}': {self._what} failed: {err}", level="ERROR")
             return {"CANCELLED"}
         context.window_manager.progress_update(int(100 * fraction))
-        context.workspace.status_text_set(f"{self._title}: {100 * fraction:.0f} % {text} (Esc to cancel)")
+        self._progress = (fraction, text)
+        context.workspace.status_text_set(self._draw_status)  # drawn again with the new fraction
         return {"RUNNING_MODAL"}
+
+    _progress = (0.0, "")
+
+    def _draw_status(self, header, context) -> None:
+        """The status bar while the job runs: a progress bar with the share done, what runs now, and Esc."""
+        fraction, text = self._progress
+        row = header.layout.row(align=True)
+        row.progress(factor=fraction, type="BAR", text=f"{self._title}: {100 * fraction:.0f} %")
+        row.label(text=f"{text} (Esc to cancel)")
 
     def cancel(self, context):
         """Blender ends the modal without an event (a file opened, Blender closed): the job stops and the next

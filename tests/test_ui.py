@@ -177,6 +177,9 @@ class _Layout:
         self.record.append(("operator", idname))
         return type("Properties", (), {})()
 
+    def progress(self, factor=0.0, type="BAR", text=""):
+        self.record.append(("progress", factor, text))
+
     def operator_menu_enum(self, idname, prop, **kwargs):
         self.operator(idname)
 
@@ -324,6 +327,20 @@ def test_a_job_in_progress_greys_out_the_bake_buttons(tr, scene):
     finally:
         bake.ModalJob.running.clear()
     assert _poll("bake")
+
+
+def test_a_long_job_shows_a_progress_bar_in_the_status_bar(tr, scene):
+    """A bake in the UI showed a percentage by the cursor and a line of text; the status bar now draws a bar of the
+    share done, with what runs now and Esc (``ModalJob._draw_status``, Blender's ``UILayout.progress``)."""
+    import types
+
+    job = ext_module(tr, "operators.bake").ModalJob
+    layout = _Layout()
+    fake = types.SimpleNamespace(_progress=(0.4, "QUADGRAPH: graph of level 1/1"), _title="Translucent bake")
+    job._draw_status(fake, types.SimpleNamespace(layout=layout), bpy.context)
+    assert layout.record == [("progress", 0.4, "Translucent bake: 40 %"),
+                             ("label", "QUADGRAPH: graph of level 1/1 (Esc to cancel)")]
+    assert "progress" in bpy.types.UILayout.bl_rna.functions  # what the status bar draws it with (Blender 4.0 on)
 
 
 def test_the_last_frame_panel_says_the_frame_s_warnings(tr, scene):
