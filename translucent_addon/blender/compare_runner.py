@@ -413,7 +413,10 @@ class _Comparison:
         self.methods = object_methods(self.objects)
         self.images: dict[str, np.ndarray] = {}
         self.entries: list[Entry] = []
-        self.total = settings.renders(self.methods) + bool(settings.model_reference_samples) + 1  # and the report
+        # The CPU dipole model where it models a method drawn here (light diffusing below the surface; not glass).
+        self.model_samples = settings.model_reference_samples if any(
+            getattr(techniques.get(m), "dipole_modelled", False) for m in self.methods) else 0
+        self.total = settings.renders(self.methods) + bool(self.model_samples) + 1  # and the report
         self.steps = 0
         self.model_image = None
 
@@ -510,8 +513,9 @@ class _Comparison:
                          choice="; ".join(c.summary() for c in choices))
 
     def model(self):
-        """Generator: the CPU dipole model of the objects (cached), when the settings ask for it."""
-        samples = self.settings.model_reference_samples
+        """Generator: the CPU dipole model of the objects (cached), when the settings ask for it and it models a
+        method drawn."""
+        samples = self.model_samples
         if not samples:
             return
         yield self.step(f"dipole model reference (CPU, {samples} samples) ...")

@@ -80,6 +80,9 @@ class Technique:
     # Compare with Cycles: what ``compare_variants`` draws by default, in a full comparison and a quick one.
     compare_defaults: tuple = ()
     compare_quick: tuple = ()
+    # The CPU dipole model (light diffusing below the surface) models what it draws, so the comparison renders the
+    # model beside it; glass it does not model.
+    dipole_modelled: bool = True
     # -- its bake -----------------------------------------------------------------------------------------------
     bake_properties: tuple[str, ...] = ()  # the Object.translucent properties ``bake_parameters`` reads
     bake_corner_normals: bool = False  # its bake lights with the display's corner normals (BakeInputs.corner_normals)

@@ -143,6 +143,7 @@ class Geocube(Technique):
     """Chan & Wang 2005: each glass mesh's refraction of the world drawn over the base."""
 
     surface_layer = False  # glass: its refraction draws its own reflection
+    dipole_modelled = False  # glass: the CPU dipole model draws no refraction
 
     object_props = (
         Prop("geocube_resolution", "IntProperty", {
