@@ -128,6 +128,7 @@ def test_a_glass_object_s_comparison_leaves_out_the_dipole_model(tr, scene, tmp_
             entries, _ = done.value
             break
     assert {e.engine for e in entries} == {"CYCLES", "TRANSLUCENT_RT"}
+    assert [e.series for e in entries if e.engine == "TRANSLUCENT_RT"] == ["Translucent (GEOCUBE)"]  # its own only
     assert not any("dipole model" in text for _, text in steps) and steps[-1][0] == 1.0
 
 
