@@ -404,37 +404,36 @@ def _demo_buttons(layout) -> None:
 SCENE_SECTIONS = tuple(scene_sections())
 
 
-class VIEW3D_PT_translucent_demo(bpy.types.Panel):
-    """The first thing in the sidebar's tab: the demo scenes a new user starts from."""
+class _InSidebar:
+    """A panel of the 3D viewport sidebar's Translucent tab."""
 
-    bl_label = "Demo Scenes"
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Translucent"
+
+
+class VIEW3D_PT_translucent_demo(_InSidebar, bpy.types.Panel):
+    """The first thing in the sidebar's tab: the demo scenes a new user starts from."""
+
+    bl_label = "Demo Scenes"
 
     def draw(self, context):
         _demo_buttons(self.layout)
 
 
-class VIEW3D_PT_translucent_object(bpy.types.Panel):
+class VIEW3D_PT_translucent_object(_InSidebar, bpy.types.Panel):
     """The sidebar's shortcut to the Object properties' Translucent panel (its sections as sub-panels)."""
 
     bl_label = "Translucent Object"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Translucent"
 
     def draw(self, context):
         _object_head(self.layout, context.active_object)
 
 
-class VIEW3D_PT_translucent_scene(bpy.types.Panel):
+class VIEW3D_PT_translucent_scene(_InSidebar, bpy.types.Panel):
     """The sidebar's shortcut to the Render properties' Translucent panels."""
 
     bl_label = "Translucent Scene"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Translucent"
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
